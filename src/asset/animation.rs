@@ -1,0 +1,351 @@
+//! `HairAnimation`: keyframe styles from a `*.hairanim.xml` file (format: `docs/formats.md`).
+//!
+//! The thesis crashed when a keyframe groom did not match the base; here loading fails with an
+//! error naming the keyframe, the strand and both particle counts, and nothing else is affected.
+
+use bevy::asset::io::Reader;
+use bevy::asset::{AssetLoader, LoadContext};
+use bevy::math::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
+use bevy::prelude::*;
+
+use super::error::{HairAssetError, Locator, parse_document, read_text, whole_file};
+use super::groom::HairGroom;
+
+/// Most keyframes an animation may have.
+pub const MAX_KEYS: usize = 256;
+
+/// One keyframe: a full groom pose at a time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HairKeyframe {
+    /// Seconds from the start of the animation.
+    pub time: f32,
+    /// The style at that time; same topology as every other key.
+    pub pose: HairGroom,
+}
+
+/// Keyframe styles that anchors follow, interpolated with a Catmull-Rom spline over time.
+#[derive(Asset, TypePath, Clone, Debug)]
+pub struct HairAnimation {
+    /// Keys in increasing time; at least one; all with the topology of the first.
+    pub keys: Vec<HairKeyframe>,
+    /// Whether the animation repeats.
+    pub looping: bool,
+    /// Loop period in seconds (greater than the last key's time).
+    pub duration: f32,
+    /// Catmull-Rom basis from bevy_math: evaluated on its middle segment, it gives the weights of
+    /// four consecutive keys.
+    basis: CubicCurve<Vec4>,
+}
+
+/// A key written in a `.hairanim.xml`, before its groom is loaded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KeyReference {
+    /// Seconds.
+    pub time: f32,
+    /// Groom path as written (relative to the animation file).
+    pub groom: String,
+    /// Where the `<key>` element is, for errors.
+    pub line: u32,
+    /// Column of the `<key>` element.
+    pub column: u32,
+}
+
+/// The parsed text of a `.hairanim.xml` file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimationDescription {
+    /// The keys, in file order (times strictly increasing).
+    pub keys: Vec<KeyReference>,
+    /// `loop` attribute.
+    pub looping: bool,
+    /// Loop period: `duration`, or the last key's time plus the last gap.
+    pub duration: f32,
+}
+
+/// Parses the text of a `*.hairanim.xml` file (without loading its grooms).
+pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, HairAssetError> {
+    let doc = parse_document(file, input)?;
+    let loc = Locator {
+        file,
+        doc: &doc,
+        input,
+    };
+    let root = doc.root_element();
+    if !root.has_tag_name("hairanim") {
+        return Err(loc.node(
+            root,
+            format!(
+                "expected a <hairanim> root element, found <{}>",
+                root.tag_name().name()
+            ),
+        ));
+    }
+    if root.attribute("version") != Some("1") {
+        return Err(loc.node(root, "<hairanim> needs version=\"1\""));
+    }
+    let looping = match root.attribute("loop").unwrap_or("true") {
+        "true" | "1" => true,
+        "false" | "0" => false,
+        other => return Err(loc.node(root, format!("loop must be true or false, found {other:?}"))),
+    };
+    let mut keys: Vec<KeyReference> = Vec::new();
+    for node in root.children().filter(|n| n.has_tag_name("key")) {
+        if keys.len() >= MAX_KEYS {
+            return Err(loc.node(node, format!("more than {MAX_KEYS} keys")));
+        }
+        let time = loc.float_attr(node, "time")?;
+        if time < 0.0 {
+            return Err(loc.node(node, format!("key time must be >= 0, found {time}")));
+        }
+        if let Some(prev) = keys.last()
+            && time <= prev.time
+        {
+            return Err(loc.node(
+                node,
+                format!("key times must increase: {time} follows {}", prev.time),
+            ));
+        }
+        let Some(groom) = node.attribute("groom").filter(|g| !g.trim().is_empty()) else {
+            return Err(loc.node(node, "<key> is missing the attribute `groom`"));
+        };
+        let pos = doc.text_pos_at(node.range().start);
+        keys.push(KeyReference {
+            time,
+            groom: groom.to_string(),
+            line: pos.row,
+            column: pos.col,
+        });
+    }
+    let Some(last) = keys.last() else {
+        return Err(loc.node(root, "the animation has no <key> elements"));
+    };
+    let default_duration = match keys.len() {
+        1 => last.time + 1.0,
+        n => last.time + (last.time - keys[n - 2].time),
+    };
+    let duration = loc.float_attr_or(root, "duration", default_duration)?;
+    if duration <= last.time {
+        return Err(loc.node(
+            root,
+            format!(
+                "duration {duration} must be greater than the last key's time {}",
+                last.time
+            ),
+        ));
+    }
+    Ok(AnimationDescription {
+        keys,
+        looping,
+        duration,
+    })
+}
+
+impl HairAnimation {
+    /// Builds an animation from poses, checking that every pose matches the first one's topology.
+    pub fn new(
+        keys: Vec<HairKeyframe>,
+        looping: bool,
+        duration: f32,
+    ) -> Result<Self, HairAssetError> {
+        let Some(first) = keys.first() else {
+            return Err(whole_file("<code>", "an animation needs at least one key"));
+        };
+        for (i, key) in keys.iter().enumerate().skip(1) {
+            if let Some(msg) = topology_mismatch(&first.pose, &key.pose) {
+                return Err(whole_file("<code>", format!("key {i}: {msg}")));
+            }
+            if key.time <= keys[i - 1].time || !key.time.is_finite() {
+                return Err(whole_file(
+                    "<code>",
+                    format!("key {i}: times must increase"),
+                ));
+            }
+        }
+        let last = keys.last().map_or(0.0, |k| k.time);
+        let duration = if duration.is_finite() && duration > last {
+            duration
+        } else {
+            last + 1.0
+        };
+        Ok(Self {
+            keys,
+            looping,
+            duration,
+            basis: catmull_rom_basis(),
+        })
+    }
+
+    /// The pose at `time` seconds, written into `out` (one position per particle, bone space).
+    /// `out` must have as many entries as a key has particles.
+    pub fn sample(&self, time: f32, out: &mut [Vec3]) {
+        let mut weights = [(0usize, 0.0f32); 4];
+        let n = self.weights(time, &mut weights);
+        out.fill(Vec3::ZERO);
+        for &(key, w) in &weights[..n] {
+            if w == 0.0 {
+                continue;
+            }
+            for (o, p) in out.iter_mut().zip(&self.keys[key].pose.points) {
+                *o += *p * w;
+            }
+        }
+    }
+
+    /// Keys and weights whose sum is the pose at `time`; returns how many entries of `out` are
+    /// used (1 to 4). Weights sum to 1.
+    pub fn weights(&self, time: f32, out: &mut [(usize, f32); 4]) -> usize {
+        let n = self.keys.len();
+        let time = if time.is_finite() { time } else { 0.0 };
+        if n == 1 {
+            out[0] = (0, 1.0);
+            return 1;
+        }
+        let t = if self.looping {
+            time.rem_euclid(self.duration)
+        } else {
+            time.clamp(self.keys[0].time, self.keys[n - 1].time)
+        };
+        let first = self.keys[0].time;
+        // Segment `i` runs from key i to key i+1; with looping, the last one wraps to key 0.
+        let (i, t0, t1) = if t < first {
+            // Looping and before the first key: the wrap segment, shifted back one period.
+            (n - 1, self.keys[n - 1].time - self.duration, first)
+        } else {
+            let i = self.keys.partition_point(|k| k.time <= t).saturating_sub(1);
+            let t1 = if i + 1 < n {
+                self.keys[i + 1].time
+            } else {
+                self.duration + first
+            };
+            (i, self.keys[i].time, t1)
+        };
+        if !self.looping && i + 1 >= n {
+            out[0] = (n - 1, 1.0);
+            return 1;
+        }
+        let u = ((t - t0) / (t1 - t0).max(1e-6)).clamp(0.0, 1.0);
+        let w = self.basis.position(1.0 + u).to_array();
+        let idx = |k: isize| -> Option<usize> {
+            let j = i as isize + k;
+            if self.looping {
+                Some(j.rem_euclid(n as isize) as usize)
+            } else if (0..n as isize).contains(&j) {
+                Some(j as usize)
+            } else {
+                None
+            }
+        };
+        // Control points p(-1), p(0), p(1), p(2) around segment i. Without looping, a missing end
+        // is mirrored like bevy_math does: p(-1) = 2 p(0) - p(1), p(2) = 2 p(1) - p(0).
+        let mut acc = [(i, 0.0f32), (i, 0.0), (i, 0.0), (i, 0.0)];
+        let mut add = |slot: usize, key: usize, weight: f32| {
+            acc[slot].0 = key;
+            acc[slot].1 += weight;
+        };
+        let (k0, k1) = (idx(0).unwrap_or(i), idx(1).unwrap_or(i));
+        add(1, k0, w[1]);
+        add(2, k1, w[2]);
+        match idx(-1) {
+            Some(k) => add(0, k, w[0]),
+            None => {
+                add(1, k0, 2.0 * w[0]);
+                add(2, k1, -w[0]);
+            }
+        }
+        match idx(2) {
+            Some(k) => add(3, k, w[3]),
+            None => {
+                add(2, k1, 2.0 * w[3]);
+                add(1, k0, -w[3]);
+            }
+        }
+        *out = acc;
+        4
+    }
+
+    /// The base pose (first key).
+    pub fn base(&self) -> &HairGroom {
+        &self.keys[0].pose
+    }
+}
+
+fn catmull_rom_basis() -> CubicCurve<Vec4> {
+    CubicCardinalSpline::new_catmull_rom([Vec4::X, Vec4::Y, Vec4::Z, Vec4::W])
+        .to_curve()
+        .expect("four control points are enough for a curve")
+}
+
+/// Describes how `pose` differs from `base` in topology, or `None` if they match.
+fn topology_mismatch(base: &HairGroom, pose: &HairGroom) -> Option<String> {
+    if base.strand_count() != pose.strand_count() {
+        return Some(format!(
+            "has {} strands, the base groom has {}",
+            pose.strand_count(),
+            base.strand_count()
+        ));
+    }
+    (0..base.strand_count()).find_map(|s| {
+        let (a, b) = (base.strand(s).len(), pose.strand(s).len());
+        (a != b).then(|| format!("strand {s} has {b} particles, the base groom has {a}"))
+    })
+}
+
+/// Loads [`HairAnimation`] assets from `*.hairanim.xml`, loading every keyframe groom as a
+/// dependency and refusing grooms whose topology differs from the first key's.
+#[derive(Default, TypePath)]
+pub struct HairAnimationLoader;
+
+impl AssetLoader for HairAnimationLoader {
+    type Asset = HairAnimation;
+    type Settings = ();
+    type Error = HairAssetError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        _settings: &(),
+        load_context: &mut LoadContext<'_>,
+    ) -> Result<HairAnimation, HairAssetError> {
+        let file = load_context.path().to_string();
+        let text = read_text(reader, &file).await?;
+        let desc = parse_animation(&file, &text)?;
+        let mut keys: Vec<HairKeyframe> = Vec::with_capacity(desc.keys.len());
+        for (i, key) in desc.keys.iter().enumerate() {
+            let at = |message: String| HairAssetError {
+                file: file.clone(),
+                line: key.line,
+                column: key.column,
+                message,
+            };
+            let path = load_context
+                .path()
+                .resolve_embed_str(&key.groom)
+                .map_err(|e| at(format!("key {i}: bad groom path {:?}: {e}", key.groom)))?;
+            let loaded = load_context
+                .load_builder()
+                .load_value::<HairGroom>(path)
+                .await
+                .map_err(|e| at(format!("key {i}: could not load {:?}: {e}", key.groom)))?;
+            let pose = loaded.take();
+            if let Some(first) = keys.first()
+                && let Some(msg) = topology_mismatch(&first.pose, &pose)
+            {
+                return Err(at(format!(
+                    "key {i} ({}) does not match the first key ({}): it {msg}",
+                    key.groom, desc.keys[0].groom
+                )));
+            }
+            keys.push(HairKeyframe {
+                time: key.time,
+                pose,
+            });
+        }
+        HairAnimation::new(keys, desc.looping, desc.duration).map_err(|mut e| {
+            e.file = file.clone();
+            e
+        })
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["hairanim.xml"]
+    }
+}

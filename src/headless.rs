@@ -1,0 +1,282 @@
+//! Headless rendering: an app with Bevy's default plugins but no window, a camera drawing into an
+//! image, and the frame's pixels read back into memory.
+//!
+//! Used by the crate's render tests and by the clip recorder. It works on any Vulkan adapter,
+//! including Mesa's CPU rasteriser lavapipe (Debian: `mesa-vulkan-drivers libvulkan1`), so it
+//! needs no GPU.
+//!
+//! ```no_run
+//! use bevy::prelude::*;
+//! use bevy_cartoon_hair::headless::{HeadlessRenderer, CaptureSettings};
+//!
+//! let mut renderer = HeadlessRenderer::new(CaptureSettings::default()).unwrap();
+//! let camera_target = renderer.target();
+//! renderer.app.world_mut().spawn((
+//!     Camera3d::default(),
+//!     bevy::camera::RenderTarget::Image(camera_target.into()),
+//!     Transform::from_xyz(0.0, 0.0, 4.0).looking_at(Vec3::ZERO, Vec3::Y),
+//! ));
+//! let frame = renderer.capture().unwrap();
+//! println!("centre pixel: {:?}", frame.pixel(frame.width / 2, frame.height / 2));
+//! ```
+
+use std::sync::{Arc, Mutex};
+
+use bevy::app::PluginsState;
+use bevy::prelude::*;
+use bevy::render::RenderApp;
+use bevy::render::pipelined_rendering::PipelinedRenderingPlugin;
+use bevy::render::render_resource::{
+    CachedPipelineState, PipelineCache, TextureFormat, TextureUsages,
+};
+use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::window::ExitCondition;
+
+/// What to install when no adapter is found (Debian and Ubuntu package names).
+pub const ADAPTER_HELP: &str = "no Vulkan adapter found: install a GPU driver, or Mesa's CPU \
+    rasteriser with `sudo apt-get install mesa-vulkan-drivers libvulkan1` (Debian/Ubuntu)";
+
+/// Why a headless frame could not be produced.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HeadlessError {
+    /// wgpu found no Vulkan adapter on this machine.
+    #[error("{ADAPTER_HELP}")]
+    NoAdapter,
+    /// Some render pipeline failed to compile (usually a shader error).
+    #[error("a render pipeline failed: {0}")]
+    PipelineFailed(String),
+    /// Pipelines were still compiling, or the capture never arrived, after this many frames.
+    #[error("no frame captured after {0} frames")]
+    Timeout(u32),
+}
+
+/// Looks for a Vulkan adapter the way Bevy will, without starting Bevy. Returns its name.
+pub fn find_adapter() -> Result<String, HeadlessError> {
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::VULKAN,
+        ..wgpu::InstanceDescriptor::new_without_display_handle()
+    });
+    let adapter =
+        bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .map_err(|_| HeadlessError::NoAdapter)?;
+    Ok(adapter.get_info().name)
+}
+
+/// Size and patience of a headless capture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CaptureSettings {
+    /// Width of the image target in pixels. Default: `256`.
+    pub width: u32,
+    /// Height of the image target in pixels. Default: `256`.
+    pub height: u32,
+    /// Frames to run before looking at pipelines at all (lets assets and meshes reach the GPU).
+    /// Default: `3`.
+    pub min_frames: u32,
+    /// Consecutive frames with no pipeline still compiling before the capture is taken.
+    /// Default: `4`.
+    pub settle_frames: u32,
+    /// Give up after this many frames. Default: `600`.
+    pub max_frames: u32,
+}
+
+impl Default for CaptureSettings {
+    fn default() -> Self {
+        Self {
+            width: 256,
+            height: 256,
+            min_frames: 3,
+            settle_frames: 4,
+            max_frames: 600,
+        }
+    }
+}
+
+/// A captured frame: tightly packed sRGB RGBA8 pixels, row by row from the top.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CapturedFrame {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// `width * height * 4` bytes.
+    pub rgba: Vec<u8>,
+}
+
+impl CapturedFrame {
+    /// The pixel at `(x, y)`, `y` counted from the top.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 4] {
+        let i = ((y * self.width + x) * 4) as usize;
+        [
+            self.rgba[i],
+            self.rgba[i + 1],
+            self.rgba[i + 2],
+            self.rgba[i + 3],
+        ]
+    }
+
+    /// Number of pixels for which `predicate` holds.
+    pub fn count(&self, predicate: impl Fn([u8; 4]) -> bool) -> usize {
+        self.rgba
+            .chunks_exact(4)
+            .filter(|p| predicate([p[0], p[1], p[2], p[3]]))
+            .count()
+    }
+
+    /// Encodes the frame as a PNG file.
+    pub fn save_png(&self, path: impl AsRef<std::path::Path>) -> Result<(), String> {
+        let image = Image::new(
+            bevy::render::render_resource::Extent3d {
+                width: self.width,
+                height: self.height,
+                depth_or_array_layers: 1,
+            },
+            bevy::render::render_resource::TextureDimension::D2,
+            self.rgba.clone(),
+            TextureFormat::Rgba8UnormSrgb,
+            bevy::asset::RenderAssetUsages::default(),
+        );
+        let dynamic = image.try_into_dynamic().map_err(|e| e.to_string())?;
+        dynamic
+            .to_rgba8()
+            .save(path.as_ref())
+            .map_err(|e| format!("{}: {e}", path.as_ref().display()))
+    }
+}
+
+/// A windowless Bevy app that renders into an image and reads frames back.
+///
+/// Add plugins, resources and entities to [`HeadlessRenderer::app`] like to any app; point a
+/// camera at [`HeadlessRenderer::target`]; then call [`HeadlessRenderer::capture`].
+pub struct HeadlessRenderer {
+    /// The app. Plugins may be added until the first [`HeadlessRenderer::capture`].
+    pub app: App,
+    settings: CaptureSettings,
+    target: Handle<Image>,
+    frames: u32,
+}
+
+impl HeadlessRenderer {
+    /// Builds the app with `DefaultPlugins` minus the window backend, pipelined rendering and
+    /// logging. Fails with [`HeadlessError::NoAdapter`] before starting Bevy if no adapter exists.
+    pub fn new(settings: CaptureSettings) -> Result<Self, HeadlessError> {
+        find_adapter()?;
+        let mut app = App::new();
+        app.add_plugins(
+            DefaultPlugins
+                .set(WindowPlugin {
+                    primary_window: None,
+                    exit_condition: ExitCondition::DontExit,
+                    close_when_requested: false,
+                    ..default()
+                })
+                .disable::<bevy::winit::WinitPlugin>()
+                // The app is stepped by hand; a render thread would make frames lag unpredictably.
+                .disable::<PipelinedRenderingPlugin>()
+                .disable::<bevy::log::LogPlugin>(),
+        );
+        let mut image = Image::new_target_texture(
+            settings.width,
+            settings.height,
+            TextureFormat::Rgba8UnormSrgb,
+            None,
+        );
+        image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
+        let target = app.world_mut().resource_mut::<Assets<Image>>().add(image);
+        Ok(Self {
+            app,
+            settings,
+            target,
+            frames: 0,
+        })
+    }
+
+    /// The image the camera should render into.
+    pub fn target(&self) -> Handle<Image> {
+        self.target.clone()
+    }
+
+    /// Frames run so far.
+    pub fn frames(&self) -> u32 {
+        self.frames
+    }
+
+    /// Runs one frame, finishing plugin setup first if needed.
+    pub fn update(&mut self) {
+        if self.app.plugins_state() != PluginsState::Cleaned {
+            while self.app.plugins_state() == PluginsState::Adding {
+                bevy::tasks::tick_global_task_pools_on_main_thread();
+            }
+            self.app.finish();
+            self.app.cleanup();
+        }
+        self.app.update();
+        self.frames += 1;
+    }
+
+    /// Runs frames until every render pipeline has compiled and stayed settled, then captures the
+    /// target image and returns its pixels.
+    pub fn capture(&mut self) -> Result<CapturedFrame, HeadlessError> {
+        let deadline = self.frames + self.settings.max_frames;
+        let mut settled = 0;
+        for _ in 0..self.settings.min_frames {
+            self.update();
+        }
+        while settled < self.settings.settle_frames {
+            if self.frames >= deadline {
+                return Err(HeadlessError::Timeout(self.settings.max_frames));
+            }
+            self.update();
+            match self.pipelines_state()? {
+                true => settled += 1,
+                false => settled = 0,
+            }
+        }
+        let slot: Arc<Mutex<Option<Image>>> = Arc::default();
+        let sink = slot.clone();
+        self.app
+            .world_mut()
+            .spawn(Screenshot::image(self.target.clone()))
+            .observe(move |captured: On<ScreenshotCaptured>| {
+                *sink.lock().unwrap() = Some(captured.image.clone());
+            });
+        while self.frames < deadline {
+            self.update();
+            if let Some(image) = slot.lock().unwrap().take() {
+                let width = image.width();
+                let height = image.height();
+                let rgba = image.data.unwrap_or_default();
+                return Ok(CapturedFrame {
+                    width,
+                    height,
+                    rgba,
+                });
+            }
+        }
+        Err(HeadlessError::Timeout(self.settings.max_frames))
+    }
+
+    /// `Ok(true)` when no pipeline is queued or compiling; an error if one failed.
+    fn pipelines_state(&self) -> Result<bool, HeadlessError> {
+        let Some(render_app) = self.app.get_sub_app(RenderApp) else {
+            return Ok(true);
+        };
+        let Some(cache) = render_app.world().get_resource::<PipelineCache>() else {
+            return Ok(false);
+        };
+        let mut idle = true;
+        for pipeline in cache.pipelines() {
+            match &pipeline.state {
+                CachedPipelineState::Queued | CachedPipelineState::Creating(_) => idle = false,
+                CachedPipelineState::Err(err) => {
+                    let label = match &pipeline.descriptor {
+                        bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),
+                        bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => d.label.clone(),
+                    };
+                    return Err(HeadlessError::PipelineFailed(format!("{label:?}: {err}")));
+                }
+                CachedPipelineState::Ok(_) => {}
+            }
+        }
+        Ok(idle)
+    }
+}
