@@ -39,6 +39,7 @@
 //! |--------|--------------|-------------------------|
 //! | [`HairSchedulePlugin`] | Configures the chained [`HairSystems`] sets in `PostUpdate`, after animation and transform propagation. | Never: every other plugin puts its systems in these sets. |
 //! | [`asset::HairAssetPlugin`] | Registers `HairGroom`, `HeadCollision`, `HairAnimation` and their XML loaders. | Replace to load hair from another format: insert the same asset types yourself. |
+//! | [`sim::HairSimulationPlugin`] | Attaches `Hair` to bones, spawns strand entities, steps springs, anchors and collisions. | Disable to drive `StrandParticles` yourself. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
 //!
 //! ## Frame order
@@ -54,6 +55,7 @@ pub mod curve;
 pub mod headless;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod sim;
 
 use bevy::app::{PluginGroupBuilder, PostUpdate};
 use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
@@ -64,6 +66,10 @@ use bevy::transform::TransformSystems;
 pub mod prelude {
     pub use crate::asset::{HairAnimation, HairGroom, HeadCollision};
     pub use crate::curve::QuadraticCurve;
+    pub use crate::sim::{
+        AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
+        StrandParticles,
+    };
     pub use crate::{CartoonHairPlugins, HairSystems};
 }
 
@@ -73,6 +79,7 @@ pub mod prelude {
 /// |--------|------|
 /// | [`HairSchedulePlugin`] | orders the [`HairSystems`] sets |
 /// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders |
+/// | [`sim::HairSimulationPlugin`] | attaches hair to bones and simulates strands |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 pub struct CartoonHairPlugins;
 
@@ -80,7 +87,8 @@ impl PluginGroup for CartoonHairPlugins {
     fn build(self) -> PluginGroupBuilder {
         let group = PluginGroupBuilder::start::<Self>()
             .add(HairSchedulePlugin)
-            .add(asset::HairAssetPlugin);
+            .add(asset::HairAssetPlugin)
+            .add(sim::HairSimulationPlugin);
         #[cfg(feature = "render")]
         let group = group.add(render::HairShaderLibraryPlugin);
         group

@@ -1,0 +1,106 @@
+//! Strand simulation: hair attached to a bone, simulated with structural springs, keyframed
+//! anchors and collisions (thesis 4.2).
+//!
+//! - [`Hair`] on a child of a bone (or [`AttachHair`] on a scene root to find the bone by name).
+//! - One entity per guide strand ([`StrandOf`], [`Strand`], [`StrandParticles`]).
+//! - [`HairSimSettings`] per hair: stiffnesses, anchors (S curve), gravity, damping, substeps,
+//!   margins, teleport thresholds.
+//! - [`ComputedHair`]: derived solver state (see `solver` for the model and memory layout).
+//!
+//! Systems, in `PostUpdate`:
+//! 1. [`HairSystems::Attach`](crate::HairSystems::Attach): attach named bones, build strands.
+//! 2. [`HairSystems::Simulate`](crate::HairSystems::Simulate): step, then write particles back.
+//!
+//! # Robustness
+//! Frames longer than [`HairSimSettings::max_frame_time`] are clamped; a bone that jumps farther
+//! than [`HairSimSettings::teleport_distance`] (or turns more than
+//! [`HairSimSettings::teleport_angle`]) carries the hair with it; a bone whose transform is not
+//! finite or has zero scale is ignored for that frame (the hair waits); a strand whose state stops
+//! being finite is reset onto its anchors. In debug builds a system asserts that every particle
+//! written is finite.
+
+mod attach;
+mod settings;
+pub mod solver;
+mod step;
+#[cfg(test)]
+mod tests;
+
+pub use attach::{
+    AttachHair, ComputedHair, Hair, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
+    StrandParticles,
+};
+pub use settings::{HairSimSettings, compliance_factor};
+pub use step::HairCollisionGroups;
+
+use bevy::prelude::*;
+
+use crate::HairSystems;
+
+/// Pause and single-step control of every hair (the debug panel's buttons).
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default, Debug)]
+pub struct HairSimControl {
+    /// When set, hair does not advance (the rest of the game does).
+    pub paused: bool,
+    /// Advance by [`HairSimControl::step_time`] this frame even when paused; cleared after use.
+    pub step_once: bool,
+    /// Time one step advances, seconds. Default: `1/60`.
+    pub step_time: f32,
+}
+
+impl Default for HairSimControl {
+    fn default() -> Self {
+        Self {
+            paused: false,
+            step_once: false,
+            step_time: 1.0 / 60.0,
+        }
+    }
+}
+
+/// Attaches hair to bones and simulates it. Part of
+/// [`CartoonHairPlugins`](crate::CartoonHairPlugins).
+#[derive(Default)]
+pub struct HairSimulationPlugin;
+
+impl Plugin for HairSimulationPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<HairSimControl>()
+            .init_resource::<step::ColliderHistory>()
+            .register_type::<Hair>()
+            .register_type::<HairSimSettings>()
+            .register_type::<HairSimControl>()
+            .add_observer(attach::detach_hair)
+            .add_systems(
+                PostUpdate,
+                (
+                    attach::attach_hair_to_named_bones,
+                    // Strands are built from the bone pose found this frame.
+                    ApplyDeferred,
+                    attach::build_hair_strands,
+                    ApplyDeferred,
+                )
+                    .chain()
+                    .in_set(HairSystems::Attach),
+            )
+            .add_systems(
+                PostUpdate,
+                (
+                    step::step_hair_strands,
+                    step::write_strand_particles,
+                    #[cfg(debug_assertions)]
+                    step::assert_particles_finite,
+                    clear_step_once,
+                )
+                    .chain()
+                    .in_set(HairSystems::Simulate),
+            );
+    }
+}
+
+fn clear_step_once(mut control: ResMut<HairSimControl>) {
+    if control.step_once {
+        control.step_once = false;
+    }
+}

@@ -1,0 +1,513 @@
+//! The strand solver: plain data, no ECS, no GPU.
+//!
+//! # Model
+//! Each guide strand of `N` particles becomes a chain of `2N` nodes
+//! `[g, p0, s0, p1, s1, ..., s(N-2), p(N-1)]`: the particles `p` interleaved with extra
+//! structural particles `s` (Selle et al. 2008) set beside each segment, each a quarter turn around
+//! the strand from the last, plus one ghost `g` before the root. Any four consecutive nodes form a
+//! tetrahedron, so distance springs between nodes one apart (**edge**), two apart (**bending**;
+//! but particle to particle, the strand's own segment, is an **edge**) and three apart
+//! (**torsion**) hold the strand's styled shape in 3D, bends and twist included, without angle
+//! terms. Rest lengths come from the styled
+//! (already bent) groom, so hair keeps its style rather than straightening. `g`, `p0` and `s0` are
+//! pinned to the bone: three non-collinear points fix the root's position and orientation.
+//!
+//! Every node also has an anchor (thesis 4.2.3): a zero-length "blending" spring toward the
+//! keyframe pose, with a stiffness shaped along the strand by the S curve.
+//!
+//! # Solver
+//! XPBD with small steps (Macklin et al. 2019): fixed-length substeps with one Gauss-Seidel pass
+//! each; stiffness becomes a compliance, so results do not depend on the frame rate.
+//!
+//! # Layout
+//! Strands are solved [`LANES`] at a time, side by side: every number is a `[f32; LANES]` with the
+//! strand innermost, so the compiler vectorises across strands and the sqrt/divide chains of
+//! different strands overlap (a one-strand-at-a-time solver is latency-bound; see
+//! `PERF_NOTES.md`). A batch runs all of a frame's substeps before the next batch starts, so its
+//! nodes stay in L1.
+
+// Lane loops index several arrays with the same counter on purpose: that is the shape the
+// compiler vectorises across strands.
+#![allow(clippy::needless_range_loop)]
+
+use std::f32::consts::FRAC_PI_2;
+
+use bevy::math::{Affine3A, Vec3, Vec3A};
+
+/// Strands solved side by side in one batch.
+pub const LANES: usize = 8;
+/// One number per lane.
+pub type Lane = [f32; LANES];
+/// Nodes pinned to the bone at the start of every chain (`g`, `p0`, `s0`).
+pub const PINNED: usize = 3;
+
+/// Builds the chain `[g, p0, s0, p1, ..., p(N-1)]` of a strand. The structural particles sit
+/// `offset * segment length` away from each segment's midpoint, along a normal carried down the
+/// strand by parallel transport. `reference` is the base pose's `(root tangent, root normal)`:
+/// keyframe poses pass it so their structural particles sit on the same side as the base's.
+/// Returns the root `(tangent, normal)` used.
+pub fn build_chain(
+    points: &[Vec3],
+    offset: f32,
+    reference: Option<(Vec3, Vec3)>,
+    out: &mut Vec<Vec3>,
+) -> (Vec3, Vec3) {
+    out.clear();
+    let n = points.len();
+    debug_assert!(n >= 2);
+    let t0 = (points[1] - points[0]).normalize_or(Vec3::Y);
+    let n0 = match reference {
+        Some((rt, rn)) => {
+            let carried = bevy::math::Quat::from_rotation_arc(rt, t0) * rn;
+            orthonormal(t0, carried)
+        }
+        None => {
+            // The world axis least aligned with the root direction gives a stable first normal.
+            let a = t0.abs();
+            let axis = if a.x <= a.y && a.x <= a.z {
+                Vec3::X
+            } else if a.y <= a.z {
+                Vec3::Y
+            } else {
+                Vec3::Z
+            };
+            orthonormal(t0, axis)
+        }
+    };
+    let mut normal = n0;
+    let mut prev_t = t0;
+    for i in 0..n - 1 {
+        let seg = points[i + 1] - points[i];
+        let len = seg.length();
+        let t = seg.normalize_or(prev_t);
+        normal = orthonormal(t, bevy::math::Quat::from_rotation_arc(prev_t, t) * normal);
+        prev_t = t;
+        // Each structural particle sits a quarter turn around the strand from the previous one,
+        // so even a straight strand's tetrahedra have volume (a flat chain could twist freely).
+        let side = bevy::math::Quat::from_axis_angle(t, i as f32 * FRAC_PI_2) * normal;
+        let mid = (points[i] + points[i + 1]) * 0.5;
+        if i == 0 {
+            // The ghost before the root: behind p0, a quarter turn the other way.
+            let back = bevy::math::Quat::from_axis_angle(t, -FRAC_PI_2) * normal;
+            out.push(points[0] - t * (0.5 * len) + back * (offset * len));
+        }
+        out.push(points[i]);
+        out.push(mid + side * (offset * len));
+    }
+    out.push(points[n - 1]);
+    (t0, n0)
+}
+
+/// A unit vector perpendicular to `t`, as close to `v` as possible (any perpendicular if `v` is
+/// parallel to `t`).
+fn orthonormal(t: Vec3, v: Vec3) -> Vec3 {
+    let p = v - t * t.dot(v);
+    p.try_normalize()
+        .unwrap_or_else(|| t.any_orthonormal_vector())
+}
+
+/// Where along the strand node `k` of a chain of `nodes` sits, root `0` to tip `1`.
+pub fn along(k: usize, nodes: usize) -> f32 {
+    ((k as f32 - 1.0) / (nodes as f32 - 2.0).max(1.0)).clamp(0.0, 1.0)
+}
+
+/// One chain node for every lane of a batch.
+#[derive(Clone, Debug, Default)]
+pub struct Node {
+    /// Position, world space.
+    pub x: [Lane; 3],
+    /// Position at the previous substep (velocity is `(x - p) / h`).
+    pub p: [Lane; 3],
+    /// Rest distance to the node 1, 2 and 3 places before this one (edge, bend, torsion).
+    pub rest: [Lane; 3],
+    /// Anchor position for this frame, bone space.
+    pub anchor: [Lane; 3],
+}
+
+/// [`LANES`] strands with the same number of particles, solved together.
+#[derive(Clone, Debug)]
+pub struct Batch {
+    /// Strand index (in the groom) of each lane; lanes past `count` repeat lane 0 and are ignored.
+    pub strands: [u32; LANES],
+    /// Live lanes.
+    pub count: usize,
+    /// The chain nodes, root first.
+    pub nodes: Vec<Node>,
+    /// Base (styled) pose, bone space, per node.
+    pub local: Vec<[Lane; 3]>,
+    /// Keyframe poses (with structural particles), bone space; empty without animation.
+    pub keys: Vec<Vec<[Lane; 3]>>,
+    /// Collision margin per lane.
+    pub margin: Lane,
+}
+
+/// Per-substep world state the batches are stepped against.
+#[derive(Clone, Debug, Default)]
+pub struct StepInput {
+    /// Substep length, seconds.
+    pub h: f32,
+    /// Bone pose at the end of each substep.
+    pub bones: Vec<Affine3A>,
+    /// Collision spheres at each substep: `spheres[s * sphere_count + i]` = (centre, radius).
+    pub spheres: Vec<(Vec3A, f32)>,
+    /// Spheres per substep.
+    pub sphere_count: usize,
+    /// Other collider shapes, at the frame's final pose.
+    pub shapes: Vec<ShapeCollider>,
+    /// `gravity * h^2`.
+    pub gravity_h2: Vec3,
+    /// Velocity kept per substep (`exp(-damping h)`).
+    pub damping: f32,
+    /// XPBD `alpha~ = compliance / h^2` for edge, bend and torsion springs (`inf` = loose).
+    pub alpha: [f32; 3],
+    /// Anchor correction factor per node (`0` = free, `1` = held on the anchor).
+    pub anchor_factor: Vec<f32>,
+}
+
+/// A collider of any shape, tested through parry's point projection.
+#[derive(Clone)]
+pub struct ShapeCollider {
+    /// The shape.
+    pub shape: bevy_rapier3d::parry::shape::SharedShape,
+    /// Its pose.
+    pub pose: bevy_rapier3d::parry::math::Pose,
+    /// World bounds, grown by the largest margin: nodes outside skip the query.
+    pub aabb_min: Vec3,
+    /// See `aabb_min`.
+    pub aabb_max: Vec3,
+}
+
+impl std::fmt::Debug for ShapeCollider {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShapeCollider")
+            .field("shape", &self.shape.shape_type())
+            .field("aabb_min", &self.aabb_min)
+            .field("aabb_max", &self.aabb_max)
+            .finish()
+    }
+}
+
+fn splat3(v: Vec3) -> [Lane; 3] {
+    [[v.x; LANES], [v.y; LANES], [v.z; LANES]]
+}
+
+fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
+    Vec3::new(a[0][l], a[1][l], a[2][l])
+}
+
+fn set3(a: &mut [Lane; 3], l: usize, v: Vec3) {
+    a[0][l] = v.x;
+    a[1][l] = v.y;
+    a[2][l] = v.z;
+}
+
+/// `m * v` for every lane.
+#[inline(always)]
+fn transform(m: &Affine3A, v: &[Lane; 3]) -> [Lane; 3] {
+    let (c0, c1, c2, t) = (
+        m.matrix3.x_axis,
+        m.matrix3.y_axis,
+        m.matrix3.z_axis,
+        m.translation,
+    );
+    let mut o = [[0.0; LANES]; 3];
+    for l in 0..LANES {
+        let (x, y, z) = (v[0][l], v[1][l], v[2][l]);
+        o[0][l] = c0.x * x + c1.x * y + c2.x * z + t.x;
+        o[1][l] = c0.y * x + c1.y * y + c2.y * z + t.y;
+        o[2][l] = c0.z * x + c1.z * y + c2.z * z + t.z;
+    }
+    o
+}
+
+impl Batch {
+    /// A batch from chains (bone space, all of the same length; 1 to [`LANES`] of them).
+    pub fn new(
+        strands: &[u32],
+        chains: &[&[Vec3]],
+        keys: &[Vec<&[Vec3]>],
+        margins: &[f32],
+    ) -> Self {
+        let count = chains.len().clamp(1, LANES);
+        let nodes = chains[0].len();
+        let lane = |l: usize| if l < count { l } else { 0 };
+        let mut local = vec![[[0.0; LANES]; 3]; nodes];
+        let mut out = Vec::with_capacity(nodes);
+        for k in 0..nodes {
+            let mut node = Node::default();
+            for l in 0..LANES {
+                let c = chains[lane(l)];
+                set3(&mut local[k], l, c[k]);
+                set3(&mut node.anchor, l, c[k]);
+                for s in 0..3 {
+                    node.rest[s][l] = if k > s {
+                        c[k].distance(c[k - s - 1])
+                    } else {
+                        0.0
+                    };
+                }
+            }
+            out.push(node);
+        }
+        let keys = keys
+            .iter()
+            .map(|key_chains| {
+                let mut pose = vec![[[0.0; LANES]; 3]; nodes];
+                for (k, p) in pose.iter_mut().enumerate() {
+                    for l in 0..LANES {
+                        set3(p, l, key_chains[lane(l)][k]);
+                    }
+                }
+                pose
+            })
+            .collect();
+        let mut ids = [strands[0]; LANES];
+        let mut margin = [margins[0]; LANES];
+        ids[..count].copy_from_slice(&strands[..count]);
+        margin[..count].copy_from_slice(&margins[..count]);
+        Self {
+            strands: ids,
+            count,
+            nodes: out,
+            local,
+            keys,
+            margin,
+        }
+    }
+
+    /// Puts every node on its base pose under `bone`, at rest.
+    pub fn reset(&mut self, bone: &Affine3A) {
+        for (node, local) in self.nodes.iter_mut().zip(&self.local) {
+            node.x = transform(bone, local);
+            node.p = node.x;
+        }
+    }
+
+    /// Resets only lane `l` (after a non-finite value appeared in it).
+    pub fn reset_lane(&mut self, l: usize, bone: &Affine3A) {
+        for (node, local) in self.nodes.iter_mut().zip(&self.local) {
+            let v = bone.transform_point3(get3(local, l));
+            set3(&mut node.x, l, v);
+            set3(&mut node.p, l, v);
+        }
+    }
+
+    /// Moves every node (and its previous position) by `delta`: the hair rides along with a
+    /// teleporting bone without gaining velocity.
+    pub fn carry(&mut self, delta: &Affine3A) {
+        for node in &mut self.nodes {
+            node.x = transform(delta, &node.x);
+            node.p = transform(delta, &node.p);
+        }
+    }
+
+    /// Blends the keyframe poses into this frame's anchors: `sum(weight * key)`.
+    pub fn blend_anchors(&mut self, weights: &[(usize, f32)]) {
+        if self.keys.is_empty() {
+            return;
+        }
+        for (k, node) in self.nodes.iter_mut().enumerate() {
+            let mut a = [[0.0; LANES]; 3];
+            for &(key, w) in weights {
+                let pose = &self.keys[key.min(self.keys.len() - 1)][k];
+                for c in 0..3 {
+                    for l in 0..LANES {
+                        a[c][l] += w * pose[c][l];
+                    }
+                }
+            }
+            node.anchor = a;
+        }
+    }
+
+    /// Lanes whose state is not finite (bit `l` set for lane `l`).
+    pub fn non_finite_lanes(&self) -> u32 {
+        let mut bad = 0u32;
+        for node in &self.nodes {
+            for c in 0..3 {
+                for l in 0..LANES {
+                    if !(node.x[c][l].is_finite() && node.p[c][l].is_finite()) {
+                        bad |= 1 << l;
+                    }
+                }
+            }
+        }
+        bad
+    }
+
+    /// Position of particle `i` (not structural) of lane `l`.
+    pub fn particle(&self, l: usize, i: usize) -> Vec3 {
+        get3(&self.nodes[2 * i + 1].x, l)
+    }
+
+    /// Position of any chain node of lane `l`.
+    pub fn node(&self, l: usize, k: usize) -> Vec3 {
+        get3(&self.nodes[k].x, l)
+    }
+
+    /// Advances the batch through every substep of `input`.
+    pub fn step(&mut self, input: &StepInput) {
+        let n = self.nodes.len();
+        for (s, bone) in input.bones.iter().enumerate() {
+            // Pinned nodes follow the bone.
+            for k in 0..PINNED.min(n) {
+                let x = transform(bone, &self.local[k]);
+                self.nodes[k].x = x;
+                self.nodes[k].p = x;
+            }
+            self.integrate(input);
+            self.solve_springs(input);
+            self.solve_anchors(bone, &input.anchor_factor);
+            let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
+            self.collide_spheres(spheres);
+            if !input.shapes.is_empty() {
+                self.collide_shapes(&input.shapes);
+            }
+        }
+    }
+
+    /// Verlet prediction with damping and gravity for the free nodes.
+    fn integrate(&mut self, input: &StepInput) {
+        let g = input.gravity_h2.to_array();
+        let d = input.damping;
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let x = node.x[c][l];
+                    let v = (x - node.p[c][l]) * d;
+                    node.p[c][l] = x;
+                    node.x[c][l] = x + v + g[c];
+                }
+            }
+        }
+    }
+
+    /// One Gauss-Seidel pass over the edge, bending and torsion springs, node by node.
+    fn solve_springs(&mut self, input: &StepInput) {
+        let n = self.nodes.len();
+        for k in PINNED..n {
+            for s in 0..3 {
+                // Two nodes apart, particle to particle (odd k), is the strand's own segment:
+                // an edge spring. Structural to structural (even k) is a bending spring.
+                let alpha = if s == 1 && k % 2 == 1 {
+                    input.alpha[0]
+                } else {
+                    input.alpha[s]
+                };
+                if k < s + 1 || alpha.is_infinite() {
+                    continue;
+                }
+                let j = k - s - 1;
+                let wj = if j < PINNED { 0.0 } else { 1.0 };
+                let (head, tail) = self.nodes.split_at_mut(k);
+                solve_distance(&mut head[j], &mut tail[0], s, wj, alpha);
+            }
+        }
+    }
+
+    /// Pulls free nodes toward their anchors.
+    fn solve_anchors(&mut self, bone: &Affine3A, factor: &[f32]) {
+        for (k, node) in self.nodes.iter_mut().enumerate().skip(PINNED) {
+            let f = factor.get(k).copied().unwrap_or(0.0);
+            if f <= 0.0 {
+                continue;
+            }
+            let a = transform(bone, &node.anchor);
+            for c in 0..3 {
+                for l in 0..LANES {
+                    node.x[c][l] += (a[c][l] - node.x[c][l]) * f;
+                }
+            }
+        }
+    }
+
+    /// Pushes free nodes out of spheres grown by each lane's margin.
+    fn collide_spheres(&mut self, spheres: &[(Vec3A, f32)]) {
+        for &(centre, radius) in spheres {
+            let mut reach = [0.0; LANES];
+            for l in 0..LANES {
+                reach[l] = radius + self.margin[l];
+            }
+            for node in self.nodes.iter_mut().skip(PINNED) {
+                for l in 0..LANES {
+                    let dx = node.x[0][l] - centre.x;
+                    let dy = node.x[1][l] - centre.y;
+                    let dz = node.x[2][l] - centre.z;
+                    let d2 = dx * dx + dy * dy + dz * dz;
+                    let r = reach[l];
+                    if d2 < r * r {
+                        let d = d2.sqrt();
+                        if d > 1e-9 {
+                            let f = r / d;
+                            node.x[0][l] = centre.x + dx * f;
+                            node.x[1][l] = centre.y + dy * f;
+                            node.x[2][l] = centre.z + dz * f;
+                        } else {
+                            node.x[1][l] = centre.y + r;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Pushes free nodes out of arbitrary shapes (parry point projection), keeping the margin.
+    fn collide_shapes(&mut self, shapes: &[ShapeCollider]) {
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            for l in 0..LANES {
+                let x = get3(&node.x, l);
+                let m = self.margin[l];
+                for sc in shapes {
+                    if x.cmplt(sc.aabb_min).any() || x.cmpgt(sc.aabb_max).any() {
+                        continue;
+                    }
+                    let proj = sc.shape.project_point(&sc.pose, x, true);
+                    let to_surface = proj.point - x;
+                    let dist = to_surface.length();
+                    let moved = if proj.is_inside {
+                        // Inside: out through the nearest surface point, then the margin.
+                        let out = if dist > 1e-9 {
+                            to_surface / dist
+                        } else {
+                            Vec3::Y
+                        };
+                        Some(proj.point + out * m)
+                    } else if dist < m && dist > 1e-9 {
+                        Some(proj.point - to_surface / dist * m)
+                    } else {
+                        None
+                    };
+                    if let Some(v) = moved {
+                        set3(&mut node.x, l, v);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// XPBD distance constraint between node `j` (inverse mass `wj`) and node `k` (inverse mass 1),
+/// using the rest length stored on `k` for spring kind `s`.
+#[inline(always)]
+fn solve_distance(nj: &mut Node, nk: &mut Node, s: usize, wj: f32, alpha: f32) {
+    let rest = &nk.rest[s];
+    let denom = wj + 1.0 + alpha;
+    for l in 0..LANES {
+        let dx = nk.x[0][l] - nj.x[0][l];
+        let dy = nk.x[1][l] - nj.x[1][l];
+        let dz = nk.x[2][l] - nj.x[2][l];
+        let len = (dx * dx + dy * dy + dz * dz).sqrt();
+        let f = (len - rest[l]) / (denom * len.max(1e-9));
+        nk.x[0][l] -= f * dx;
+        nk.x[1][l] -= f * dy;
+        nk.x[2][l] -= f * dz;
+        nj.x[0][l] += wj * f * dx;
+        nj.x[1][l] += wj * f * dy;
+        nj.x[2][l] += wj * f * dz;
+    }
+}
+
+/// Splats a point for all lanes (test helper and initial anchors).
+pub fn splat(v: Vec3) -> [Lane; 3] {
+    splat3(v)
+}

@@ -1,0 +1,363 @@
+//! The per-frame systems: gather colliders, step every hair's batches, write particles back.
+
+use bevy::ecs::entity::EntityHashMap;
+use bevy::math::{Affine3A, Vec3A};
+use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPool};
+use bevy_rapier3d::parry::math::Pose;
+use bevy_rapier3d::parry::shape::SharedShape;
+use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group};
+
+use super::HairSimControl;
+use super::attach::{
+    ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
+};
+use super::settings::{HairSimSettings, compliance_factor};
+use super::solver::{PINNED, ShapeCollider, StepInput, along};
+
+/// Which rapier colliders a hair collides with, by rapier's own rule: a collider counts when
+/// `collider.memberships & hair.filters` and `hair.memberships & collider.filters` are both
+/// non-zero. Without this component a hair collides with every collider.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug)]
+pub struct HairCollisionGroups(pub CollisionGroups);
+
+/// A collider as seen at the previous and the current frame.
+struct ColliderView {
+    prev: Affine3A,
+    now: Affine3A,
+    shape: SharedShape,
+    groups: CollisionGroups,
+}
+
+/// Colliders of the world, with last frame's poses so moving ones are interpolated per substep.
+#[derive(Resource, Default)]
+pub(crate) struct ColliderHistory {
+    poses: EntityHashMap<Affine3A>,
+}
+
+/// Interpolates two affine transforms (translation and scale linearly, rotation by slerp).
+pub(crate) fn interpolate(a: &Affine3A, b: &Affine3A, t: f32) -> Affine3A {
+    if t <= 0.0 {
+        return *a;
+    }
+    if t >= 1.0 {
+        return *b;
+    }
+    let (sa, ra, ta) = a.to_scale_rotation_translation();
+    let (sb, rb, tb) = b.to_scale_rotation_translation();
+    Affine3A::from_scale_rotation_translation(sa.lerp(sb, t), ra.slerp(rb, t), ta.lerp(tb, t))
+}
+
+fn usable(bone: &Affine3A) -> bool {
+    bone.is_finite() && bone.matrix3.determinant().abs() > 1e-12
+}
+
+fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
+    (collider.memberships & hair.filters) != Group::NONE
+        && (hair.memberships & collider.filters) != Group::NONE
+}
+
+/// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
+/// teleports carried, unusable bones skipped, non-finite strands reset.
+#[allow(clippy::type_complexity)]
+pub(crate) fn step_hair_strands(
+    time: Res<Time>,
+    control: Res<HairSimControl>,
+    mut history: ResMut<ColliderHistory>,
+    mut hairs: Query<(
+        &Hair,
+        &GlobalTransform,
+        &HairSimSettings,
+        &mut ComputedHair,
+        Option<&HairCollisionGroups>,
+    )>,
+    colliders: Query<(
+        Entity,
+        &Collider,
+        &GlobalTransform,
+        Option<&CollisionGroups>,
+    )>,
+    animations: Res<Assets<crate::asset::HairAnimation>>,
+) {
+    let mut dt = time.delta_secs();
+    if control.paused {
+        dt = 0.0;
+    }
+    if control.step_once {
+        dt = control.step_time;
+    }
+    let views: Vec<ColliderView> = colliders
+        .iter()
+        .map(|(e, c, g, groups)| {
+            let now = g.affine();
+            ColliderView {
+                prev: history.poses.get(&e).copied().unwrap_or(now),
+                now,
+                shape: c.raw.clone(),
+                groups: groups.copied().unwrap_or_default(),
+            }
+        })
+        .collect();
+    history.poses.clear();
+    for (e, _, g, _) in &colliders {
+        history.poses.insert(e, g.affine());
+    }
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    for (hair, global, settings, mut computed, groups) in &mut hairs {
+        let computed = &mut *computed;
+        let bone = global.affine();
+        if !usable(&bone) {
+            computed.stats.invalid_bone_frames += 1;
+            computed.stats.substeps = 0;
+            continue;
+        }
+        // Margins follow the settings (Alter margins = a new seed).
+        let key = margin_key(settings);
+        if key != computed.margin_key {
+            let (lo, hi) = settings.margins();
+            for b in &mut computed.batches {
+                for l in 0..b.count {
+                    b.margin[l] = draw_margin(settings.margin_seed, b.strands[l], lo, hi);
+                }
+            }
+            computed.margin_key = key;
+        }
+        let last = computed.last_bone.unwrap_or(bone);
+        // A teleporting bone carries the hair rigidly instead of dragging it through space.
+        let (_, last_rot, last_pos) = last.to_scale_rotation_translation();
+        let (_, rot, pos) = bone.to_scale_rotation_translation();
+        let moved = last_pos.distance(pos);
+        let turned = last_rot.angle_between(rot);
+        let from = if computed.last_bone.is_none()
+            || moved > settings.teleport_distance.max(0.0)
+            || turned > settings.teleport_angle.max(0.0)
+        {
+            if computed.last_bone.is_some() {
+                computed.stats.teleports += 1;
+                let delta = bone * last.inverse();
+                for b in &mut computed.batches {
+                    b.carry(&delta);
+                }
+            }
+            bone
+        } else {
+            last
+        };
+        computed.last_bone = Some(bone);
+
+        let h = settings.substep();
+        let dt = dt.clamp(0.0, settings.frame_clamp());
+        let start = -computed.accumulator;
+        computed.accumulator += dt;
+        // The tolerance keeps f32 rounding (1/60 over 1/240 is 3.9999...) from dropping a
+        // substep and shifting the hair a substep behind the bone.
+        let substeps = (computed.accumulator / h + 1e-3).floor().max(0.0) as u32;
+        computed.accumulator = (computed.accumulator - substeps as f32 * h).max(0.0);
+        computed.stats.substeps = substeps;
+        computed.animation_time += dt;
+        if substeps == 0 {
+            continue;
+        }
+
+        let mut input = StepInput {
+            h,
+            gravity_h2: settings.gravity() * h * h,
+            damping: settings.damping_factor(),
+            alpha: [
+                settings.edge_stiffness,
+                settings.bend_stiffness,
+                settings.torsion_stiffness,
+            ]
+            .map(|s| alpha_tilde(s, h)),
+            ..default()
+        };
+        for j in 0..substeps {
+            let t = if dt > 0.0 {
+                (start + (j + 1) as f32 * h) / dt
+            } else {
+                1.0
+            };
+            input.bones.push(interpolate(&from, &bone, t));
+        }
+        // Colliders this hair sees, per substep.
+        let hair_groups = groups.map(|g| g.0).unwrap_or_default();
+        let max_margin = settings.margins().1;
+        let mut sphere_templates: Vec<(usize, Vec3A, f32)> = Vec::new();
+        for (v, view) in views.iter().enumerate() {
+            if !groups_match(&hair_groups, &view.groups) {
+                continue;
+            }
+            if let Some(ball) = view.shape.as_ball() {
+                sphere_templates.push((v, Vec3A::ZERO, ball.radius));
+            } else if let Some(compound) = view.shape.as_compound()
+                && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
+            {
+                for (pose, s) in compound.shapes() {
+                    let r = s.as_ball().map_or(0.0, |b| b.radius);
+                    sphere_templates.push((v, Vec3A::from(pose.translation), r));
+                }
+            } else {
+                let (_, r, t) = view.now.to_scale_rotation_translation();
+                let pose = Pose::from_parts(t, r);
+                let aabb = view.shape.compute_aabb(&pose);
+                input.shapes.push(ShapeCollider {
+                    shape: view.shape.clone(),
+                    pose,
+                    aabb_min: aabb.mins - Vec3::splat(max_margin),
+                    aabb_max: aabb.maxs + Vec3::splat(max_margin),
+                });
+            }
+        }
+        input.sphere_count = sphere_templates.len();
+        for j in 0..substeps {
+            let t = if dt > 0.0 {
+                (start + (j + 1) as f32 * h) / dt
+            } else {
+                1.0
+            };
+            for &(v, centre, radius) in &sphere_templates {
+                let view = &views[v];
+                let pose = interpolate(&view.prev, &view.now, t);
+                let scale = pose.matrix3.x_axis.length();
+                input
+                    .spheres
+                    .push((pose.transform_point3a(centre), radius * scale));
+            }
+        }
+        // Keyframe anchors for this frame.
+        if let Some(anim) = hair
+            .animation
+            .as_ref()
+            .and_then(|h| animations.get(h))
+            .filter(|_| computed.animation.is_some())
+        {
+            let mut w = [(0, 0.0); 4];
+            let n = anim.weights(computed.animation_time, &mut w);
+            for b in &mut computed.batches {
+                b.blend_anchors(&w[..n]);
+            }
+        }
+        // Step batches in parallel; each group of equal chain length shares anchor factors.
+        let batches = &mut computed.batches;
+        let chunk = batches.len().div_ceil(pool.thread_num().max(1) * 4).max(1);
+        let factors = anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()));
+        pool.scope(|scope| {
+            for part in batches.chunks_mut(chunk) {
+                let input = &input;
+                let factors = &factors;
+                scope.spawn(async move {
+                    let mut local = StepInput {
+                        anchor_factor: Vec::new(),
+                        ..input.clone()
+                    };
+                    for b in part {
+                        let f = factors
+                            .iter()
+                            .find(|(n, _)| *n == b.nodes.len())
+                            .map(|(_, f)| f.as_slice())
+                            .unwrap_or(&[]);
+                        local.anchor_factor.clear();
+                        local.anchor_factor.extend_from_slice(f);
+                        b.step(&local);
+                    }
+                });
+            }
+        });
+        let last = input.bones.last().copied().unwrap_or(bone);
+        for b in &mut computed.batches {
+            let bad = b.non_finite_lanes();
+            if bad != 0 {
+                for l in 0..super::solver::LANES {
+                    if bad & (1 << l) != 0 {
+                        b.reset_lane(l, &last);
+                        if l < b.count {
+                            computed.stats.strand_resets += 1;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// XPBD `alpha~` for a stiffness: `inf` when loose.
+fn alpha_tilde(stiffness: f32, h: f32) -> f32 {
+    let f = compliance_factor(stiffness, h, 1.0);
+    if f <= 0.0 {
+        f32::INFINITY
+    } else {
+        // f = w / (w + alpha~) with w = 1.
+        (1.0 / f - 1.0).max(0.0)
+    }
+}
+
+/// Anchor correction factors per node, for every distinct chain length.
+fn anchor_factors(
+    settings: &HairSimSettings,
+    h: f32,
+    lengths: impl Iterator<Item = usize>,
+) -> Vec<(usize, Vec<f32>)> {
+    let mut out: Vec<(usize, Vec<f32>)> = Vec::new();
+    for n in lengths {
+        if out.iter().any(|(m, _)| *m == n) {
+            continue;
+        }
+        let f = (0..n)
+            .map(|k| {
+                if k < PINNED {
+                    0.0
+                } else {
+                    let s = settings.anchor_stiffness.eval_unit(along(k, n));
+                    compliance_factor(s, h, 1.0)
+                }
+            })
+            .collect();
+        out.push((n, f));
+    }
+    out
+}
+
+/// Copies solver state into each strand entity's [`StrandParticles`], in parallel over strands.
+pub(crate) fn write_strand_particles(
+    hairs: Query<&ComputedHair>,
+    mut strands: Query<(&StrandOf, &Strand, &mut StrandParticles)>,
+) {
+    strands
+        .par_iter_mut()
+        .for_each(|(of, strand, mut particles)| {
+            let Ok(computed) = hairs.get(of.0) else {
+                return;
+            };
+            let s = strand.index as usize;
+            let Some(&(b, l)) = computed.lane_of.get(s) else {
+                return;
+            };
+            let batch = &computed.batches[b as usize];
+            let l = l as usize;
+            let particles = &mut *particles;
+            let count = batch.nodes.len() / 2;
+            particles.positions.resize(count, Vec3::ZERO);
+            particles.structural.resize(count, Vec3::ZERO);
+            for i in 0..count {
+                particles.positions[i] = batch.particle(l, i);
+                // Structural nodes: the ghost before the root, then one per segment.
+                let k = if i == 0 { 0 } else { 2 * i };
+                particles.structural[i] = batch.node(l, k);
+            }
+        });
+}
+
+/// Debug builds: particle state must be finite after the simulation wrote it.
+#[cfg(debug_assertions)]
+pub(crate) fn assert_particles_finite(strands: Query<(Entity, &Strand, &StrandParticles)>) {
+    for (entity, strand, particles) in &strands {
+        if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
+            panic!(
+                "strand {} ({entity}) particle {i} is {:?}: last written by \
+                 write_strand_particles in HairSystems::Simulate",
+                strand.index, particles.positions[i]
+            );
+        }
+    }
+}
