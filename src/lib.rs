@@ -40,6 +40,8 @@
 //! | [`HairSchedulePlugin`] | Configures the chained [`HairSystems`] sets in `PostUpdate`, after animation and transform propagation. | Never: every other plugin puts its systems in these sets. |
 //! | [`asset::HairAssetPlugin`] | Registers `HairGroom`, `HeadCollision`, `HairAnimation` and their XML loaders. | Replace to load hair from another format: insert the same asset types yourself. |
 //! | [`sim::HairSimulationPlugin`] | Attaches `Hair` to bones, spawns strand entities, steps springs, anchors and collisions. | Disable to drive `StrandParticles` yourself. |
+//! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
+//! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
 //!
 //! ## Frame order
@@ -51,8 +53,10 @@
 
 pub mod asset;
 pub mod curve;
+pub mod hatching;
 #[cfg(feature = "render")]
 pub mod headless;
+pub mod mesh;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod sim;
@@ -66,6 +70,9 @@ use bevy::transform::TransformSystems;
 pub mod prelude {
     pub use crate::asset::{HairAnimation, HairGroom, HeadCollision};
     pub use crate::curve::QuadraticCurve;
+    pub use crate::mesh::HairMeshSettings;
+    #[cfg(feature = "render")]
+    pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
     pub use crate::sim::{
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
@@ -80,6 +87,8 @@ pub mod prelude {
 /// | [`HairSchedulePlugin`] | orders the [`HairSystems`] sets |
 /// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders |
 /// | [`sim::HairSimulationPlugin`] | attaches hair to bones and simulates strands |
+/// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
+/// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 pub struct CartoonHairPlugins;
 
@@ -88,9 +97,12 @@ impl PluginGroup for CartoonHairPlugins {
         let group = PluginGroupBuilder::start::<Self>()
             .add(HairSchedulePlugin)
             .add(asset::HairAssetPlugin)
-            .add(sim::HairSimulationPlugin);
+            .add(sim::HairSimulationPlugin)
+            .add(mesh::HairMeshPlugin);
         #[cfg(feature = "render")]
-        let group = group.add(render::HairShaderLibraryPlugin);
+        let group = group
+            .add(render::HairShaderLibraryPlugin)
+            .add(render::ToonHairMaterialPlugin);
         group
     }
 }

@@ -7,12 +7,20 @@
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
+mod ramps;
 #[cfg(test)]
 mod shader_validation;
+mod toon;
+
+pub use ramps::{RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, ramp_image};
+pub use toon::{HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform};
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
 pub const SHADER_LIBRARY: &[(&str, &str)] =
     &[("bevy_cartoon_hair::curves", include_str!("curves.wgsl"))];
+
+/// The entry-point shaders of the crate's materials, as `(name, source)`.
+pub const MATERIAL_SHADERS: &[(&str, &str)] = &[("toon.wgsl", include_str!("toon.wgsl"))];
 
 /// Registers the crate's WGSL library modules so materials can `#import` them. Part of
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins).
@@ -22,5 +30,64 @@ pub struct HairShaderLibraryPlugin;
 impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "curves.wgsl");
+    }
+}
+
+/// Registers [`ToonHairMaterial`] and generates the default [`ToonRamps`]. Part of
+/// [`CartoonHairPlugins`](crate::CartoonHairPlugins).
+#[derive(Default)]
+pub struct ToonHairMaterialPlugin;
+
+impl Plugin for ToonHairMaterialPlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "toon.wgsl");
+        app.add_plugins(MaterialPlugin::<ToonHairMaterial>::default())
+            .register_type::<ToonHairMaterial>();
+        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
+        app.insert_resource(ramps).add_systems(
+            PostUpdate,
+            apply_hair_materials
+                // The mesh entity exists once BuildMesh has run.
+                .after(crate::HairSystems::BuildMesh),
+        );
+    }
+}
+
+/// The material a hair is drawn with. Inserted with a shared default (three-tone ramp) when
+/// missing; change it (or the material asset) any time.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct HairMaterial(pub Handle<ToonHairMaterial>);
+
+/// Keeps every hair mesh entity drawn with its hair's [`HairMaterial`].
+fn apply_hair_materials(
+    mut commands: Commands,
+    hairs: Query<(Entity, Option<&HairMaterial>, &crate::mesh::HairMeshes)>,
+    mesh_materials: Query<Option<&MeshMaterial3d<ToonHairMaterial>>>,
+    ramps: Res<ToonRamps>,
+    mut materials: ResMut<Assets<ToonHairMaterial>>,
+    mut default_material: Local<Option<Handle<ToonHairMaterial>>>,
+) {
+    for (hair, material, meshes) in &hairs {
+        let handle = match material {
+            Some(m) => m.0.clone(),
+            None => {
+                let handle = default_material
+                    .get_or_insert_with(|| {
+                        materials.add(ToonHairMaterial {
+                            ramp: ramps.three_tone.clone(),
+                            ..default()
+                        })
+                    })
+                    .clone();
+                commands.entity(hair).insert(HairMaterial(handle.clone()));
+                handle
+            }
+        };
+        for mesh in meshes.iter() {
+            let current = mesh_materials.get(mesh).ok().flatten();
+            if current.is_none_or(|c| c.0 != handle) {
+                commands.entity(mesh).insert(MeshMaterial3d(handle.clone()));
+            }
+        }
     }
 }

@@ -15,7 +15,52 @@ pub(crate) fn compose_and_validate(
     source: &str,
     defs: &[&str],
 ) -> Result<naga::Module, String> {
+    compose_with(&[], name, source, defs, &[])
+}
+
+/// Like [`compose_and_validate`], with extra library modules (e.g. Bevy's own) and value defs.
+pub(crate) fn compose_with(
+    extra_modules: &[(String, String)],
+    name: &str,
+    source: &str,
+    defs: &[&str],
+    values: &[(&str, ShaderDefValue)],
+) -> Result<naga::Module, String> {
     let mut composer = Composer::default().with_capabilities(Capabilities::all());
+    let mut shader_defs: HashMap<String, ShaderDefValue> = defs
+        .iter()
+        .map(|d| (d.to_string(), ShaderDefValue::Bool(true)))
+        .collect();
+    for (k, v) in values {
+        shader_defs.insert(k.to_string(), *v);
+    }
+    // Bevy's modules import each other; add them in dependency order by retrying.
+    let mut pending: Vec<&(String, String)> = extra_modules.iter().collect();
+    let mut last_error = String::new();
+    while !pending.is_empty() {
+        let before = pending.len();
+        pending.retain(|(path, src)| {
+            let added = composer.add_composable_module(ComposableModuleDescriptor {
+                source: src,
+                file_path: path,
+                language: ShaderLanguage::Wgsl,
+                shader_defs: shader_defs.clone(),
+                ..Default::default()
+            });
+            match added {
+                Ok(_) => false,
+                Err(e) => {
+                    last_error = format!("{path}: {}", e.emit_to_string(&composer));
+                    true
+                }
+            }
+        });
+        if pending.len() == before {
+            // What is left does not compose; the entry point will say if it needed it.
+            let _ = &last_error;
+            break;
+        }
+    }
     for (path, src) in SHADER_LIBRARY {
         let added = composer.add_composable_module(ComposableModuleDescriptor {
             source: src,
@@ -27,10 +72,6 @@ pub(crate) fn compose_and_validate(
             return Err(format!("{path}: {}", e.emit_to_string(&composer)));
         }
     }
-    let shader_defs: HashMap<String, ShaderDefValue> = defs
-        .iter()
-        .map(|d| (d.to_string(), ShaderDefValue::Bool(true)))
-        .collect();
     let module = composer
         .make_naga_module(NagaModuleDescriptor {
             source,
@@ -69,4 +110,105 @@ fn main(@location(0) x: f32) -> @location(0) vec4<f32> {
 fn broken_wgsl_is_reported_with_its_name() {
     let err = compose_and_validate("broken.wgsl", "fn main( {", &[]).unwrap_err();
     assert!(err.contains("broken.wgsl"), "{err}");
+}
+
+/// Every WGSL file Bevy's plugins embedded (its PBR modules included), read through the asset
+/// server's `embedded` source of an app with rendering disabled: no GPU needed.
+fn bevy_shader_sources() -> Vec<(String, String)> {
+    use bevy::prelude::*;
+    use bevy::render::RenderPlugin;
+    use bevy::render::settings::WgpuSettings;
+    use std::path::{Path, PathBuf};
+
+    let mut app = App::new();
+    app.add_plugins(
+        DefaultPlugins
+            .set(RenderPlugin {
+                render_creation: WgpuSettings {
+                    backends: None,
+                    ..default()
+                }
+                .into(),
+                ..default()
+            })
+            .set(WindowPlugin {
+                primary_window: None,
+                ..default()
+            })
+            .disable::<bevy::winit::WinitPlugin>()
+            .disable::<bevy::log::LogPlugin>(),
+    );
+    let server = app.world().resource::<AssetServer>().clone();
+    let source = server
+        .get_source(bevy::asset::io::AssetSourceId::Name("embedded".into()))
+        .expect("the embedded asset source");
+    let reader = source.reader();
+    let mut out = Vec::new();
+    let mut stack = vec![PathBuf::new()];
+    while let Some(dir) = stack.pop() {
+        let Ok(mut entries) = bevy::tasks::block_on(reader.read_directory(&dir)) else {
+            continue;
+        };
+        while let Some(path) = bevy::tasks::block_on(futures_lite_next(&mut entries)) {
+            if bevy::tasks::block_on(reader.is_directory(&path)).unwrap_or(false) {
+                stack.push(path);
+            } else if path.extension().is_some_and(|e| e == "wgsl") {
+                let mut bytes = Vec::new();
+                let Ok(mut file) = bevy::tasks::block_on(reader.read(&path)) else {
+                    continue;
+                };
+                if bevy::tasks::block_on(file.read_to_end(&mut bytes)).is_ok() {
+                    let name = Path::new("embedded").join(&path).display().to_string();
+                    out.push((name, String::from_utf8_lossy(&bytes).into_owned()));
+                }
+            }
+        }
+    }
+    out
+}
+
+async fn futures_lite_next(
+    stream: &mut Box<bevy::asset::io::PathStream>,
+) -> Option<std::path::PathBuf> {
+    use bevy::tasks::futures_lite::StreamExt;
+    stream.next().await
+}
+
+#[test]
+fn every_toon_material_variant_composes_and_validates() {
+    use super::{MATERIAL_SHADERS, ToonHairMaterialKey};
+    let bevy_modules = bevy_shader_sources();
+    assert!(
+        bevy_modules
+            .iter()
+            .any(|(_, s)| s.contains("bevy_pbr::mesh_view_bindings")),
+        "Bevy's PBR shaders were not found among {} embedded files",
+        bevy_modules.len()
+    );
+    let values = [
+        ("MAX_DIRECTIONAL_LIGHTS", ShaderDefValue::UInt(10)),
+        ("MAX_CASCADES_PER_LIGHT", ShaderDefValue::UInt(4)),
+        ("MATERIAL_BIND_GROUP", ShaderDefValue::UInt(3)),
+        ("PER_OBJECT_BUFFER_BATCH_SIZE", ShaderDefValue::UInt(64)),
+        ("MAX_RECT_LIGHTS", ShaderDefValue::UInt(8)),
+        ("AVAILABLE_STORAGE_BUFFER_BINDINGS", ShaderDefValue::UInt(8)),
+    ];
+    let (name, source) = MATERIAL_SHADERS[0];
+    let variants = ToonHairMaterialKey::all();
+    for key in &variants {
+        let mut defs = key.shader_defs();
+        defs.extend([
+            "VERTEX_POSITIONS",
+            "VERTEX_NORMALS",
+            "VERTEX_UVS_A",
+            "VERTEX_UVS",
+        ]);
+        let module = compose_with(&bevy_modules, name, source, &defs, &values)
+            .unwrap_or_else(|e| panic!("variant {key:?}: {e}"));
+        assert!(
+            module.entry_points.iter().any(|e| e.name == "fragment"),
+            "variant {key:?} lost its entry point"
+        );
+    }
+    assert_eq!(variants.len(), 48);
 }

@@ -8,6 +8,7 @@
 //! Render tests run one at a time (each starts a renderer); other tests run in parallel.
 
 mod render_smoke;
+mod toon_render;
 
 use libtest_mimic::{Arguments, Failed, Trial};
 use std::sync::Mutex;
@@ -30,7 +31,10 @@ fn main() {
     let skip_render = adapter.is_err() && !in_ci;
 
     let mut trials = Vec::new();
-    for (name, test) in render_smoke::RENDER_TESTS {
+    for (name, test) in render_smoke::RENDER_TESTS
+        .iter()
+        .chain(toon_render::RENDER_TESTS)
+    {
         let test = *test;
         trials.push(
             Trial::test(format!("render::{name}"), move || {

@@ -1,0 +1,165 @@
+//! Criterion benches for the issue targets. Run: `cargo bench --bench hair`.
+//!
+//! - `sim_frame/*`: one 60 Hz frame (default substeps) of the whole app update, for the thesis
+//!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands.
+//! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
+//!   bevy_rapier ball bodies joined by spherical impulse joints, one 60 Hz step, in the same run.
+//! - `load_groom/100k_x_6`: parsing a 100,000-strand, 6-particle groom file.
+//! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
+//!   10 candidates).
+
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cartoon_hair::HairSchedulePlugin;
+use bevy_cartoon_hair::asset::{HairAssetPlugin, HairGroom, parse_groom};
+use bevy_cartoon_hair::sim::{Hair, HairSimSettings, HairSimulationPlugin};
+use bevy_rapier3d::prelude::*;
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+
+/// `strands` strands of `particles` particles on a head of radius 0.1, spread over its top.
+fn strands(strands: usize, particles: usize) -> Vec<Vec<Vec3>> {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..strands)
+        .map(|i| {
+            let y = 1.0 - (i as f32 + 0.5) / strands as f32;
+            let r = (1.0 - y * y).sqrt();
+            let a = golden * i as f32;
+            let n = Vec3::new(r * a.cos(), y, r * a.sin());
+            let side = n.any_orthonormal_vector();
+            (0..particles)
+                .map(|k| {
+                    let t = k as f32 / (particles - 1) as f32;
+                    n * (0.102 + 0.15 * t) + side * (0.03 * t * t)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn hair_app(n: usize, particles: usize) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        HairAssetPlugin,
+        HairSchedulePlugin,
+        HairSimulationPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    let groom = HairGroom::from_strands("head", strands(n, particles)).unwrap();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(groom);
+    let bone = app
+        .world_mut()
+        .spawn(Transform::from_xyz(0.0, 1.6, 0.0))
+        .id();
+    app.world_mut().spawn((
+        Hair { groom, ..default() },
+        HairSimSettings::default(),
+        ChildOf(bone),
+    ));
+    for _ in 0..3 {
+        app.update();
+    }
+    app
+}
+
+fn rapier_app(n: usize, particles: usize) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        RapierPhysicsPlugin::<NoUserData>::default(),
+    ))
+    .insert_resource(TimestepMode::Fixed {
+        dt: 1.0 / 60.0,
+        substeps: 1,
+    })
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    app.update();
+    let world = app.world_mut();
+    for strand in strands(n, particles) {
+        let mut parent = world
+            .spawn((RigidBody::Fixed, Transform::from_translation(strand[0])))
+            .id();
+        for w in strand.windows(2) {
+            let joint = SphericalJointBuilder::new().local_anchor2(w[0] - w[1]);
+            parent = world
+                .spawn((
+                    RigidBody::Dynamic,
+                    AdditionalMassProperties::Mass(0.001),
+                    Transform::from_translation(w[1]),
+                    ImpulseJoint::new(parent, joint),
+                ))
+                .id();
+        }
+    }
+    for _ in 0..3 {
+        app.update();
+    }
+    app
+}
+
+fn bench_sim(c: &mut Criterion) {
+    let mut group = c.benchmark_group("sim_frame");
+    for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
+        let mut app = hair_app(n, p);
+        group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
+            b.iter(|| app.update())
+        });
+    }
+    group.finish();
+    let mut group = c.benchmark_group("rapier_chains");
+    group.sample_size(10);
+    for (n, p) in [(100, 6), (1_000, 16)] {
+        let mut app = rapier_app(n, p);
+        group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
+            b.iter(|| app.update())
+        });
+    }
+    group.finish();
+}
+
+fn bench_load(c: &mut Criterion) {
+    let mut text =
+        String::from("<?xml version=\"1.0\"?>\n<groom version=\"1\" scale=\"1\" bone=\"head\">\n");
+    for s in strands(100_000, 6) {
+        text.push_str("<strand>");
+        for p in s {
+            text.push_str(&format!("{:.6} {:.6} {:.6} ", p.x, p.y, p.z));
+        }
+        text.push_str("</strand>\n");
+    }
+    text.push_str("</groom>\n");
+    let mut group = c.benchmark_group("load_groom");
+    group.sample_size(10);
+    group.bench_function("100k_x_6", |b| {
+        b.iter(|| parse_groom("bench.hair.xml", &text).unwrap())
+    });
+    group.finish();
+}
+
+fn bench_tam(c: &mut Criterion) {
+    use bevy_cartoon_hair::hatching::{StrokeImage, TamSettings, generate};
+    let stroke = StrokeImage::default();
+    let settings = TamSettings::default();
+    let mut group = c.benchmark_group("tam");
+    group.sample_size(10);
+    group.bench_function("thesis_default_6x512x3_78x10", |b| {
+        b.iter(|| generate(&stroke, &settings, |_, _| {}).unwrap())
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_sim, bench_load, bench_tam);
+criterion_main!(benches);

@@ -1,0 +1,261 @@
+//! Strand meshes: a tapered tube swept along a spline through each strand (thesis 4.3.1-4.3.2).
+//!
+//! Every hair gets one mesh holding all its strands (one upload per frame), on an entity of its
+//! own in world space ([`HairMeshOf`]). The triangle topology and UVs are shared by every strand
+//! and rebuilt only when a resolution in [`HairMeshSettings`] changes (the thesis's "Rebuild
+//! mesh" button, done automatically); positions and normals are rebuilt every frame, in parallel
+//! over strands, from [`StrandParticles`](crate::sim::StrandParticles).
+
+pub mod tube;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::visibility::NoFrustumCulling;
+use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use bevy::tasks::{ComputeTaskPool, TaskPool};
+
+use crate::HairSystems;
+use crate::curve::QuadraticCurve;
+use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+use tube::{FrameReference, TubeParams, TubeScratch, TubeTopology};
+
+/// How strands are turned into tubes. A component on the [`Hair`] entity (inserted with defaults
+/// when missing); edits take effect on the next frame.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairMeshSettings {
+    /// Hair resolution: samples of the spline along each strand (rings). More is smoother and
+    /// costs linearly. Changing it rebuilds the topology. Clamped to `[2, 256]`. Default: `16`.
+    pub hair_resolution: u32,
+    /// Shape resolution: vertices around each ring. More is rounder. Changing it rebuilds the
+    /// topology. Clamped to `[3, 64]`. Default: `8`.
+    pub shape_resolution: u32,
+    /// Tube radius at the root, metres. Default: `0.012`.
+    pub radius: f32,
+    /// The H curve: radius scale along the strand, root `x = 0` to tip `x = 1`, for the tapered
+    /// cartoon look. Default: `QuadraticCurve { a: -0.4, b: -0.5, c: 1.0 }` (full at the root, a
+    /// point at the tip, fuller in the middle than a cone).
+    pub taper: QuadraticCurve,
+}
+
+impl Default for HairMeshSettings {
+    fn default() -> Self {
+        Self {
+            hair_resolution: 16,
+            shape_resolution: 8,
+            radius: 0.012,
+            taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
+        }
+    }
+}
+
+/// The mesh entity of a hair (world space, so it is not a child of the bone).
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[relationship(relationship_target = HairMeshes)]
+pub struct HairMeshOf(pub Entity);
+
+/// A hair's mesh entities; despawning the hair despawns them.
+#[derive(Component, Debug, Default)]
+#[relationship_target(relationship = HairMeshOf, linked_spawn)]
+pub struct HairMeshes(Vec<Entity>);
+
+/// Derived mesh state of a hair: its mesh asset and the shared topology.
+#[derive(Component, Debug, Clone)]
+pub struct ComputedHairMesh {
+    /// The mesh asset holding every strand.
+    pub mesh: Handle<Mesh>,
+    /// The shared per-strand topology.
+    pub topology: TubeTopology,
+    /// Strands in the mesh.
+    pub strands: usize,
+    /// The mesh entity.
+    pub entity: Entity,
+}
+
+impl ComputedHairMesh {
+    /// Vertices per strand.
+    pub fn vertices_per_strand(&self) -> usize {
+        self.topology.vertex_count()
+    }
+}
+
+/// Builds and updates strand meshes. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins).
+#[derive(Default)]
+pub struct HairMeshPlugin;
+
+impl Plugin for HairMeshPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<HairMeshSettings>()
+            .register_required_components::<Hair, HairMeshSettings>()
+            .add_systems(
+                PostUpdate,
+                rebuild_strand_meshes.in_set(HairSystems::BuildMesh),
+            );
+    }
+}
+
+fn settings_topology(s: &HairMeshSettings) -> (usize, usize) {
+    (
+        (s.hair_resolution as usize).clamp(tube::MIN_RINGS, tube::MAX_RINGS),
+        (s.shape_resolution as usize).clamp(tube::MIN_SIDES, tube::MAX_SIDES),
+    )
+}
+
+/// Creates a mesh with `strands` copies of the topology (positions and normals zeroed).
+fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
+    let per = topology.vertex_count();
+    let mut indices = Vec::with_capacity(topology.indices.len() * strands);
+    let mut uvs = Vec::with_capacity(per * strands);
+    for s in 0..strands {
+        let base = (s * per) as u32;
+        indices.extend(topology.indices.iter().map(|i| i + base));
+        uvs.extend_from_slice(&topology.uvs);
+    }
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; per * strands])
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_NORMAL,
+        vec![[0.0f32, 1.0, 0.0]; per * strands],
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_indices(Indices::U32(indices))
+}
+
+/// Rebuilds each hair's mesh from its strands' particles: topology when resolutions or the strand
+/// count change, positions and normals every frame.
+#[allow(clippy::type_complexity)]
+pub fn rebuild_strand_meshes(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut hairs: Query<
+        (
+            Entity,
+            &HairMeshSettings,
+            &GlobalTransform,
+            &HairStrands,
+            Option<&mut ComputedHairMesh>,
+        ),
+        With<ComputedHair>,
+    >,
+    strands: Query<(&Strand, &StrandParticles)>,
+    mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
+) {
+    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    for (hair, settings, global, strand_list, computed) in &mut hairs {
+        let (rings, sides) = settings_topology(settings);
+        let count = strand_list.len();
+        let rebuild = computed.as_ref().is_none_or(|c| {
+            c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
+        });
+        let computed = if rebuild {
+            let topology = TubeTopology::new(rings, sides);
+            let mesh = meshes.add(new_hair_mesh(&topology, count));
+            let entity = match &computed {
+                Some(c) => {
+                    commands.entity(c.entity).insert(Mesh3d(mesh.clone()));
+                    c.entity
+                }
+                None => commands
+                    .spawn((
+                        Name::new("hair mesh"),
+                        Mesh3d(mesh.clone()),
+                        Transform::IDENTITY,
+                        // Vertices move every frame; bounds would go stale.
+                        NoFrustumCulling,
+                        HairMeshOf(hair),
+                    ))
+                    .id(),
+            };
+            let c = ComputedHairMesh {
+                mesh,
+                topology,
+                strands: count,
+                entity,
+            };
+            commands.entity(hair).insert(c.clone());
+            c
+        } else {
+            computed.map(|c| c.clone()).expect("checked above")
+        };
+        // Gather particles in strand order.
+        scratch.clear();
+        for e in strand_list.iter() {
+            if let Ok((strand, particles)) = strands.get(e) {
+                scratch.push((strand.index, particles.positions.clone()));
+            }
+        }
+        scratch.sort_by_key(|(i, _)| *i);
+        if scratch.len() != computed.strands {
+            continue;
+        }
+        let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {
+            continue;
+        };
+        // Rings start from a frame that turns with the bone, so tubes do not twist as the head
+        // turns.
+        let rotation = global.rotation();
+        let params_for = |particles: &[Vec3]| {
+            let dir = particles
+                .get(1)
+                .zip(particles.first())
+                .map(|(b, a)| *b - *a)
+                .unwrap_or(Vec3::NEG_Y);
+            TubeParams {
+                radius: settings.radius,
+                taper: [settings.taper.a, settings.taper.b, settings.taper.c],
+                reference: FrameReference {
+                    direction: dir,
+                    normal: rotation * Vec3::Z,
+                },
+            }
+        };
+        let per = computed.vertices_per_strand();
+        if mesh.count_vertices() != per * scratch.len() {
+            continue;
+        }
+        let mut positions = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_POSITION);
+        let mut normals = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_NORMAL);
+        normals.resize(positions.len(), [0.0, 1.0, 0.0]);
+        let chunk = scratch.len().div_ceil(pool.thread_num().max(1) * 2).max(1);
+        let topology = &computed.topology;
+        let strands_ref = &*scratch;
+        pool.scope(|scope| {
+            for ((pos, nrm), group) in positions
+                .chunks_mut(per * chunk)
+                .zip(normals.chunks_mut(per * chunk))
+                .zip(strands_ref.chunks(chunk))
+            {
+                let params_for = &params_for;
+                scope.spawn(async move {
+                    let mut tmp = TubeScratch::default();
+                    for ((p, n), (_, particles)) in
+                        pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
+                    {
+                        tube::build_tube(
+                            topology,
+                            particles,
+                            &params_for(particles),
+                            &mut tmp,
+                            p,
+                            n,
+                            None,
+                        );
+                    }
+                });
+            }
+        });
+        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
+    }
+}
+
+/// Takes a `Float32x3` attribute out of a mesh (empty if missing), to be reinserted.
+fn take_f32x3(mesh: &mut Mesh, id: bevy::mesh::MeshVertexAttribute) -> Vec<[f32; 3]> {
+    match mesh.remove_attribute(id) {
+        Some(VertexAttributeValues::Float32x3(v)) => v,
+        _ => Vec::new(),
+    }
+}

@@ -1,0 +1,108 @@
+//! Default toon ramps, generated in code: two- and three-tone cartoon, depth fade, back light and
+//! specular. A ramp's x axis is the light intensity; its y axis is chosen by the material's
+//! [`RampMode`](super::RampMode). RGB multiplies the hair colour; `1 - alpha` adds the specular
+//! colour, so an ordinary opaque texture has no highlight.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
+use bevy::prelude::*;
+use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+
+/// Width (intensity steps) of the generated ramps.
+pub const RAMP_WIDTH: u32 = 64;
+/// Height (y steps) of the generated ramps.
+pub const RAMP_HEIGHT: u32 = 32;
+
+/// Handles to the generated ramps, inserted by the toon material plugin.
+#[derive(Resource, Clone, Debug)]
+pub struct ToonRamps {
+    /// Two tones: shadow and lit.
+    pub two_tone: Handle<Image>,
+    /// Three tones: shadow, mid and lit (the default).
+    pub three_tone: Handle<Image>,
+    /// Three tones near (y = 1), washed out far away (y = 0). Use with `RampMode::Depth`.
+    pub depth: Handle<Image>,
+    /// Three tones, with a lit rim where `|N.V|^r` is low. Use with `RampMode::BackLight`.
+    pub back_light: Handle<Image>,
+    /// Three tones, with a white highlight band at high `(N.H)^s`. Use with `RampMode::Specular`.
+    pub specular: Handle<Image>,
+}
+
+/// Tone thresholds of a cartoon ramp: `(start of band, shade)` from dark to light.
+pub fn three_tone(x: f32) -> f32 {
+    if x < 0.15 {
+        0.45
+    } else if x < 0.55 {
+        0.72
+    } else {
+        1.0
+    }
+}
+
+fn two_tone(x: f32) -> f32 {
+    if x < 0.4 { 0.55 } else { 1.0 }
+}
+
+/// Builds a ramp image from `f(x, y) -> (shade, highlight)`, `x`, `y` and results in `[0, 1]`,
+/// `y = 0` the bottom row. Nearest sampling and clamped edges keep bands hard.
+pub fn ramp_image(f: impl Fn(f32, f32) -> (f32, f32)) -> Image {
+    let mut data = Vec::with_capacity((RAMP_WIDTH * RAMP_HEIGHT * 4) as usize);
+    for row in 0..RAMP_HEIGHT {
+        // Texture rows go top to bottom; y goes bottom to top.
+        let y = 1.0 - (row as f32 + 0.5) / RAMP_HEIGHT as f32;
+        for col in 0..RAMP_WIDTH {
+            let x = (col as f32 + 0.5) / RAMP_WIDTH as f32;
+            let (shade, highlight) = f(x, y);
+            let s = (shade.clamp(0.0, 1.0) * 255.0).round() as u8;
+            let a = ((1.0 - highlight.clamp(0.0, 1.0)) * 255.0).round() as u8;
+            data.extend_from_slice(&[s, s, s, a]);
+        }
+    }
+    let mut image = Image::new(
+        Extent3d {
+            width: RAMP_WIDTH,
+            height: RAMP_HEIGHT,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        TextureFormat::Rgba8Unorm,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        label: Some("toon ramp".into()),
+        address_mode_u: ImageAddressMode::ClampToEdge,
+        address_mode_v: ImageAddressMode::ClampToEdge,
+        mag_filter: ImageFilterMode::Nearest,
+        min_filter: ImageFilterMode::Nearest,
+        mipmap_filter: ImageFilterMode::Nearest,
+        ..default()
+    });
+    image
+}
+
+impl ToonRamps {
+    /// Generates the ramps into `images`.
+    pub fn generate(images: &mut Assets<Image>) -> Self {
+        Self {
+            two_tone: images.add(ramp_image(|x, _| (two_tone(x), 0.0))),
+            three_tone: images.add(ramp_image(|x, _| (three_tone(x), 0.0))),
+            depth: images.add(ramp_image(|x, y| {
+                // Four depth bands; far ones flatten toward a pale tone.
+                let fade = 1.0 - (y * 4.0).floor().min(3.0) / 3.0;
+                (three_tone(x) * (1.0 - fade) + 0.9 * fade, 0.0)
+            })),
+            back_light: images.add(ramp_image(|x, y| {
+                if y < 0.3 {
+                    (1.0, 0.0)
+                } else {
+                    (three_tone(x), 0.0)
+                }
+            })),
+            specular: images.add(ramp_image(|x, y| {
+                let highlight = if y > 0.8 && x > 0.15 { 0.8 } else { 0.0 };
+                (three_tone(x), highlight)
+            })),
+        }
+    }
+}

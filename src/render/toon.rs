@@ -1,0 +1,247 @@
+//! [`ToonHairMaterial`]: cartoon shading for strand meshes (thesis 4.3.3-4.3.6, 4.3.8).
+
+use bevy::mesh::MeshVertexBufferLayoutRef;
+use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
+use bevy::prelude::*;
+use bevy::render::render_resource::{
+    AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
+};
+use bevy::shader::ShaderRef;
+
+/// What indexes the ramp texture's y axis (its x axis is always the light intensity
+/// `max(N.L, 0)`, X-Toon style).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum RampMode {
+    /// A constant row ([`ToonHairMaterial::ramp_row`]): a plain 1D cartoon ramp.
+    #[default]
+    Constant,
+    /// Depth detail: `D = 1 - log(z/zmin) / log(zmax/zmin)`, near strands vivid, far washed out.
+    Depth,
+    /// Back lighting: `|N.V|^r`.
+    BackLight,
+    /// Specular ramp: `(N.H)^shininess`, highlights drawn in the texture.
+    Specular,
+}
+
+/// Hatching with a tonal art map (see [`crate::hatching`]).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum HatchingMode {
+    /// No hatching.
+    #[default]
+    None,
+    /// Strokes projected on the screen (Lake et al. 2000): looks hand-drawn in a still frame,
+    /// but strokes stay put as hair moves.
+    Screen,
+    /// Strokes on the strand surface (Praun et al. 2001), tones blended, coherent as hair moves.
+    Surface,
+}
+
+/// Toon shading for hair. Every field's change takes effect live; changing a mode switches to
+/// another pipeline variant (shader defs), not a branch in the shader.
+#[derive(Asset, AsBindGroup, Reflect, Clone, Debug)]
+#[bind_group_data(ToonHairMaterialKey)]
+#[uniform(0, ToonHairUniform)]
+#[reflect(Debug)]
+pub struct ToonHairMaterial {
+    /// Hair colour, multiplied by the ramp. Default: orange `srgb(0.95, 0.55, 0.15)`.
+    pub base_color: Color,
+    /// The ramp: x = light intensity, y = see [`ToonHairMaterial::ramp_mode`]. Use a nearest
+    /// sampler for hard bands. Default: none (set one from [`crate::render::ToonRamps`]).
+    #[texture(1)]
+    #[sampler(2)]
+    pub ramp: Handle<Image>,
+    /// What indexes the ramp's y axis. Default: [`RampMode::Constant`].
+    pub ramp_mode: RampMode,
+    /// Ramp row used with [`RampMode::Constant`], 0 (bottom) to 1 (top). Default: `0.5`.
+    pub ramp_row: f32,
+    /// Depth detail: distance (metres) at which detail is full. Default: `1.0`.
+    pub z_min: f32,
+    /// Depth detail: detail has faded at `z_min * z_scale`. Default: `6.0`.
+    pub z_scale: f32,
+    /// Back lighting exponent `r >= 0` in `|N.V|^r`: below 1 widens the lit rim, above 1 narrows
+    /// it. Default: `2.0`.
+    pub back_light_power: f32,
+    /// Adds a rim of [`ToonHairMaterial::back_light_color`] (thesis: "mixed in like the
+    /// specular"). Default: `0.0` (off).
+    pub back_light_strength: f32,
+    /// Rim colour. Default: white.
+    pub back_light_color: Color,
+    /// Adds Blinn specular `(N.H)^shininess` on top. Default: `0.0` (off).
+    pub specular_strength: f32,
+    /// Shininess exponent for Blinn and the specular ramp: higher is a smaller highlight.
+    /// Default: `40.0`.
+    pub shininess: f32,
+    /// Specular colour. Default: white.
+    pub specular_color: Color,
+    /// Hatching mode. Default: [`HatchingMode::None`].
+    pub hatching: HatchingMode,
+    /// Tonal art map (2D array, layer per tone); required when hatching.
+    #[texture(3, dimension = "2d_array")]
+    #[sampler(4)]
+    pub tonal_art_map: Option<Handle<Image>>,
+    /// Hatching scale (HScale): larger gives bigger strokes. Default: `1.0`.
+    pub hatch_scale: f32,
+}
+
+impl Default for ToonHairMaterial {
+    fn default() -> Self {
+        Self {
+            base_color: Color::srgb(0.95, 0.55, 0.15),
+            ramp: Handle::default(),
+            ramp_mode: RampMode::Constant,
+            ramp_row: 0.5,
+            z_min: 1.0,
+            z_scale: 6.0,
+            back_light_power: 2.0,
+            back_light_strength: 0.0,
+            back_light_color: Color::WHITE,
+            specular_strength: 0.0,
+            shininess: 40.0,
+            specular_color: Color::WHITE,
+            hatching: HatchingMode::None,
+            tonal_art_map: None,
+            hatch_scale: 1.0,
+        }
+    }
+}
+
+/// The uniform block of [`ToonHairMaterial`] (see `toon.wgsl`).
+#[derive(Clone, Default, ShaderType)]
+pub struct ToonHairUniform {
+    base_color: Vec4,
+    specular_color: Vec4,
+    back_light_color: Vec4,
+    params: Vec4,
+    params2: Vec4,
+}
+
+fn finite_or(v: f32, default: f32) -> f32 {
+    if v.is_finite() { v } else { default }
+}
+
+impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
+    fn as_bind_group_shader_type(
+        &self,
+        _images: &bevy::render::render_asset::RenderAssets<bevy::render::texture::GpuImage>,
+    ) -> ToonHairUniform {
+        ToonHairUniform {
+            base_color: self.base_color.to_linear().to_vec4(),
+            specular_color: self.specular_color.to_linear().to_vec4(),
+            back_light_color: self.back_light_color.to_linear().to_vec4(),
+            params: Vec4::new(
+                finite_or(self.z_min, 1.0).max(1e-3),
+                finite_or(self.z_scale, 6.0).max(1.0001),
+                finite_or(self.back_light_power, 2.0).max(0.0),
+                finite_or(self.shininess, 40.0).clamp(1.0, 4096.0),
+            ),
+            params2: Vec4::new(
+                finite_or(self.specular_strength, 0.0).max(0.0),
+                finite_or(self.back_light_strength, 0.0).max(0.0),
+                finite_or(self.hatch_scale, 1.0).max(1e-3),
+                finite_or(self.ramp_row, 0.5).clamp(0.0, 1.0),
+            ),
+        }
+    }
+}
+
+/// Pipeline variant of a [`ToonHairMaterial`]: which shader defs it compiles with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ToonHairMaterialKey {
+    ramp_mode: RampMode,
+    blinn: bool,
+    back_light: bool,
+    hatching: HatchingMode,
+}
+
+impl From<&ToonHairMaterial> for ToonHairMaterialKey {
+    fn from(m: &ToonHairMaterial) -> Self {
+        Self {
+            ramp_mode: m.ramp_mode,
+            blinn: m.specular_strength > 0.0,
+            back_light: m.back_light_strength > 0.0,
+            // Without a map there is nothing to hatch with.
+            hatching: if m.tonal_art_map.is_some() {
+                m.hatching
+            } else {
+                HatchingMode::None
+            },
+        }
+    }
+}
+
+impl ToonHairMaterialKey {
+    /// The shader defs of this variant.
+    pub fn shader_defs(&self) -> Vec<&'static str> {
+        let mut defs = Vec::new();
+        match self.ramp_mode {
+            RampMode::Constant => {}
+            RampMode::Depth => defs.push("RAMP_DEPTH"),
+            RampMode::BackLight => defs.push("RAMP_BACK_LIGHT"),
+            RampMode::Specular => defs.push("RAMP_SPECULAR"),
+        }
+        if self.blinn {
+            defs.push("BLINN_SPECULAR");
+        }
+        if self.back_light {
+            defs.push("BACK_LIGHT");
+        }
+        match self.hatching {
+            HatchingMode::None => {}
+            HatchingMode::Screen => defs.extend(["HATCHING", "HATCH_SCREEN"]),
+            HatchingMode::Surface => defs.extend(["HATCHING", "HATCH_SURFACE"]),
+        }
+        defs
+    }
+
+    /// Every variant, for validation.
+    pub fn all() -> Vec<Self> {
+        let mut v = Vec::new();
+        for ramp_mode in [
+            RampMode::Constant,
+            RampMode::Depth,
+            RampMode::BackLight,
+            RampMode::Specular,
+        ] {
+            for hatching in [
+                HatchingMode::None,
+                HatchingMode::Screen,
+                HatchingMode::Surface,
+            ] {
+                for blinn in [false, true] {
+                    for back_light in [false, true] {
+                        v.push(Self {
+                            ramp_mode,
+                            blinn,
+                            back_light,
+                            hatching,
+                        });
+                    }
+                }
+            }
+        }
+        v
+    }
+}
+
+impl Material for ToonHairMaterial {
+    fn fragment_shader() -> ShaderRef {
+        ShaderRef::Path(
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("toon.wgsl"))
+                .with_source("embedded"),
+        )
+    }
+
+    fn specialize(
+        _pipeline: &MaterialPipeline,
+        descriptor: &mut RenderPipelineDescriptor,
+        _layout: &MeshVertexBufferLayoutRef,
+        key: MaterialPipelineKey<Self>,
+    ) -> Result<(), SpecializedMeshPipelineError> {
+        if let Some(fragment) = descriptor.fragment.as_mut() {
+            for def in key.bind_group_data.shader_defs() {
+                fragment.shader_defs.push(def.into());
+            }
+        }
+        Ok(())
+    }
+}

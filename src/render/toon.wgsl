@@ -1,0 +1,98 @@
+// ToonHairMaterial: cartoon shading from a ramp texture (Lake et al. 2000), extended to 2D
+// "X-Toon" ramps (Barla et al. 2006), plus Blinn specular, back lighting and hatching.
+//
+// Shader defs (selected by the material key, one pipeline each):
+//   RAMP_DEPTH | RAMP_BACK_LIGHT | RAMP_SPECULAR  the ramp's y axis (none: constant, a 1D ramp)
+//   BLINN_SPECULAR                                 add (N.H)^shininess on top
+//   BACK_LIGHT                                     add a rim: strength * (1 - |N.V|^r)
+//   HATCH_SCREEN | HATCH_SURFACE                   ink from a tonal art map
+
+#import bevy_pbr::{forward_io::VertexOutput, mesh_view_bindings::{view, lights}}
+#import bevy_cartoon_hair::curves::{depth_detail, back_light}
+
+struct ToonHairUniform {
+    base_color: vec4<f32>,
+    specular_color: vec4<f32>,
+    back_light_color: vec4<f32>,
+    // x: z_min, y: z_scale, z: back light exponent r, w: shininess
+    params: vec4<f32>,
+    // x: specular strength, y: back light strength, z: hatching scale, w: ramp y when constant
+    params2: vec4<f32>,
+};
+
+@group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> material: ToonHairUniform;
+@group(#{MATERIAL_BIND_GROUP}) @binding(1) var ramp_texture: texture_2d<f32>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(2) var ramp_sampler: sampler;
+#ifdef HATCHING
+@group(#{MATERIAL_BIND_GROUP}) @binding(3) var tam_texture: texture_2d_array<f32>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(4) var tam_sampler: sampler;
+
+// Ink from the tonal art map for a light level in [0, 1]: the two nearest tones are blended so
+// there is no visible switch between layers (Praun et al.).
+fn hatch(uv: vec2<f32>, light: f32) -> f32 {
+    let tones = f32(textureNumLayers(tam_texture));
+    // Light 1 -> lightest tone (0); light 0 -> darkest (tones - 1).
+    let t = clamp((1.0 - light) * (tones - 1.0), 0.0, tones - 1.0);
+    let lo = floor(t);
+    let hi = min(lo + 1.0, tones - 1.0);
+    let a = textureSample(tam_texture, tam_sampler, uv, i32(lo)).r;
+    let b = textureSample(tam_texture, tam_sampler, uv, i32(hi)).r;
+    return mix(a, b, t - lo);
+}
+#endif
+
+@fragment
+fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+    let n = normalize(in.world_normal);
+    let to_eye = view.world_position - in.world_position.xyz;
+    let v = normalize(to_eye);
+    var l = normalize(vec3<f32>(0.3, 1.0, 0.5));
+    if lights.n_directional_lights > 0u {
+        l = normalize(lights.directional_lights[0].direction_to_light);
+    }
+    let intensity = max(dot(n, l), 0.0);
+    let h = normalize(l + v);
+    let n_dot_h = max(dot(n, h), 0.0);
+    let shininess = max(material.params.w, 1.0);
+
+    var y = material.params2.w;
+#ifdef RAMP_DEPTH
+    // Distance along the view direction; D = 1 at z_min, 0 at z_min * z_scale.
+    let z_min = max(material.params.x, 1e-3);
+    y = depth_detail(length(to_eye), z_min, z_min * max(material.params.y, 1.0001));
+#endif
+#ifdef RAMP_BACK_LIGHT
+    y = back_light(n, v, material.params.z);
+#endif
+#ifdef RAMP_SPECULAR
+    y = pow(n_dot_h, shininess);
+#endif
+    // Row 0 of the texture is y = 0 at the bottom: flip for texture space.
+    let ramp = textureSample(ramp_texture, ramp_sampler, vec2<f32>(intensity, 1.0 - clamp(y, 0.0, 1.0)));
+    // RGB multiplies the hair colour; 1 - alpha adds the specular colour (drawn highlights).
+    var color = material.base_color.rgb * ramp.rgb + material.specular_color.rgb * (1.0 - ramp.a);
+
+#ifdef BLINN_SPECULAR
+    color += material.specular_color.rgb * material.params2.x * pow(n_dot_h, shininess)
+        * step(0.0, dot(n, l));
+#endif
+#ifdef BACK_LIGHT
+    color += material.back_light_color.rgb * material.params2.y
+        * (1.0 - back_light(n, v, material.params.z));
+#endif
+
+#ifdef HATCHING
+    // Tone from the shaded light level, so darker regions get denser strokes.
+    let light = clamp(dot(ramp.rgb, vec3<f32>(0.299, 0.587, 0.114)), 0.0, 1.0);
+    let scale = max(material.params2.z, 1e-3);
+#ifdef HATCH_SCREEN
+    // Lake et al.: projected on the screen (strokes stay put as hair moves).
+    let uv = in.position.xy / (256.0 * scale);
+#else
+    // Praun et al.: on the strand's surface (u around, v along), coherent as hair moves.
+    let uv = in.uv * vec2<f32>(1.0, 8.0) / scale;
+#endif
+    color *= hatch(uv, light);
+#endif
+    return vec4<f32>(color, material.base_color.a);
+}

@@ -1,0 +1,270 @@
+//! Render tests of strand meshes drawn with `ToonHairMaterial` (lavapipe on CPU-only machines).
+
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy_cartoon_hair::asset::HairGroom;
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use libtest_mimic::Failed;
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "toon_bands_no_more_than_ramp_tones",
+        toon_bands_no_more_than_ramp_tones,
+    ),
+    (
+        "depth_detail_far_strand_lighter",
+        depth_detail_far_strand_lighter,
+    ),
+    (
+        "blinn_specular_peaks_where_n_dot_h_is_highest",
+        blinn_specular_peaks_where_n_dot_h_is_highest,
+    ),
+];
+
+const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
+
+/// A renderer with the hair plugins, a light, and a camera at `eye` looking at the origin.
+fn scene(light_dir: Vec3, eye: Vec3) -> Result<HeadlessRenderer, Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
+    r.app.add_plugins(CartoonHairPlugins);
+    let target = r.target();
+    let world = r.app.world_mut();
+    world.spawn((
+        DirectionalLight {
+            illuminance: 5_000.0,
+            ..default()
+        },
+        Transform::from_translation(light_dir).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        // Tonemapping would blend the hard toon bands into new shades.
+        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        Msaa::Off,
+        RenderTarget::Image(target.into()),
+        Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    Ok(r)
+}
+
+/// A straight strand from `a` to `b`, held still (no gravity, anchors rigid), drawn thick with
+/// `material`.
+fn spawn_strand(
+    r: &mut HeadlessRenderer,
+    a: Vec3,
+    b: Vec3,
+    radius: f32,
+    material: ToonHairMaterial,
+) {
+    let world = r.app.world_mut();
+    let points: Vec<Vec3> = (0..6).map(|i| a.lerp(b, i as f32 / 5.0)).collect();
+    let groom = HairGroom::from_strands("", [points]).unwrap();
+    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+    let material = world
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .add(material);
+    world.spawn((
+        Hair { groom, ..default() },
+        HairSimSettings {
+            gravity: Vec3::ZERO,
+            anchor_stiffness: QuadraticCurve::constant(1.0),
+            ..default()
+        },
+        HairMeshSettings {
+            radius,
+            taper: QuadraticCurve::constant(1.0),
+            hair_resolution: 24,
+            shape_resolution: 32,
+        },
+        HairMaterial(material),
+    ));
+}
+
+fn ramps(r: &HeadlessRenderer) -> ToonRamps {
+    r.app.world().resource::<ToonRamps>().clone()
+}
+
+/// Hair pixels (not background) that are not next to the background (edges blend).
+fn interior(frame: &CapturedFrame, x0: u32, x1: u32) -> Vec<[u8; 4]> {
+    let mut v = Vec::new();
+    for y in 1..frame.height - 1 {
+        for x in x0.max(1)..x1.min(frame.width - 1) {
+            let p = frame.pixel(x, y);
+            let solid = [(0i32, 0i32), (1, 0), (-1, 0), (0, 1), (0, -1)]
+                .iter()
+                .all(|(dx, dy)| {
+                    frame.pixel((x as i32 + dx) as u32, (y as i32 + dy) as u32) != BACKGROUND
+                });
+            if solid && p != BACKGROUND {
+                v.push(p);
+            }
+        }
+    }
+    v
+}
+
+/// Distinct colours, merging those within `tolerance` per channel; clusters with fewer than
+/// `min_share` of the pixels are ignored.
+fn distinct_shades(pixels: &[[u8; 4]], tolerance: i32, min_share: f32) -> Vec<([u8; 4], usize)> {
+    let mut clusters: Vec<([u8; 4], usize)> = Vec::new();
+    for p in pixels {
+        match clusters
+            .iter_mut()
+            .find(|(c, _)| (0..3).all(|i| (c[i] as i32 - p[i] as i32).abs() <= tolerance))
+        {
+            Some(c) => c.1 += 1,
+            None => clusters.push((*p, 1)),
+        }
+    }
+    clusters.retain(|(_, n)| *n as f32 >= min_share * pixels.len() as f32);
+    clusters
+}
+
+fn luminance(p: [u8; 4]) -> f32 {
+    0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32
+}
+
+fn save(frame: &CapturedFrame, name: &str) -> Result<(), Failed> {
+    if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+        frame.save_png(std::path::Path::new(&dir).join(format!("{name}.png")))?;
+    }
+    Ok(())
+}
+
+/// A thick strand lit from one side shows the three-tone ramp's bands and no other shades.
+fn toon_bands_no_more_than_ramp_tones() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    spawn_strand(
+        &mut r,
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        0.4,
+        ToonHairMaterial { ramp, ..default() },
+    );
+    let frame = r.capture()?;
+    save(&frame, "toon_bands")?;
+    let pixels = interior(&frame, 0, frame.width);
+    if pixels.len() < 2000 {
+        return Err(format!("only {} hair pixels rendered", pixels.len()).into());
+    }
+    let shades = distinct_shades(&pixels, 3, 0.0);
+    let big = distinct_shades(&pixels, 3, 0.01);
+    // The ramp has three tones; with the light above-front, at least two are visible.
+    if shades.len() > 3 || big.len() < 2 {
+        return Err(format!("expected 2-3 shades, found {}: {shades:?}", shades.len()).into());
+    }
+    Ok(())
+}
+
+/// Depth detail: a far strand is washed out (lighter on average) compared with a near one.
+fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(1.0, 0.2, 0.3), Vec3::new(0.0, 0.0, 4.0))?;
+    let ramp = ramps(&r).depth;
+    let material = ToonHairMaterial {
+        ramp,
+        ramp_mode: RampMode::Depth,
+        z_min: 3.0,
+        z_scale: 3.0,
+        ..default()
+    };
+    // Near (left, 1 m from the camera) and far (right, 9 m away, scaled up to look as large).
+    spawn_strand(
+        &mut r,
+        Vec3::new(-0.2, -0.3, 3.0),
+        Vec3::new(-0.2, 0.3, 3.0),
+        0.06,
+        material.clone(),
+    );
+    spawn_strand(
+        &mut r,
+        Vec3::new(2.0, -3.0, -5.0),
+        Vec3::new(2.0, 3.0, -5.0),
+        0.6,
+        material,
+    );
+    let frame = r.capture()?;
+    save(&frame, "depth_detail")?;
+    let (w, _) = (frame.width, frame.height);
+    let near = interior(&frame, 0, w / 2);
+    let far = interior(&frame, w / 2, w);
+    if near.len() < 200 || far.len() < 200 {
+        return Err(format!(
+            "strands not both visible: {} near, {} far pixels",
+            near.len(),
+            far.len()
+        )
+        .into());
+    }
+    let mean = |v: &[[u8; 4]]| v.iter().map(|p| luminance(*p)).sum::<f32>() / v.len() as f32;
+    let (n, f) = (mean(&near), mean(&far));
+    if f <= n + 5.0 {
+        return Err(format!("far strand is not lighter: near {n:.1}, far {f:.1}").into());
+    }
+    Ok(())
+}
+
+/// Blinn specular: the brightest hair pixels sit where N.H is highest on a horizontal tube, above
+/// its axis toward the light.
+fn blinn_specular_peaks_where_n_dot_h_is_highest() -> Result<(), Failed> {
+    let light = Vec3::new(0.0, 1.0, 1.0);
+    let eye = Vec3::new(0.0, 0.0, 3.0);
+    let mut r = scene(light, eye)?;
+    let ramp = ramps(&r).three_tone;
+    let radius = 0.5;
+    spawn_strand(
+        &mut r,
+        Vec3::new(-1.2, 0.0, 0.0),
+        Vec3::new(1.2, 0.0, 0.0),
+        radius,
+        ToonHairMaterial {
+            ramp,
+            base_color: Color::srgb(0.4, 0.1, 0.1),
+            specular_strength: 1.0,
+            shininess: 80.0,
+            ..default()
+        },
+    );
+    let frame = r.capture()?;
+    save(&frame, "blinn_specular")?;
+    // Brightest row along the centre column.
+    let x = frame.width / 2;
+    let (mut best_y, mut best) = (0, -1.0f32);
+    let mut top = None;
+    let mut bottom = 0;
+    for y in 0..frame.height {
+        let p = frame.pixel(x, y);
+        if p == BACKGROUND {
+            continue;
+        }
+        top.get_or_insert(y);
+        bottom = y;
+        let l = luminance(p);
+        if l > best {
+            best = l;
+            best_y = y;
+        }
+    }
+    let top = top.ok_or("no hair in the centre column")?;
+    // Where N = H: H halfway between the light and view directions (22.5 degrees above the view
+    // axis); project the surface point at that normal onto the screen.
+    let h = (light.normalize() + eye.normalize()).normalize();
+    let centre = (top + bottom) as f32 / 2.0;
+    let half = (bottom - top) as f32 / 2.0;
+    let expected = centre - half * h.y / (h.y * h.y + h.z * h.z).sqrt();
+    if (best_y as f32 - expected).abs() > 0.2 * half + 2.0 {
+        return Err(format!(
+            "highlight at row {best_y}, expected near {expected:.0} (tube rows {top}..{bottom})"
+        )
+        .into());
+    }
+    if best < 200.0 {
+        return Err(format!("no bright highlight (peak luminance {best})").into());
+    }
+    Ok(())
+}
