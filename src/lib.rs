@@ -59,6 +59,7 @@ pub mod headless;
 pub mod mesh;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod silhouette;
 pub mod sim;
 
 use bevy::app::{PluginGroupBuilder, PostUpdate};

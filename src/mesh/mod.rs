@@ -15,6 +15,7 @@ use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 
 use crate::HairSystems;
+use crate::asset::HairGroom;
 use crate::curve::QuadraticCurve;
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use tube::{FrameReference, TubeParams, TubeScratch, TubeTopology};
@@ -70,6 +71,9 @@ pub struct ComputedHairMesh {
     pub strands: usize,
     /// The mesh entity.
     pub entity: Entity,
+    /// Each strand's rest root direction and a normal to it, in bone space: ring frames start
+    /// from these turned by the bone, so they never flip as the strand swings.
+    pub rest_frames: Vec<(Vec3, Vec3)>,
 }
 
 impl ComputedHairMesh {
@@ -106,10 +110,15 @@ fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
     let per = topology.vertex_count();
     let mut indices = Vec::with_capacity(topology.indices.len() * strands);
     let mut uvs = Vec::with_capacity(per * strands);
+    let mut uvs_b = Vec::with_capacity(per * strands);
     for s in 0..strands {
         let base = (s * per) as u32;
         indices.extend(topology.indices.iter().map(|i| i + base));
         uvs.extend_from_slice(&topology.uvs);
+        // The same `u` half a turn on: where `u` wraps from 1 to 0 this one is continuous, and
+        // the shader uses whichever varies less (Tarini 2012), so textures show no seam while
+        // the ring keeps one vertex per side (true adjacency for silhouettes).
+        uvs_b.extend(topology.uvs.iter().map(|[u, v]| [(u + 0.5).fract(), *v]));
     }
     Mesh::new(
         PrimitiveTopology::TriangleList,
@@ -121,6 +130,7 @@ fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
         vec![[0.0f32, 1.0, 0.0]; per * strands],
     )
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, uvs_b)
     .with_inserted_indices(Indices::U32(indices))
 }
 
@@ -133,6 +143,7 @@ pub fn rebuild_strand_meshes(
     mut hairs: Query<
         (
             Entity,
+            &Hair,
             &HairMeshSettings,
             &GlobalTransform,
             &HairStrands,
@@ -140,11 +151,12 @@ pub fn rebuild_strand_meshes(
         ),
         With<ComputedHair>,
     >,
+    grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for (hair, settings, global, strand_list, computed) in &mut hairs {
+    for (hair, hair_assets, settings, global, strand_list, computed) in &mut hairs {
         let (rings, sides) = settings_topology(settings);
         let count = strand_list.len();
         let rebuild = computed.as_ref().is_none_or(|c| {
@@ -169,11 +181,23 @@ pub fn rebuild_strand_meshes(
                     ))
                     .id(),
             };
+            let rest_frames = grooms
+                .get(&hair_assets.groom)
+                .map(|g| {
+                    g.strands()
+                        .map(|s| {
+                            let f = FrameReference::from_direction(s[1] - s[0]);
+                            (f.direction, f.normal)
+                        })
+                        .collect()
+                })
+                .unwrap_or_default();
             let c = ComputedHairMesh {
                 mesh,
                 topology,
                 strands: count,
                 entity,
+                rest_frames,
             };
             commands.entity(hair).insert(c.clone());
             c
@@ -194,21 +218,21 @@ pub fn rebuild_strand_meshes(
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {
             continue;
         };
-        // Rings start from a frame that turns with the bone, so tubes do not twist as the head
-        // turns.
+        // Rings start from the strand's rest frame turned with the bone, so tubes neither twist
+        // as the head turns nor flip as strands swing.
         let rotation = global.rotation();
-        let params_for = |particles: &[Vec3]| {
-            let dir = particles
-                .get(1)
-                .zip(particles.first())
-                .map(|(b, a)| *b - *a)
-                .unwrap_or(Vec3::NEG_Y);
+        let frames = &computed.rest_frames;
+        let params_for = |strand: u32| {
+            let (direction, normal) = frames
+                .get(strand as usize)
+                .copied()
+                .unwrap_or((Vec3::NEG_Y, Vec3::Z));
             TubeParams {
                 radius: settings.radius,
                 taper: [settings.taper.a, settings.taper.b, settings.taper.c],
                 reference: FrameReference {
-                    direction: dir,
-                    normal: rotation * Vec3::Z,
+                    direction: rotation * direction,
+                    normal: rotation * normal,
                 },
             }
         };
@@ -231,18 +255,11 @@ pub fn rebuild_strand_meshes(
                 let params_for = &params_for;
                 scope.spawn(async move {
                     let mut tmp = TubeScratch::default();
-                    for ((p, n), (_, particles)) in
+                    for ((p, n), (index, particles)) in
                         pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
                     {
-                        tube::build_tube(
-                            topology,
-                            particles,
-                            &params_for(particles),
-                            &mut tmp,
-                            p,
-                            n,
-                            None,
-                        );
+                        let params = params_for(*index);
+                        tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
                     }
                 });
             }

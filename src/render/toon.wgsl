@@ -82,15 +82,23 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
 #endif
 
 #ifdef HATCHING
-    // Tone from the shaded light level, so darker regions get denser strokes.
-    let light = clamp(dot(ramp.rgb, vec3<f32>(0.299, 0.587, 0.114)), 0.0, 1.0);
+    // Tone from the light intensity (thesis 4.3.8), so darker regions get denser strokes.
+    let light = intensity;
     let scale = max(material.params2.z, 1e-3);
 #ifdef HATCH_SCREEN
     // Lake et al.: projected on the screen (strokes stay put as hair moves).
     let uv = in.position.xy / (256.0 * scale);
 #else
-    // Praun et al.: on the strand's surface (u around, v along), coherent as hair moves.
-    let uv = in.uv * vec2<f32>(1.0, 8.0) / scale;
+    // Praun et al.: on the strand's surface, coherent as hair moves. Strokes run along the
+    // strand (texture x = v along it, texture y = u around it).
+    var around = in.uv.x;
+#ifdef VERTEX_UVS_B
+    // Seamless u (Tarini 2012): uv_b.x is u + 0.5 wrapped; use whichever varies less here.
+    if fwidth(in.uv_b.x) < fwidth(in.uv.x) {
+        around = in.uv_b.x - 0.5;
+    }
+#endif
+    let uv = vec2<f32>(in.uv.y * 2.0, around) / scale;
 #endif
     color *= hatch(uv, light);
 #endif

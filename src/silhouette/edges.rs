@@ -5,13 +5,16 @@
 //! 1. [`silhouette_edges`] finds the mesh edges between a front-facing and a back-facing triangle
 //!    (seen from the eye point), using an [`EdgeAdjacency`] built once per tube topology;
 //! 2. [`chain_edges`] links them into ordered polylines ([`SilhouetteChains`]);
-//! 3. [`build_stroke_strip`] turns each polyline into a screen-space stroke of constant pixel width
-//!    (Northrup & Markosian 2000, Kalnins et al. 2003), unprojected back to world space so that
-//!    an ordinary mesh pipeline draws it.
+//! 3. [`build_chain_strip`] (or [`build_stroke_strip`] for any polyline) turns each polyline into
+//!    a screen-space stroke of constant pixel width (Northrup & Markosian 2000, Kalnins et al.
+//!    2003) for a [`StrokeCamera`], unprojected back to world space so that an ordinary mesh
+//!    pipeline draws it.
 //!
-//! Unlike the thesis, chaining is near-linear (a vertex-to-edge map rebuilt per call in reused
-//! buffers instead of an O(n²) insertion sort), never drops an edge, and splits chains at
-//! vertices where more than two silhouette edges meet.
+//! Unlike the thesis, chaining is linear (per-vertex edge slots kept in a reused
+//! [`SilhouetteScratch`] instead of an O(n²) insertion sort), never drops an edge, and splits
+//! chains at vertices where more than two silhouette edges meet. Nothing allocates per call once
+//! the reused buffers have grown; keep one [`SilhouetteScratch`] and one [`SilhouetteChains`] per
+//! thread.
 //!
 //! A capped tube seen from the side has one closed silhouette loop: the two long sides joined
 //! by the visible halves of the root and tip cap rims.
@@ -180,7 +183,8 @@ struct Slot {
 /// `out` (cleared first).
 ///
 /// A triangle is front-facing when `dot(normal, eye - point on it) > 0` (normal from the
-/// counter-clockwise index order); an edge is a silhouette edge when one of its triangles is
+/// counter-clockwise index order; zero-area triangles, such as those of a tip tapered to a
+/// point, are not front-facing); an edge is a silhouette edge when one of its triangles is
 /// front-facing and the other is not. Each edge is oriented so that its front-facing triangle lies
 /// on its left as seen from the eye (it runs along the edge in that triangle's winding), so the
 /// edges of a silhouette loop all run the same way round.

@@ -5,6 +5,7 @@ use bevy::prelude::*;
 use bevy_cartoon_hair::asset::HairGroom;
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::HatchingMode;
 use libtest_mimic::Failed;
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
@@ -19,6 +20,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "blinn_specular_peaks_where_n_dot_h_is_highest",
         blinn_specular_peaks_where_n_dot_h_is_highest,
+    ),
+    (
+        "hatching_puts_more_ink_in_darker_regions",
+        hatching_puts_more_ink_in_darker_regions,
     ),
 ];
 
@@ -265,6 +270,86 @@ fn blinn_specular_peaks_where_n_dot_h_is_highest() -> Result<(), Failed> {
     }
     if best < 200.0 {
         return Err(format!("no bright highlight (peak luminance {best})").into());
+    }
+    Ok(())
+}
+
+/// Hatching, screen and surface: the shadowed half of a tube carries more ink (dark pixels
+/// relative to the shade underneath) than the lit half.
+fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
+    use bevy_cartoon_hair::hatching::{StrokeImage, TamSettings, generate, tonal_art_map_image};
+    let settings = TamSettings {
+        tones: 6,
+        resolution: 128,
+        mip_levels: 3,
+        strokes_per_tone: 60,
+        candidates: 4,
+        stroke_width_px: 2.0,
+        ..default()
+    };
+    let map = generate(&StrokeImage::default(), &settings, |_, _| {})?;
+    for mode in [HatchingMode::Screen, HatchingMode::Surface] {
+        // Light from above: the top of the tube is lit, the bottom in shadow.
+        let mut r = scene(Vec3::new(0.0, 1.0, 0.15), Vec3::new(0.0, 0.0, 3.0))?;
+        let world = r.app.world_mut();
+        let tam = world
+            .resource_mut::<Assets<Image>>()
+            .add(tonal_art_map_image(&map));
+        // A flat ramp, so every shade difference comes from the hatching.
+        let flat =
+            world
+                .resource_mut::<Assets<Image>>()
+                .add(bevy_cartoon_hair::render::ramp_image(|x, _| {
+                    (if x < 0.3 { 0.85 } else { 1.0 }, 0.0)
+                }));
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.2, 0.0, 0.0),
+            Vec3::new(1.2, 0.0, 0.0),
+            0.6,
+            ToonHairMaterial {
+                ramp: flat,
+                base_color: Color::WHITE,
+                hatching: mode,
+                tonal_art_map: Some(tam),
+                hatch_scale: 0.5,
+                ..default()
+            },
+        );
+        let frame = r.capture()?;
+        save(&frame, &format!("hatching_{mode:?}"))?;
+        let x0 = frame.width / 4;
+        let x1 = 3 * frame.width / 4;
+        let (mut rows, mut top, mut bottom) = (Vec::new(), None, 0);
+        for y in 0..frame.height {
+            if frame.pixel(frame.width / 2, y) != BACKGROUND {
+                top.get_or_insert(y);
+                bottom = y;
+            }
+        }
+        let top = top.ok_or("no hair rendered")?;
+        let mid = (top + bottom) / 2;
+        // Ink = mean darkness relative to the flat shade underneath (0.85 or 1.0 of white).
+        let ink = |y0: u32, y1: u32| {
+            let mut n = 0.0;
+            let mut sum = 0.0;
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    n += 1.0;
+                    sum += 1.0 - luminance(frame.pixel(x, y)) / 255.0;
+                }
+            }
+            sum / f32::max(n, 1.0)
+        };
+        let lit = ink(top + 2, mid - 2);
+        let shadow = ink(mid + 2, bottom - 1);
+        rows.push((lit, shadow));
+        // The flat ramp alone adds at most 0.15 of darkness to the shadow half.
+        if shadow <= lit + 0.2 {
+            return Err(
+                format!("{mode:?}: shadow ink {shadow:.3} not above lit ink {lit:.3}").into(),
+            );
+        }
     }
     Ok(())
 }
