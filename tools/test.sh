@@ -1,8 +1,17 @@
 #!/usr/bin/env bash
-# Runs every test of the crate: Rust unit and integration tests (render tests on whatever Vulkan
-# adapter exists; lavapipe on a CPU-only machine) and doc tests.
-# Installs the system packages it needs first. Extra arguments go to `cargo test`.
+# Runs every test of the crate:
+#  - the Blender add-on's tests (real Blender: the `bpy` 4.5 LTS module from PyPI, headless);
+#  - Rust unit and integration tests: simulation, assets (the Blender -> Rust round trip among
+#    them), render tests on whatever Vulkan adapter exists (lavapipe on a CPU-only machine);
+#  - doc tests.
+# Installs what it needs first (Mesa's Vulkan driver; bpy for Python 3.11).
+# Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/system-deps.sh mesa-vulkan-drivers libvulkan1
+if ! python3 -c "import bpy" >/dev/null 2>&1; then
+  echo "Installing Blender as a Python module (bpy 4.5.4) ..." >&2
+  python3 -m pip install --quiet --disable-pip-version-check bpy==4.5.4
+fi
+python3 -m unittest discover -s tools/blender/tests
 cargo test --all-features "$@"

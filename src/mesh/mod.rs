@@ -31,7 +31,7 @@ pub struct HairMeshSettings {
     /// Shape resolution: vertices around each ring. More is rounder. Changing it rebuilds the
     /// topology. Clamped to `[3, 64]`. Default: `8`.
     pub shape_resolution: u32,
-    /// Tube radius at the root, metres. Default: `0.012`.
+    /// Tube radius at the root, metres. Default: `0.016`.
     pub radius: f32,
     /// The H curve: radius scale along the strand, root `x = 0` to tip `x = 1`, for the tapered
     /// cartoon look. Default: `QuadraticCurve { a: -0.4, b: -0.5, c: 1.0 }` (full at the root, a
@@ -44,7 +44,7 @@ impl Default for HairMeshSettings {
         Self {
             hair_resolution: 16,
             shape_resolution: 8,
-            radius: 0.012,
+            radius: 0.016,
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
         }
     }

@@ -18,14 +18,15 @@ pub struct HairSimSettings {
     /// Higher keeps length; lower lets hair stretch like rubber. Default: `1.0`.
     pub edge_stiffness: f32,
     /// Bending springs (every other particle): how easily strands bend away from their style.
-    /// Higher holds the styled curl; lower lets hair droop and swing. Default: `0.6`.
+    /// Higher holds the styled curl; lower lets hair droop and swing. Default: `0.8`.
     pub bend_stiffness: f32,
     /// Torsion springs (every third particle): how much strands twist.
-    /// Higher keeps spikes pointing their way; lower lets them roll. Default: `0.4`.
+    /// Higher keeps spikes pointing their way; lower lets them roll. Default: `0.6`.
     pub torsion_stiffness: f32,
     /// Anchor ("blending") spring stiffness along the strand, root `x = 0` to tip `x = 1` (the
     /// thesis's S curve). `1` holds the keyframe pose exactly; `0` leaves the hair free.
-    /// Default: `QuadraticCurve { a: 0.0, b: -0.25, c: 0.3 }` (firmer at the root).
+    /// Default: `QuadraticCurve { a: 0.0, b: -0.4, c: 0.7 }` (0.7 at the root to 0.3 at the tip:
+    /// spiky styles hold against gravity, tips still swing).
     pub anchor_stiffness: QuadraticCurve,
     /// Gravity in world space, m/s^2. Default: `(0, -9.81, 0)`.
     pub gravity: Vec3,
@@ -63,9 +64,9 @@ impl Default for HairSimSettings {
     fn default() -> Self {
         Self {
             edge_stiffness: 1.0,
-            bend_stiffness: 0.6,
-            torsion_stiffness: 0.4,
-            anchor_stiffness: QuadraticCurve::new(0.0, -0.25, 0.3),
+            bend_stiffness: 0.8,
+            torsion_stiffness: 0.6,
+            anchor_stiffness: QuadraticCurve::new(0.0, -0.4, 0.7),
             gravity: Vec3::new(0.0, -9.81, 0.0),
             damping: 2.0,
             substep_rate: 240.0,

@@ -5,8 +5,10 @@
 //! - without one and with `CI` set they run and fail, saying what to install;
 //! - without one and without `CI` they are reported as *ignored*, never as passed.
 //!
-//! Render tests run one at a time (each starts a renderer); other tests run in parallel.
+//! Render tests run one at a time (each starts a renderer); other tests run in parallel. Blender
+//! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
+mod assets;
 mod render_smoke;
 mod toon_render;
 
@@ -42,6 +44,37 @@ fn main() {
                 test()
             })
             .with_ignored_flag(skip_render),
+        );
+    }
+    for (name, test) in assets::TESTS {
+        trials.push(Trial::test(format!("assets::{name}"), *test));
+    }
+    // Blender (`bpy` from PyPI, installed by tools/test.sh): like render tests, ignored when
+    // missing outside CI, failing in CI.
+    let blender = assets::blender_available();
+    if !blender {
+        eprintln!(
+            "Blender tests need `python3 -m pip install bpy==4.5.4`; {}",
+            if in_ci {
+                "CI is set, so they will fail"
+            } else {
+                "they are ignored (not run)"
+            }
+        );
+    }
+    for (name, test) in assets::BLENDER_TESTS {
+        let test = *test;
+        trials.push(
+            Trial::test(format!("blender::{name}"), move || {
+                if !blender {
+                    return Err(
+                        "Blender's bpy module is not installed: python3 -m pip install bpy==4.5.4"
+                            .into(),
+                    );
+                }
+                test()
+            })
+            .with_ignored_flag(!blender && !in_ci),
         );
     }
     libtest_mimic::run(&args, trials).exit();

@@ -1,0 +1,280 @@
+# SPDX-License-Identifier: MIT OR Apache-2.0
+"""The Blender side of the exporter: reads hair, spheres and bones from ``bpy`` data and writes
+the files with :mod:`.writer`.  These functions are what the operators call; scripts can call
+them directly::
+
+    from bevy_cartoon_hair_export import gather
+    gather.export_hair("out/ninja.hair.xml", [hair_obj], armature=arm, bone="head", scale=1.0)
+
+Positions are taken with the armatures in their REST position (``Armature.pose_position`` is
+switched to ``'REST'`` while reading and restored afterwards), so hair parented or skinned to a
+posed rig is exported where it sits in the rest pose - the frame of the bone's glTF node.
+"""
+
+import contextlib
+import os
+
+import bpy
+import numpy as np
+
+from . import writer
+from .writer import ExportError
+
+
+# --------------------------------------------------------------------------------------------
+# Frames
+
+
+def _np_matrix(m):
+    return np.array([list(row) for row in m], dtype=np.float64)
+
+
+def frame_matrix(armature=None, bone="", reference=None, depsgraph=None):
+    """Global glTF-space matrix of the frame the file's positions are in.
+
+    With an ``armature`` object: the rest frame of the node the glTF exporter writes for
+    ``bone`` (see :func:`writer.bone_node_matrix`).  Without: the node frame of ``reference``
+    (an object; identity if ``None``), i.e. the object's local space with Y up.
+    """
+    if armature is not None:
+        if armature.type != "ARMATURE":
+            raise ExportError(f"'{armature.name}' is not an armature")
+        b = armature.data.bones.get(bone)
+        if b is None:
+            raise ExportError(
+                f"armature '{armature.name}' has no bone named '{bone}'"
+                f" (bones: {', '.join(sorted(x.name for x in armature.data.bones)) or 'none'})"
+            )
+        arm = armature.evaluated_get(depsgraph) if depsgraph is not None else armature
+        return writer.bone_node_matrix(_np_matrix(arm.matrix_world), _np_matrix(b.matrix_local))
+    if reference is None:
+        return np.eye(4)
+    ref = reference.evaluated_get(depsgraph) if depsgraph is not None else reference
+    return writer.object_node_matrix(_np_matrix(ref.matrix_world))
+
+
+@contextlib.contextmanager
+def rest_pose(context=None):
+    """Put every armature in its rest position while the block runs; yields a depsgraph."""
+    context = context or bpy.context
+    changed = []
+    for arm in bpy.data.armatures:
+        if arm.pose_position != "REST":
+            changed.append((arm, arm.pose_position))
+            arm.pose_position = "REST"
+    try:
+        if changed:
+            context.view_layer.update()
+        yield context.evaluated_depsgraph_get()
+    finally:
+        for arm, pos in changed:
+            arm.pose_position = pos
+        if changed:
+            context.view_layer.update()
+
+
+# --------------------------------------------------------------------------------------------
+# Hair
+
+
+def is_hair_object(obj):
+    """A Curves object, or a mesh with at least one hair particle system."""
+    if obj.type == "CURVES":
+        return True
+    return obj.type == "MESH" and any(ps.settings.type == "HAIR" for ps in obj.particle_systems)
+
+
+def object_strands(obj, depsgraph):
+    """Strands of one hair object in Blender WORLD space: ``(positions (N,3) float64, counts)``.
+
+    Curves objects give every curve (evaluated geometry, so modifiers apply); meshes give the
+    guide hairs (``hair_keys``) of each of their HAIR particle systems, in order (children are
+    generated at run time by the plugin, not exported).
+    """
+    ob = obj.evaluated_get(depsgraph)
+    world = _np_matrix(ob.matrix_world)
+    if obj.type == "CURVES":
+        curves = ob.data
+        n_points, n_curves = len(curves.points), len(curves.curves)
+        pos = np.empty(n_points * 3, dtype=np.float32)
+        if n_points:
+            curves.points.foreach_get("position", pos)
+        offsets = np.empty(n_curves + 1, dtype=np.int32)
+        curves.curve_offset_data.foreach_get("value", offsets)
+        counts = np.diff(offsets).astype(np.int64)
+        return writer.transform_points(world, pos.reshape(-1, 3)), counts
+    if obj.type == "MESH":
+        chunks, counts = [], []
+        for ps in ob.particle_systems:
+            if ps.settings.type != "HAIR":
+                continue
+            for p in ps.particles:
+                keys = p.hair_keys
+                k = len(keys)
+                buf = np.empty(k * 3, dtype=np.float32)
+                if k:
+                    keys.foreach_get("co", buf)  # object space of the emitter
+                chunks.append(buf)
+                counts.append(k)
+        if not chunks:
+            return np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+        pos = np.concatenate(chunks).reshape(-1, 3)
+        return writer.transform_points(world, pos), np.array(counts, dtype=np.int64)
+    raise ExportError(f"'{obj.name}' is not a hair object (Curves or mesh with particle hair)")
+
+
+def hair_objects(objects):
+    """The hair objects among ``objects``, sorted by name."""
+    return sorted((o for o in objects if is_hair_object(o)), key=lambda o: o.name)
+
+
+def groom_data(objects, armature=None, bone="head", scale=1.0, context=None, reference=None):
+    """Positions (the file's numbers, multiplied by ``scale``), counts and the bone name written
+    to the file, for all strands of ``objects`` (sorted by name, concatenated).
+
+    Without an armature, positions are in the node frame of ``reference`` (default: the active
+    object if it is among ``objects``, else the first by name)."""
+    objs = hair_objects(objects)
+    if not objs:
+        raise ExportError("no hair objects selected (Curves hair or meshes with particle hair)")
+    if reference is None:
+        reference = _reference(objs, context)
+    with rest_pose(context) as dg:
+        frame = frame_matrix(armature, bone, reference=reference, depsgraph=dg)
+        to_frame = writer.blender_to_frame(frame)
+        pos_parts, count_parts = [], []
+        for o in objs:
+            p, c = object_strands(o, dg)
+            pos_parts.append(writer.transform_points(to_frame, p))
+            count_parts.append(c)
+    positions = np.concatenate(pos_parts) * float(scale)
+    counts = np.concatenate(count_parts)
+    return positions, counts, (bone if armature is not None else "")
+
+
+def _reference(objs, context):
+    """Without an armature, positions are in the node frame of the active object if it is one
+    of the exported ones, else of the first (by name)."""
+    context = context or bpy.context
+    active = getattr(context, "active_object", None)
+    return active if active in objs else objs[0]
+
+
+def export_hair(filepath, objects, armature=None, bone="head", scale=1.0, context=None):
+    """Write ``objects``' strands to a ``*.hair.xml``.  Returns the number of strands."""
+    positions, counts, bone_name = groom_data(objects, armature, bone, scale, context)
+    writer.write_text(filepath, writer.groom_xml(positions, counts, scale, bone_name))
+    return len(counts)
+
+
+# --------------------------------------------------------------------------------------------
+# Collision spheres
+
+
+def is_sphere_object(obj):
+    return obj.type == "MESH" or (obj.type == "EMPTY" and obj.empty_display_type == "SPHERE")
+
+
+def object_sphere(obj, depsgraph):
+    """``(centre (3,), radius)`` of a sphere object in Blender world space.
+
+    Mesh: the centre of its bounding box, radius half the largest world-space extent of the box
+    (local extent times the world length of that axis).  Empty: its origin, radius
+    ``empty_display_size`` times the largest world scale."""
+    ob = obj.evaluated_get(depsgraph)
+    world = _np_matrix(ob.matrix_world)
+    axis_scale = np.linalg.norm(world[:3, :3], axis=0)
+    if obj.type == "EMPTY":
+        return world[:3, 3].copy(), float(obj.empty_display_size * axis_scale.max())
+    box = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
+    lo, hi = box.min(axis=0), box.max(axis=0)
+    centre = writer.transform_points(world, ((lo + hi) / 2.0)[None, :])[0]
+    return centre, float(((hi - lo) * axis_scale).max() / 2.0)
+
+
+def collision_data(objects, armature=None, bone="head", scale=1.0, context=None):
+    objs = sorted((o for o in objects if is_sphere_object(o)), key=lambda o: o.name)
+    if not objs:
+        raise ExportError("no sphere objects selected (sphere meshes or empties shown as spheres)")
+    with rest_pose(context) as dg:
+        ref = _reference(objs, context)
+        frame = frame_matrix(armature, bone, reference=ref, depsgraph=dg)
+        to_frame = writer.blender_to_frame(frame)
+        spheres = [object_sphere(o, dg) for o in objs]
+    centres = writer.transform_points(to_frame, np.array([c for c, _ in spheres]))
+    # A radius in the frame: world radius over the frame's (uniform) scale.
+    radii = np.array([r for _, r in spheres]) / writer.uniform_scale(frame)
+    s = float(scale)
+    return centres * s, radii * s, (bone if armature is not None else "")
+
+
+def export_collision(filepath, objects, armature=None, bone="head", scale=1.0, context=None):
+    """Write sphere ``objects`` to a ``*.collision.xml``.  Returns the number of spheres."""
+    centres, radii, bone_name = collision_data(objects, armature, bone, scale, context)
+    writer.write_text(filepath, writer.collision_xml(centres, radii, scale, bone_name))
+    return len(radii)
+
+
+# --------------------------------------------------------------------------------------------
+# Hair animation
+
+
+def style_file_names(objects):
+    """One ``<object name>.hair.xml`` per style (names cleaned for file systems, made unique)."""
+    names, seen = [], set()
+    for o in objects:
+        base = bpy.path.clean_name(o.name) or "style"
+        name, i = base, 1
+        while name.lower() in seen:
+            i += 1
+            name = f"{base}_{i}"
+        seen.add(name.lower())
+        names.append(name + ".hair.xml")
+    return names
+
+
+def export_hairanim(
+    filepath,
+    styles,
+    armature=None,
+    bone="head",
+    scale=1.0,
+    seconds_per_key=1.0,
+    loop=True,
+    context=None,
+):
+    """Write a ``*.hairanim.xml`` and one ``*.hair.xml`` per style next to it.
+
+    ``styles``: hair objects, in key order (the first is the base).  Key ``i`` is at
+    ``i * seconds_per_key``; the loop period is ``len(styles) * seconds_per_key``.  Every style
+    must have the same strand and particle counts (checked before anything is written).
+    Without an armature all styles are written in the node frame of the first style.
+    Returns the groom file paths written.
+    """
+    styles = list(styles)
+    if not styles:
+        raise ExportError("no hair styles: select hair objects or choose a collection")
+    for o in styles:
+        if not is_hair_object(o):
+            raise ExportError(f"'{o.name}' is not a hair object")
+    if not seconds_per_key > 0.0:
+        raise ExportError("seconds per key must be > 0")
+    data = []
+    for o in styles:
+        positions, counts, bone_name = groom_data(
+            [o], armature, bone, scale, context, reference=styles[0]
+        )
+        data.append((o.name, positions, counts))
+    writer.check_same_topology([(name, counts) for name, _, counts in data])
+    texts = [writer.groom_xml(p, c, scale, bone_name) for _, p, c in data]
+    directory = os.path.dirname(os.path.abspath(filepath))
+    names = style_file_names(styles)
+    keys = [(i * seconds_per_key, n) for i, n in enumerate(names)]
+    anim = writer.hairanim_xml(keys, loop=loop, duration=len(styles) * seconds_per_key)
+    paths = []
+    for n, text in zip(names, texts):
+        path = os.path.join(directory, n)
+        writer.write_text(path, text)
+        paths.append(path)
+    writer.write_text(filepath, anim)
+    return paths
