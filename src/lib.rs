@@ -41,6 +41,7 @@
 //! | [`asset::HairAssetPlugin`] | Registers `HairGroom`, `HeadCollision`, `HairAnimation` and their XML loaders. | Replace to load hair from another format: insert the same asset types yourself. |
 //! | [`sim::HairSimulationPlugin`] | Attaches `Hair` to bones, spawns strand entities, steps springs, anchors and collisions. | Disable to drive `StrandParticles` yourself. |
 //! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
+//! | [`silhouette::HairSilhouettePlugin`] | Extracts object-space silhouette strokes per strand each frame (`SilhouetteSettings`). | Disable for image-space outlines only, or none. |
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
 //!
@@ -74,6 +75,7 @@ pub mod prelude {
     pub use crate::mesh::HairMeshSettings;
     #[cfg(feature = "render")]
     pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
+    pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
     pub use crate::sim::{
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
@@ -89,6 +91,7 @@ pub mod prelude {
 /// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders |
 /// | [`sim::HairSimulationPlugin`] | attaches hair to bones and simulates strands |
 /// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
+/// | [`silhouette::HairSilhouettePlugin`] | object-space outline strokes |
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 pub struct CartoonHairPlugins;
@@ -99,7 +102,8 @@ impl PluginGroup for CartoonHairPlugins {
             .add(HairSchedulePlugin)
             .add(asset::HairAssetPlugin)
             .add(sim::HairSimulationPlugin)
-            .add(mesh::HairMeshPlugin);
+            .add(mesh::HairMeshPlugin)
+            .add(silhouette::HairSilhouettePlugin);
         #[cfg(feature = "render")]
         let group = group
             .add(render::HairShaderLibraryPlugin)

@@ -12,7 +12,7 @@ mod ramps;
 mod shader_validation;
 mod toon;
 
-pub use ramps::{RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, ramp_image};
+pub use ramps::{RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, ramp_image, stroke_texture_image};
 pub use toon::{HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform};
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
@@ -44,12 +44,30 @@ impl Plugin for ToonHairMaterialPlugin {
         app.add_plugins(MaterialPlugin::<ToonHairMaterial>::default())
             .register_type::<ToonHairMaterial>();
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
-        app.insert_resource(ramps).add_systems(
-            PostUpdate,
-            apply_hair_materials
-                // The mesh entity exists once BuildMesh has run.
-                .after(crate::HairSystems::BuildMesh),
+        let texture = app
+            .world_mut()
+            .resource_mut::<Assets<Image>>()
+            .add(stroke_texture_image());
+        let stroke = StrokeMaterial(
+            app.world_mut()
+                .resource_mut::<Assets<StandardMaterial>>()
+                .add(StandardMaterial {
+                    base_color_texture: Some(texture),
+                    unlit: true,
+                    alpha_mode: AlphaMode::Blend,
+                    cull_mode: None,
+                    double_sided: true,
+                    ..default()
+                }),
         );
+        app.insert_resource(ramps)
+            .insert_resource(stroke)
+            .add_systems(
+                PostUpdate,
+                (apply_hair_materials, apply_stroke_material)
+                    // Mesh and stroke entities exist once BuildMesh and Silhouettes have run.
+                    .after(crate::HairSystems::Silhouettes),
+            );
     }
 }
 
@@ -57,6 +75,30 @@ impl Plugin for ToonHairMaterialPlugin {
 /// missing; change it (or the material asset) any time.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct HairMaterial(pub Handle<ToonHairMaterial>);
+
+/// The material silhouette strokes are drawn with: the stroke texture, unlit, alpha-blended,
+/// depth-tested; stroke colour and fade come in as vertex colours. Replace the handle's asset to
+/// restyle every stroke.
+#[derive(Resource, Clone, Debug)]
+pub struct StrokeMaterial(pub Handle<StandardMaterial>);
+
+fn apply_stroke_material(
+    mut commands: Commands,
+    strokes: Query<
+        Entity,
+        (
+            With<crate::silhouette::HairStrokesOf>,
+            Without<MeshMaterial3d<StandardMaterial>>,
+        ),
+    >,
+    material: Res<StrokeMaterial>,
+) {
+    for e in &strokes {
+        commands
+            .entity(e)
+            .insert(MeshMaterial3d(material.0.clone()));
+    }
+}
 
 /// Keeps every hair mesh entity drawn with its hair's [`HairMaterial`].
 fn apply_hair_materials(

@@ -106,3 +106,41 @@ impl ToonRamps {
         }
     }
 }
+
+/// The default stroke texture for object-space silhouettes: an ink line, opaque in the middle and
+/// soft at both edges across `v`, with a little pressure variation along `u` (which repeats).
+pub fn stroke_texture_image() -> Image {
+    let (w, h) = (128u32, 16u32);
+    let mut data = Vec::with_capacity((w * h * 4) as usize);
+    for row in 0..h {
+        let v = (row as f32 + 0.5) / h as f32;
+        // Opaque core, soft edges.
+        let across = (1.6 * (1.0 - (2.0 * v - 1.0).abs().powi(2))).min(1.0);
+        for col in 0..w {
+            let u = col as f32 / w as f32 * std::f32::consts::TAU;
+            let pressure = 0.95 + 0.05 * (3.0 * u).sin() * (7.0 * u).cos();
+            let a = (across * pressure).clamp(0.0, 1.0);
+            data.extend_from_slice(&[255, 255, 255, (a * 255.0).round() as u8]);
+        }
+    }
+    let mut image = Image::new(
+        Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        label: Some("silhouette stroke".into()),
+        address_mode_u: ImageAddressMode::Repeat,
+        address_mode_v: ImageAddressMode::ClampToEdge,
+        mag_filter: ImageFilterMode::Linear,
+        min_filter: ImageFilterMode::Linear,
+        ..default()
+    });
+    image
+}

@@ -10,6 +10,7 @@
 
 mod assets;
 mod render_smoke;
+mod silhouette_render;
 mod toon_render;
 
 use libtest_mimic::{Arguments, Failed, Trial};
@@ -36,6 +37,7 @@ fn main() {
     for (name, test) in render_smoke::RENDER_TESTS
         .iter()
         .chain(toon_render::RENDER_TESTS)
+        .chain(silhouette_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

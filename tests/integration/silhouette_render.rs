@@ -1,0 +1,214 @@
+//! Render tests of object-space silhouette strokes.
+
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy_cartoon_hair::asset::HairGroom;
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use libtest_mimic::Failed;
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "strokes_outline_the_boundary_not_the_face",
+        strokes_outline_the_boundary_not_the_face,
+    ),
+    (
+        "self_overlap_hides_its_own_outline",
+        self_overlap_hides_its_own_outline,
+    ),
+    (
+        "strokes_switch_off_and_on_again",
+        strokes_switch_off_and_on_again,
+    ),
+];
+
+fn scene() -> Result<HeadlessRenderer, Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
+    r.app.add_plugins(CartoonHairPlugins);
+    let target = r.target();
+    let world = r.app.world_mut();
+    world.spawn((
+        DirectionalLight {
+            illuminance: 5_000.0,
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::srgb(0.0, 0.0, 1.0)),
+            ..default()
+        },
+        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        Msaa::Off,
+        RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    Ok(r)
+}
+
+fn spawn(r: &mut HeadlessRenderer, points: Vec<Vec3>, radius: f32) -> Entity {
+    let world = r.app.world_mut();
+    let groom = world
+        .resource_mut::<Assets<HairGroom>>()
+        .add(HairGroom::from_strands("", [points]).unwrap());
+    world
+        .spawn((
+            Hair { groom, ..default() },
+            HairSimSettings {
+                gravity: Vec3::ZERO,
+                anchor_stiffness: QuadraticCurve::constant(1.0),
+                ..default()
+            },
+            HairMeshSettings {
+                radius,
+                taper: QuadraticCurve::constant(1.0),
+                hair_resolution: 48,
+                shape_resolution: 24,
+            },
+            SilhouetteSettings {
+                width_px: 4.0,
+                fade: QuadraticCurve::constant(1.0),
+                color: Color::BLACK,
+                ..default()
+            },
+        ))
+        .id()
+}
+
+/// Darker than anything else in these scenes: the darkest hair band has a channel above 170 and
+/// the background is pure blue.
+fn is_ink(p: [u8; 4]) -> bool {
+    p[0].max(p[1]).max(p[2]) < 110
+}
+
+fn is_background(p: [u8; 4]) -> bool {
+    p[2] > 200 && p[0] < 40 && p[1] < 40
+}
+
+/// Ink pixels near the background (within `near` px) and ink pixels deep inside the hair (no
+/// background within `far` px).
+fn ink_near_and_inside(frame: &CapturedFrame, near: i32, far: i32) -> (usize, usize) {
+    let (w, h) = (frame.width as i32, frame.height as i32);
+    let bg_within = |x: i32, y: i32, d: i32| {
+        (-d..=d).any(|dy| {
+            (-d..=d).any(|dx| {
+                let (px, py) = (x + dx, y + dy);
+                px >= 0
+                    && py >= 0
+                    && px < w
+                    && py < h
+                    && is_background(frame.pixel(px as u32, py as u32))
+            })
+        })
+    };
+    let (mut boundary, mut inside) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if !is_ink(frame.pixel(x as u32, y as u32)) {
+                continue;
+            }
+            if bg_within(x, y, near) {
+                boundary += 1;
+            } else if !bg_within(x, y, far) {
+                inside += 1;
+            }
+        }
+    }
+    (boundary, inside)
+}
+
+fn save(frame: &CapturedFrame, name: &str) -> Result<(), Failed> {
+    if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+        frame.save_png(std::path::Path::new(&dir).join(format!("{name}.png")))?;
+    }
+    Ok(())
+}
+
+fn strokes_outline_the_boundary_not_the_face() -> Result<(), Failed> {
+    let mut r = scene()?;
+    let points = (0..6)
+        .map(|i| Vec3::new(-1.0 + 0.4 * i as f32, 0.0, 0.0))
+        .collect();
+    spawn(&mut r, points, 0.35);
+    let frame = r.capture()?;
+    save(&frame, "strokes_boundary")?;
+    let (boundary, inside) = ink_near_and_inside(&frame, 4, 10);
+    println!("object-space strokes: {boundary} ink pixels on the boundary, {inside} inside");
+    // Two long sides of ~230 px at >= 2 px of ink each.
+    if boundary < 700 || inside > 0 {
+        return Err(format!("{boundary} boundary ink pixels, {inside} inside the face").into());
+    }
+    Ok(())
+}
+
+fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
+    let mut r = scene()?;
+    // Left to right in front, a U-turn, then right to left behind and a little lower: the back
+    // half's outline passes behind the front half.
+    let mut points: Vec<Vec3> = (0..5)
+        .map(|i| Vec3::new(-1.0 + 0.45 * i as f32, 0.08, 0.3))
+        .collect();
+    points.push(Vec3::new(1.2, 0.0, 0.0));
+    points.extend((0..5).map(|i| Vec3::new(0.8 - 0.45 * i as f32, -0.08, -0.3)));
+    spawn(&mut r, points, 0.22);
+    let frame = r.capture()?;
+    save(&frame, "strokes_self_overlap")?;
+    // Down each column where both halves show: the front half's top and bottom outlines and the
+    // back half's bottom outline are 3 runs of ink. The back half's top outline lies behind the
+    // front half; drawing it through the front face would make a 4th run.
+    let mut columns = 0;
+    for x in frame.width / 5..frame.width * 3 / 5 {
+        let mut runs = 0;
+        let mut gap = 2;
+        for y in 0..frame.height {
+            if is_ink(frame.pixel(x, y)) {
+                if gap >= 2 {
+                    runs += 1;
+                }
+                gap = 0;
+            } else {
+                gap += 1;
+            }
+        }
+        if runs > 3 {
+            return Err(
+                format!("column {x}: {runs} outline runs; a hidden outline shows through").into(),
+            );
+        }
+        if runs == 3 {
+            columns += 1;
+        }
+    }
+    println!("self-overlap: {columns} columns with exactly the 3 visible outlines");
+    if columns < frame.width / 4 {
+        return Err(format!("only {columns} columns show both halves outlined").into());
+    }
+    Ok(())
+}
+
+fn strokes_switch_off_and_on_again() -> Result<(), Failed> {
+    let mut r = scene()?;
+    let points = (0..6)
+        .map(|i| Vec3::new(-1.0 + 0.4 * i as f32, 0.0, 0.0))
+        .collect();
+    let hair = spawn(&mut r, points, 0.35);
+    let mut counts = Vec::new();
+    for enabled in [true, false, true, false, true] {
+        r.app
+            .world_mut()
+            .get_mut::<SilhouetteSettings>(hair)
+            .ok_or("settings")?
+            .enabled = enabled;
+        let frame = r.capture()?;
+        let ink = frame.count(is_ink);
+        counts.push(ink);
+        if enabled != (ink > 500) {
+            return Err(
+                format!("enabled={enabled}: {ink} ink pixels (sequence {counts:?})").into(),
+            );
+        }
+    }
+    Ok(())
+}
