@@ -207,10 +207,8 @@ pub fn extract_silhouettes(
             continue;
         };
         let view_proj = camera.clip_from_view() * camera_transform.affine().inverse();
-        let stroke_camera = StrokeCamera::new(
-            Mat4::from(view_proj),
-            Vec2::new(viewport.x as f32, viewport.y as f32),
-        );
+        let stroke_camera =
+            StrokeCamera::new(view_proj, Vec2::new(viewport.x as f32, viewport.y as f32));
         let eye = camera_transform.translation();
         let Some(hair_mesh_asset) = meshes.get(&hair_mesh.mesh) else {
             continue;

@@ -87,6 +87,11 @@ fn spawn_strand(
             shape_resolution: 32,
         },
         HairMaterial(material),
+        // These tests look at the material alone.
+        SilhouetteSettings {
+            enabled: false,
+            ..default()
+        },
     ));
 }
 
