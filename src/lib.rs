@@ -73,6 +73,7 @@ pub mod prelude {
     pub use crate::asset::{HairAnimation, HairGroom, HeadCollision};
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::HairMeshSettings;
+    pub use crate::mesh::highlights::SpecularQuads;
     #[cfg(feature = "render")]
     pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};

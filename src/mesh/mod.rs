@@ -5,7 +5,10 @@
 //! and rebuilt only when a resolution in [`HairMeshSettings`] changes (the thesis's "Rebuild
 //! mesh" button, done automatically); positions and normals are rebuilt every frame, in parallel
 //! over strands, from [`StrandParticles`](crate::sim::StrandParticles).
+//!
+//! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006).
 
+pub mod highlights;
 pub mod tube;
 
 use bevy::asset::RenderAssetUsages;
@@ -90,10 +93,14 @@ pub struct HairMeshPlugin;
 impl Plugin for HairMeshPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<HairMeshSettings>()
+            .register_type::<highlights::SpecularQuads>()
             .register_required_components::<Hair, HairMeshSettings>()
+            .register_required_components::<Hair, highlights::SpecularQuads>()
             .add_systems(
                 PostUpdate,
-                rebuild_strand_meshes.in_set(HairSystems::BuildMesh),
+                (rebuild_strand_meshes, highlights::build_specular_quads)
+                    .chain()
+                    .in_set(HairSystems::BuildMesh),
             );
     }
 }

@@ -12,7 +12,9 @@ mod ramps;
 mod shader_validation;
 mod toon;
 
-pub use ramps::{RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, ramp_image, stroke_texture_image};
+pub use ramps::{
+    RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
+};
 pub use toon::{HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform};
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
@@ -60,11 +62,33 @@ impl Plugin for ToonHairMaterialPlugin {
                     ..default()
                 }),
         );
+        let highlight_texture = app
+            .world_mut()
+            .resource_mut::<Assets<Image>>()
+            .add(highlight_texture_image());
+        let highlight = HighlightMaterial(
+            app.world_mut()
+                .resource_mut::<Assets<StandardMaterial>>()
+                .add(StandardMaterial {
+                    base_color: Color::srgba(1.0, 1.0, 0.95, 0.9),
+                    base_color_texture: Some(highlight_texture),
+                    unlit: true,
+                    alpha_mode: AlphaMode::Blend,
+                    cull_mode: None,
+                    double_sided: true,
+                    ..default()
+                }),
+        );
         app.insert_resource(ramps)
             .insert_resource(stroke)
+            .insert_resource(highlight)
             .add_systems(
                 PostUpdate,
-                (apply_hair_materials, apply_stroke_material)
+                (
+                    apply_hair_materials,
+                    apply_stroke_material,
+                    apply_highlight_material,
+                )
                     // Mesh and stroke entities exist once BuildMesh and Silhouettes have run.
                     .after(crate::HairSystems::Silhouettes),
             );
@@ -94,6 +118,28 @@ fn apply_stroke_material(
     material: Res<StrokeMaterial>,
 ) {
     for e in &strokes {
+        commands
+            .entity(e)
+            .insert(MeshMaterial3d(material.0.clone()));
+    }
+}
+
+/// The material specular sampling quads are drawn with (unlit, alpha-blended highlight texture).
+#[derive(Resource, Clone, Debug)]
+pub struct HighlightMaterial(pub Handle<StandardMaterial>);
+
+fn apply_highlight_material(
+    mut commands: Commands,
+    quads: Query<
+        Entity,
+        (
+            With<crate::mesh::highlights::HairHighlightsOf>,
+            Without<MeshMaterial3d<StandardMaterial>>,
+        ),
+    >,
+    material: Res<HighlightMaterial>,
+) {
+    for e in &quads {
         commands
             .entity(e)
             .insert(MeshMaterial3d(material.0.clone()));

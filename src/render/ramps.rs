@@ -144,3 +144,40 @@ pub fn stroke_texture_image() -> Image {
     });
     image
 }
+
+/// The default highlight texture for specular sampling quads: white, opaque along the middle of
+/// the strip and fading to its sides and ends.
+pub fn highlight_texture_image() -> Image {
+    let (w, h) = (64u32, 16u32);
+    let mut data = Vec::with_capacity((w * h * 4) as usize);
+    for row in 0..h {
+        let v = (row as f32 + 0.5) / h as f32;
+        for col in 0..w {
+            let u = (col as f32 + 0.5) / w as f32;
+            let across = 1.0 - (2.0 * v - 1.0).powi(2);
+            let along = (std::f32::consts::PI * u).sin();
+            let a = (across * along * 1.4).clamp(0.0, 1.0);
+            data.extend_from_slice(&[255, 255, 255, (a * 255.0).round() as u8]);
+        }
+    }
+    let mut image = Image::new(
+        Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        label: Some("specular quad".into()),
+        address_mode_u: ImageAddressMode::ClampToEdge,
+        address_mode_v: ImageAddressMode::ClampToEdge,
+        mag_filter: ImageFilterMode::Linear,
+        min_filter: ImageFilterMode::Linear,
+        ..default()
+    });
+    image
+}

@@ -25,6 +25,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "hatching_puts_more_ink_in_darker_regions",
         hatching_puts_more_ink_in_darker_regions,
     ),
+    (
+        "specular_quads_show_on_the_lit_side",
+        specular_quads_show_on_the_lit_side,
+    ),
 ];
 
 const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
@@ -356,5 +360,56 @@ fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
             );
         }
     }
+    Ok(())
+}
+
+/// Specular sampling quads: with them on, near-white highlight pixels appear on the tube where
+/// N.H is highest (above its axis, toward the light); with them off there are none.
+fn specular_quads_show_on_the_lit_side() -> Result<(), Failed> {
+    let light = Vec3::new(0.0, 1.0, 1.0);
+    let mut counts = Vec::new();
+    for enabled in [false, true] {
+        let mut r = scene(light, Vec3::new(0.0, 0.0, 3.0))?;
+        let ramp = ramps(&r).three_tone;
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.2, 0.0, 0.0),
+            Vec3::new(1.2, 0.0, 0.0),
+            0.4,
+            ToonHairMaterial {
+                ramp,
+                base_color: Color::srgb(0.4, 0.1, 0.1),
+                ..default()
+            },
+        );
+        let mut q = r.app.world_mut().query_filtered::<Entity, With<Hair>>();
+        let hair = q.single(r.app.world()).map_err(|e| e.to_string())?;
+        r.app.world_mut().entity_mut(hair).insert(SpecularQuads {
+            enabled,
+            threshold: 0.5,
+            ..default()
+        });
+        let frame = r.capture()?;
+        save(&frame, &format!("specular_quads_{enabled}"))?;
+        let white: Vec<u32> = (0..frame.height)
+            .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| frame.pixel(x, y)[..3].iter().all(|c| *c > 200))
+            .map(|(_, y)| y)
+            .collect();
+        counts.push(white.len());
+        if enabled {
+            if white.len() < 200 {
+                return Err(format!("only {} highlight pixels", white.len()).into());
+            }
+            let mean_y = white.iter().sum::<u32>() as f32 / white.len() as f32;
+            // The tube's axis is the image centre row; the highlight sits above it.
+            if mean_y >= frame.height as f32 / 2.0 {
+                return Err(format!("highlight at row {mean_y}, not above the axis").into());
+            }
+        } else if !white.is_empty() {
+            return Err(format!("{} white pixels with quads off", white.len()).into());
+        }
+    }
+    println!("specular quads: white pixels off/on = {counts:?}");
     Ok(())
 }
