@@ -182,7 +182,8 @@ fn empty_mesh() -> Mesh {
 
 /// Rebuilds every hair's highlight strips for the first active 3D camera and the first
 /// directional light.
-#[allow(clippy::type_complexity)]
+// A Bevy system: its parameters are its queries.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub fn build_specular_quads(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
