@@ -5,6 +5,8 @@
 //! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
 //!   bevy_rapier ball bodies joined by spherical impulse joints, one 60 Hz step, in the same run.
 //! - `load_groom/100k_x_6`: parsing a 100,000-strand, 6-particle groom file.
+//! - `mesh/*`, `silhouettes/*`: tube rebuild and silhouette strokes for 1,000 strands at 16 x 8,
+//!   single-threaded.
 //! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
 //!   10 candidates).
 
@@ -98,6 +100,8 @@ fn rapier_app(n: usize, particles: usize) -> App {
                 .spawn((
                     RigidBody::Dynamic,
                     AdditionalMassProperties::Mass(0.001),
+                    // Hair must react at any time; sleeping chains would cost nothing.
+                    Sleeping::disabled(),
                     Transform::from_translation(w[1]),
                     ImpulseJoint::new(parent, joint),
                 ))
@@ -161,5 +165,76 @@ fn bench_tam(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_sim, bench_load, bench_tam);
+/// 1,000 strands at 16 rings x 8 sides: tube positions and normals, then silhouette extraction,
+/// chaining and stroke strips, single-threaded (the plugin spreads strands over threads).
+fn bench_mesh_and_silhouettes(c: &mut Criterion) {
+    use bevy_cartoon_hair::mesh::tube::{TubeParams, TubeScratch, TubeTopology, build_tube};
+    use bevy_cartoon_hair::silhouette::edges::{
+        EdgeAdjacency, SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams,
+        StrokeVertices, build_chain_strip, chain_edges, silhouette_edges,
+    };
+    let topology = TubeTopology::new(16, 8);
+    let per = topology.vertex_count();
+    let strands = strands(1_000, 12);
+    let mut positions = vec![[0.0f32; 3]; per * strands.len()];
+    let mut normals = positions.clone();
+    let params = TubeParams {
+        radius: 0.015,
+        ..default()
+    };
+    let mut scratch = TubeScratch::default();
+    let mut group = c.benchmark_group("mesh");
+    group.bench_function("rebuild_1000x16x8", |b| {
+        b.iter(|| {
+            for ((s, p), n) in strands
+                .iter()
+                .zip(positions.chunks_mut(per))
+                .zip(normals.chunks_mut(per))
+            {
+                build_tube(&topology, s, &params, &mut scratch, p, n, None);
+            }
+        })
+    });
+    group.finish();
+    let adjacency = EdgeAdjacency::from_triangles(&topology.indices).unwrap();
+    let along: Vec<f32> = topology.uvs.iter().map(|uv| uv[1]).collect();
+    let eye = Vec3::new(0.0, 0.2, 1.5);
+    let view = Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y);
+    let proj = Mat4::perspective_rh(0.8, 16.0 / 9.0, 0.05, 100.0);
+    let camera = StrokeCamera::new(proj * view, Vec2::new(1280.0, 720.0));
+    let stroke = StrokeParams::default();
+    let mut sil_scratch = SilhouetteScratch::default();
+    let mut edges = Vec::new();
+    let mut chains = SilhouetteChains::default();
+    let mut out = StrokeVertices::new();
+    let mut group = c.benchmark_group("silhouettes");
+    group.bench_function("extract_chain_strip_1000x16x8", |b| {
+        b.iter(|| {
+            out.clear();
+            for s in positions.chunks(per) {
+                silhouette_edges(
+                    &adjacency,
+                    &topology.indices,
+                    s,
+                    eye,
+                    &mut sil_scratch,
+                    &mut edges,
+                );
+                chain_edges(&edges, &mut sil_scratch, &mut chains);
+                for chain in chains.iter() {
+                    build_chain_strip(chain, s, &along, &camera, &stroke, &mut out);
+                }
+            }
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    bench_sim,
+    bench_load,
+    bench_tam,
+    bench_mesh_and_silhouettes
+);
 criterion_main!(benches);

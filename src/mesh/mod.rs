@@ -250,17 +250,20 @@ pub fn rebuild_strand_meshes(
         let mut positions = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_POSITION);
         let mut normals = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_NORMAL);
         normals.resize(positions.len(), [0.0, 1.0, 0.0]);
-        let chunk = scratch.len().div_ceil(pool.thread_num().max(1) * 2).max(1);
+        // The pool's threads plus this one (which would otherwise only wait in `scope`).
+        let workers = pool.thread_num().max(1) + 1;
+        let chunk = scratch.len().div_ceil(workers).max(1);
         let topology = &computed.topology;
         let strands_ref = &*scratch;
         pool.scope(|scope| {
-            for ((pos, nrm), group) in positions
+            for (i, ((pos, nrm), group)) in positions
                 .chunks_mut(per * chunk)
                 .zip(normals.chunks_mut(per * chunk))
                 .zip(strands_ref.chunks(chunk))
+                .enumerate()
             {
                 let params_for = &params_for;
-                scope.spawn(async move {
+                let work = async move {
                     let mut tmp = TubeScratch::default();
                     for ((p, n), (index, particles)) in
                         pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
@@ -268,7 +271,12 @@ pub fn rebuild_strand_meshes(
                         let params = params_for(*index);
                         tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
                     }
-                });
+                };
+                if i == 0 {
+                    scope.spawn_on_scope(work);
+                } else {
+                    scope.spawn(work);
+                }
             }
         });
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);

@@ -223,7 +223,8 @@ pub fn extract_silhouettes(
         let strands = positions.len() / per.max(1);
         let params = settings.stroke_params();
         let bias = settings.depth_bias.max(0.0) * mesh_settings.radius.max(0.0);
-        let threads = pool.thread_num().max(1);
+        // The pool's threads plus this one (which would otherwise only wait in `scope`).
+        let threads = pool.thread_num().max(1) + 1;
         let chunk = strands.div_ceil(threads).max(1);
         workers.resize_with(strands.div_ceil(chunk), Worker::default);
         let adjacency = &computed.adjacency;
@@ -233,7 +234,7 @@ pub fn extract_silhouettes(
             for (w, worker) in workers.iter_mut().enumerate() {
                 let stroke_camera = &stroke_camera;
                 let params = &params;
-                scope.spawn(async move {
+                let work = async move {
                     worker.out.clear();
                     for s in w * chunk..((w + 1) * chunk).min(strands) {
                         let strand = &positions[s * per..(s + 1) * per];
@@ -262,7 +263,12 @@ pub fn extract_silhouettes(
                         let v = Vec3::from(*p);
                         *p = (v + (eye - v).normalize_or_zero() * bias).to_array();
                     }
-                });
+                };
+                if w == 0 {
+                    scope.spawn_on_scope(work);
+                } else {
+                    scope.spawn(work);
+                }
             }
         });
         computed.chains = workers.iter().map(|w| w.chains.len()).sum();

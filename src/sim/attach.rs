@@ -76,7 +76,8 @@ pub struct Strand {
 pub struct StrandParticles {
     /// The guide strand's particles (as many as the groom has).
     pub positions: Vec<Vec3>,
-    /// The extra structural particles (Selle et al.), for debug drawing.
+    /// The extra structural particles (Selle et al.), for debug drawing; filled only while
+    /// [`HairSimControl::write_structural`](super::HairSimControl::write_structural) is set.
     pub structural: Vec<Vec3>,
 }
 

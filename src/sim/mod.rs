@@ -47,6 +47,9 @@ pub struct HairSimControl {
     pub step_once: bool,
     /// Time one step advances, seconds. Default: `1/60`.
     pub step_time: f32,
+    /// Also write the structural particles into [`StrandParticles::structural`] (for drawing
+    /// springs; the debug panel turns it on). Default: `false`.
+    pub write_structural: bool,
 }
 
 impl Default for HairSimControl {
@@ -55,6 +58,7 @@ impl Default for HairSimControl {
             paused: false,
             step_once: false,
             step_time: 1.0 / 60.0,
+            write_structural: false,
         }
     }
 }

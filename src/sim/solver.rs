@@ -355,9 +355,7 @@ impl Batch {
                 self.nodes[k].x = x;
                 self.nodes[k].p = x;
             }
-            self.integrate(input);
-            self.solve_springs(input);
-            self.solve_anchors(bone, &input.anchor_factor);
+            self.integrate_and_solve(input, bone);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
             if !input.shapes.is_empty() {
@@ -366,26 +364,26 @@ impl Batch {
         }
     }
 
-    /// Verlet prediction with damping and gravity for the free nodes.
-    fn integrate(&mut self, input: &StepInput) {
+    /// One pass down the chain: each free node is predicted (Verlet, damping, gravity), then its
+    /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
+    /// then the anchor spring of the node three back, which no later spring touches this
+    /// substep. Fusing them walks each node once per substep.
+    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A) {
         let g = input.gravity_h2.to_array();
         let d = input.damping;
-        for node in self.nodes.iter_mut().skip(PINNED) {
-            for c in 0..3 {
-                for l in 0..LANES {
-                    let x = node.x[c][l];
-                    let v = (x - node.p[c][l]) * d;
-                    node.p[c][l] = x;
-                    node.x[c][l] = x + v + g[c];
-                }
-            }
-        }
-    }
-
-    /// One Gauss-Seidel pass over the edge, bending and torsion springs, node by node.
-    fn solve_springs(&mut self, input: &StepInput) {
         let n = self.nodes.len();
         for k in PINNED..n {
+            {
+                let node = &mut self.nodes[k];
+                for c in 0..3 {
+                    for l in 0..LANES {
+                        let x = node.x[c][l];
+                        let v = (x - node.p[c][l]) * d;
+                        node.p[c][l] = x;
+                        node.x[c][l] = x + v + g[c];
+                    }
+                }
+            }
             for s in 0..3 {
                 // Two nodes apart, particle to particle (odd k), is the strand's own segment:
                 // an edge spring. Structural to structural (even k) is a bending spring.
@@ -402,21 +400,28 @@ impl Batch {
                 let (head, tail) = self.nodes.split_at_mut(k);
                 solve_distance(&mut head[j], &mut tail[0], s, wj, alpha);
             }
+            // Node k-3 is touched by no later spring this substep: its anchor can go now.
+            if k >= PINNED + 3 {
+                self.solve_anchor(k - 3, input, bone);
+            }
+        }
+        for k in n.saturating_sub(3).max(PINNED)..n {
+            self.solve_anchor(k, input, bone);
         }
     }
 
-    /// Pulls free nodes toward their anchors.
-    fn solve_anchors(&mut self, bone: &Affine3A, factor: &[f32]) {
-        for (k, node) in self.nodes.iter_mut().enumerate().skip(PINNED) {
-            let f = factor.get(k).copied().unwrap_or(0.0);
-            if f <= 0.0 {
-                continue;
-            }
-            let a = transform(bone, &node.anchor);
-            for c in 0..3 {
-                for l in 0..LANES {
-                    node.x[c][l] += (a[c][l] - node.x[c][l]) * f;
-                }
+    /// Pulls node `k` toward its anchor (the last change to it in a substep before collisions).
+    #[inline(always)]
+    fn solve_anchor(&mut self, k: usize, input: &StepInput, bone: &Affine3A) {
+        let f = input.anchor_factor.get(k).copied().unwrap_or(0.0);
+        if f <= 0.0 {
+            return;
+        }
+        let node = &mut self.nodes[k];
+        let a = transform(bone, &node.anchor);
+        for c in 0..3 {
+            for l in 0..LANES {
+                node.x[c][l] += (a[c][l] - node.x[c][l]) * f;
             }
         }
     }

@@ -240,13 +240,16 @@ pub(crate) fn step_hair_strands(
         }
         // Step batches in parallel; each group of equal chain length shares anchor factors.
         let batches = &mut computed.batches;
-        let chunk = batches.len().div_ceil(pool.thread_num().max(1) * 4).max(1);
+        // The pool's threads plus this one: on a 2-core machine Bevy gives the compute pool a
+        // single thread, and the thread calling `scope` would otherwise only wait.
+        let workers = pool.thread_num().max(1) + 1;
+        let chunk = batches.len().div_ceil(workers * 4).max(1);
         let factors = anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()));
         pool.scope(|scope| {
-            for part in batches.chunks_mut(chunk) {
+            for (i, part) in batches.chunks_mut(chunk).enumerate() {
                 let input = &input;
                 let factors = &factors;
-                scope.spawn(async move {
+                let work = async move {
                     let mut local = StepInput {
                         anchor_factor: Vec::new(),
                         ..input.clone()
@@ -261,7 +264,12 @@ pub(crate) fn step_hair_strands(
                         local.anchor_factor.extend_from_slice(f);
                         b.step(&local);
                     }
-                });
+                };
+                if i % workers == 0 {
+                    scope.spawn_on_scope(work);
+                } else {
+                    scope.spawn(work);
+                }
             }
         });
         let last = input.bones.last().copied().unwrap_or(bone);
@@ -320,9 +328,11 @@ fn anchor_factors(
 
 /// Copies solver state into each strand entity's [`StrandParticles`], in parallel over strands.
 pub(crate) fn write_strand_particles(
+    control: Res<HairSimControl>,
     hairs: Query<&ComputedHair>,
     mut strands: Query<(&StrandOf, &Strand, &mut StrandParticles)>,
 ) {
+    let structural = control.write_structural;
     strands
         .par_iter_mut()
         .for_each(|(of, strand, mut particles)| {
@@ -338,12 +348,17 @@ pub(crate) fn write_strand_particles(
             let particles = &mut *particles;
             let count = batch.nodes.len() / 2;
             particles.positions.resize(count, Vec3::ZERO);
-            particles.structural.resize(count, Vec3::ZERO);
-            for i in 0..count {
-                particles.positions[i] = batch.particle(l, i);
+            for (i, p) in particles.positions.iter_mut().enumerate() {
+                *p = batch.particle(l, i);
+            }
+            if structural {
                 // Structural nodes: the ghost before the root, then one per segment.
-                let k = if i == 0 { 0 } else { 2 * i };
-                particles.structural[i] = batch.node(l, k);
+                particles.structural.resize(count, Vec3::ZERO);
+                for (i, p) in particles.structural.iter_mut().enumerate() {
+                    *p = batch.node(l, if i == 0 { 0 } else { 2 * i });
+                }
+            } else {
+                particles.structural.clear();
             }
         });
 }
