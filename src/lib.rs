@@ -43,6 +43,7 @@
 //! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
+//! | `render::ImageSpaceOutlinePlugin` | Image-space silhouette edges: Sobel on the depth/normal prepass, threshold, X/Y dilation, ink over the frame, on cameras with an `ImageSpaceOutline` (switch it off and on any time). | Disable if you never outline on screen, or to use another outline post-process. |
 //!
 //! ## Frame order
 //!
@@ -73,7 +74,9 @@ pub mod prelude {
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::HairMeshSettings;
     #[cfg(feature = "render")]
-    pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
+    pub use crate::render::{
+        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
+    };
     pub use crate::sim::{
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
@@ -91,6 +94,7 @@ pub mod prelude {
 /// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
+/// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
 pub struct CartoonHairPlugins;
 
 impl PluginGroup for CartoonHairPlugins {
@@ -103,7 +107,8 @@ impl PluginGroup for CartoonHairPlugins {
         #[cfg(feature = "render")]
         let group = group
             .add(render::HairShaderLibraryPlugin)
-            .add(render::ToonHairMaterialPlugin);
+            .add(render::ToonHairMaterialPlugin)
+            .add(render::ImageSpaceOutlinePlugin);
         group
     }
 }
