@@ -44,6 +44,7 @@
 //! | [`silhouette::HairSilhouettePlugin`] | Extracts object-space silhouette strokes per strand each frame (`SilhouetteSettings`). | Disable for image-space outlines only, or none. |
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
+//! | `render::ImageSpaceOutlinePlugin` | Image-space silhouette edges: Sobel on the depth/normal prepass, threshold, X/Y dilation, ink over the frame, on cameras with an `ImageSpaceOutline` (switch it off and on any time). | Disable if you never outline on screen, or to use another outline post-process. |
 //!
 //! ## Frame order
 //!
@@ -75,7 +76,9 @@ pub mod prelude {
     pub use crate::mesh::HairMeshSettings;
     pub use crate::mesh::highlights::SpecularQuads;
     #[cfg(feature = "render")]
-    pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
+    pub use crate::render::{
+        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
+    };
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
     pub use crate::sim::{
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
@@ -95,6 +98,7 @@ pub mod prelude {
 /// | [`silhouette::HairSilhouettePlugin`] | object-space outline strokes |
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
+/// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
 pub struct CartoonHairPlugins;
 
 impl PluginGroup for CartoonHairPlugins {
@@ -108,7 +112,8 @@ impl PluginGroup for CartoonHairPlugins {
         #[cfg(feature = "render")]
         let group = group
             .add(render::HairShaderLibraryPlugin)
-            .add(render::ToonHairMaterialPlugin);
+            .add(render::ToonHairMaterialPlugin)
+            .add(render::ImageSpaceOutlinePlugin);
         group
     }
 }

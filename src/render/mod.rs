@@ -7,11 +7,16 @@
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
+mod outline;
 mod ramps;
 #[cfg(test)]
 mod shader_validation;
 mod toon;
 
+pub use outline::{
+    GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, MAX_OUTLINE_DILATION,
+    OutlineSource,
+};
 pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
 };
@@ -23,6 +28,9 @@ pub const SHADER_LIBRARY: &[(&str, &str)] =
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
 pub const MATERIAL_SHADERS: &[(&str, &str)] = &[("toon.wgsl", include_str!("toon.wgsl"))];
+
+/// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
+pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wgsl", include_str!("outline.wgsl"))];
 
 /// Registers the crate's WGSL library modules so materials can `#import` them. Part of
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins).

@@ -212,3 +212,43 @@ fn every_toon_material_variant_composes_and_validates() {
     }
     assert_eq!(variants.len(), 48);
 }
+
+#[test]
+fn every_outline_variant_composes_and_validates() {
+    use super::PASS_SHADERS;
+    use super::outline::OutlinePipelineKey;
+    let bevy_modules = bevy_shader_sources();
+    let (name, source) = PASS_SHADERS
+        .iter()
+        .find(|(n, _)| *n == "outline.wgsl")
+        .expect("outline.wgsl is listed");
+    let variants = OutlinePipelineKey::all();
+    for key in &variants {
+        let defs = key.shader_defs();
+        let module = compose_with(&bevy_modules, name, source, &defs, &[])
+            .unwrap_or_else(|e| panic!("variant {key:?}: {e}"));
+        for entry in ["detect", "dilate_x", "composite"] {
+            assert!(
+                module.entry_points.iter().any(|e| e.name == entry),
+                "variant {key:?} lost its entry point {entry}"
+            );
+        }
+        // The detection pass reads exactly the prepass textures its defs name.
+        let globals: Vec<_> = module
+            .global_variables
+            .iter()
+            .filter_map(|(_, g)| g.name.clone())
+            .collect();
+        assert_eq!(
+            globals.iter().any(|n| n == "depth_texture"),
+            key.source.uses_depth(),
+            "variant {key:?}: {globals:?}"
+        );
+        assert_eq!(
+            globals.iter().any(|n| n == "normal_texture"),
+            key.source.uses_normals(),
+            "variant {key:?}: {globals:?}"
+        );
+    }
+    assert_eq!(variants.len(), 6);
+}

@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod outline_render;
 mod render_smoke;
 mod silhouette_render;
 mod toon_render;
@@ -38,6 +39,7 @@ fn main() {
         .iter()
         .chain(toon_render::RENDER_TESTS)
         .chain(silhouette_render::RENDER_TESTS)
+        .chain(outline_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

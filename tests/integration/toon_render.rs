@@ -31,10 +31,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     ),
 ];
 
-const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
+pub(crate) const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
 
 /// A renderer with the hair plugins, a light, and a camera at `eye` looking at the origin.
-fn scene(light_dir: Vec3, eye: Vec3) -> Result<HeadlessRenderer, Failed> {
+pub(crate) fn scene(light_dir: Vec3, eye: Vec3) -> Result<HeadlessRenderer, Failed> {
     let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
     r.app.add_plugins(CartoonHairPlugins);
     let target = r.target();
@@ -63,7 +63,7 @@ fn scene(light_dir: Vec3, eye: Vec3) -> Result<HeadlessRenderer, Failed> {
 
 /// A straight strand from `a` to `b`, held still (no gravity, anchors rigid), drawn thick with
 /// `material`.
-fn spawn_strand(
+pub(crate) fn spawn_strand(
     r: &mut HeadlessRenderer,
     a: Vec3,
     b: Vec3,
@@ -99,7 +99,7 @@ fn spawn_strand(
     ));
 }
 
-fn ramps(r: &HeadlessRenderer) -> ToonRamps {
+pub(crate) fn ramps(r: &HeadlessRenderer) -> ToonRamps {
     r.app.world().resource::<ToonRamps>().clone()
 }
 
@@ -124,7 +124,11 @@ fn interior(frame: &CapturedFrame, x0: u32, x1: u32) -> Vec<[u8; 4]> {
 
 /// Distinct colours, merging those within `tolerance` per channel; clusters with fewer than
 /// `min_share` of the pixels are ignored.
-fn distinct_shades(pixels: &[[u8; 4]], tolerance: i32, min_share: f32) -> Vec<([u8; 4], usize)> {
+pub(crate) fn distinct_shades(
+    pixels: &[[u8; 4]],
+    tolerance: i32,
+    min_share: f32,
+) -> Vec<([u8; 4], usize)> {
     let mut clusters: Vec<([u8; 4], usize)> = Vec::new();
     for p in pixels {
         match clusters
@@ -143,7 +147,7 @@ fn luminance(p: [u8; 4]) -> f32 {
     0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32
 }
 
-fn save(frame: &CapturedFrame, name: &str) -> Result<(), Failed> {
+pub(crate) fn save(frame: &CapturedFrame, name: &str) -> Result<(), Failed> {
     if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
         frame.save_png(std::path::Path::new(&dir).join(format!("{name}.png")))?;
     }

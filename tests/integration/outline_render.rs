@@ -1,0 +1,385 @@
+//! Render tests of the image-space outline (`ImageSpaceOutline`), on a thick toon-shaded strand
+//! whose ramp puts shading bands across its face.
+
+use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
+use bevy::prelude::*;
+use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use libtest_mimic::Failed;
+
+use crate::toon_render::{BACKGROUND, distinct_shades, ramps, save, scene, spawn_strand};
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "outline_inks_silhouette_not_toon_bands",
+        outline_inks_silhouette_not_toon_bands,
+    ),
+    ("outline_off_draws_no_ink", outline_off_draws_no_ink),
+    (
+        "outline_toggles_off_and_on_repeatedly",
+        outline_toggles_off_and_on_repeatedly,
+    ),
+    (
+        "outline_wider_dilation_draws_wider_ink",
+        wider_dilation_draws_wider_ink,
+    ),
+    (
+        "outline_sees_hair_in_depth_and_normal_prepasses",
+        hair_is_in_depth_and_normal_prepasses,
+    ),
+];
+
+/// Magenta: neither the orange hair, the grey sphere nor the black background.
+const INK: Color = Color::srgb(1.0, 0.0, 1.0);
+
+fn is_ink(p: [u8; 4]) -> bool {
+    p[0] > 240 && p[1] < 15 && p[2] > 240
+}
+
+/// Hair pixels farther than this from the silhouette are "the middle of the strand".
+const INTERIOR: u32 = 6;
+
+/// The toon-bands scene (light above-front, three-tone ramp, a thick horizontal strand), the
+/// camera carrying `outline`; with `sphere`, a grey sphere (the "character") above the strand.
+fn outline_scene(outline: ImageSpaceOutline, sphere: bool) -> Result<HeadlessRenderer, Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    spawn_strand(
+        &mut r,
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        0.4,
+        ToonHairMaterial { ramp, ..default() },
+    );
+    let world = r.app.world_mut();
+    if sphere {
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Sphere::new(0.25).mesh().uv(32, 16));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(Color::srgb(0.6, 0.6, 0.6));
+        world.spawn((
+            Mesh3d(mesh),
+            MeshMaterial3d(material),
+            Transform::from_xyz(0.0, 0.85, 0.0),
+        ));
+    }
+    let camera = camera(&mut r)?;
+    r.app.world_mut().entity_mut(camera).insert(outline);
+    Ok(r)
+}
+
+fn camera(r: &mut HeadlessRenderer) -> Result<Entity, Failed> {
+    let world = r.app.world_mut();
+    Ok(world
+        .query_filtered::<Entity, With<Camera3d>>()
+        .single(world)?)
+}
+
+fn edit_outline(r: &mut HeadlessRenderer, mut edit: impl FnMut(&mut ImageSpaceOutline)) {
+    let world = r.app.world_mut();
+    let mut q = world.query::<&mut ImageSpaceOutline>();
+    for mut outline in q.iter_mut(world) {
+        edit(&mut outline);
+    }
+}
+
+fn magenta(edit: impl FnOnce(&mut ImageSpaceOutline)) -> ImageSpaceOutline {
+    let mut o = ImageSpaceOutline {
+        color: INK,
+        ..default()
+    };
+    edit(&mut o);
+    o
+}
+
+/// Chessboard distance of every pixel to the silhouette of `reference` (object pixels touching
+/// the background), by breadth-first search; `u32::MAX` where there is no object at all.
+fn silhouette_distance(reference: &CapturedFrame) -> (Vec<bool>, Vec<u32>) {
+    let (w, h) = (reference.width as i32, reference.height as i32);
+    let object: Vec<bool> = (0..w * h)
+        .map(|i| reference.pixel((i % w) as u32, (i / w) as u32) != BACKGROUND)
+        .collect();
+    let at = |x: i32, y: i32| -> bool {
+        x < 0 || y < 0 || x >= w || y >= h || object[(y * w + x) as usize]
+    };
+    let mut dist = vec![u32::MAX; (w * h) as usize];
+    let mut queue = std::collections::VecDeque::new();
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let touches = [(1, 0), (-1, 0), (0, 1), (0, -1)]
+                .iter()
+                .any(|(dx, dy)| !at(x + dx, y + dy));
+            if object[i] && touches {
+                dist[i] = 0;
+                queue.push_back((x, y));
+            }
+        }
+    }
+    while let Some((x, y)) = queue.pop_front() {
+        let d = dist[(y * w + x) as usize];
+        for dy in -1..=1 {
+            for dx in -1..=1 {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx < 0 || ny < 0 || nx >= w || ny >= h {
+                    continue;
+                }
+                let j = (ny * w + nx) as usize;
+                if dist[j] == u32::MAX {
+                    dist[j] = d + 1;
+                    queue.push_back((nx, ny));
+                }
+            }
+        }
+    }
+    (object, dist)
+}
+
+/// What an outlined frame shows against an un-outlined reference of the same scene.
+#[derive(Debug)]
+struct InkStats {
+    /// Ink pixels.
+    ink: usize,
+    /// Share of silhouette pixels with ink within 1 px.
+    coverage: f32,
+    /// Largest distance of an ink pixel from the silhouette.
+    farthest: u32,
+    /// Ink pixels among the object's interior (farther than `INTERIOR` from the silhouette).
+    interior_ink: usize,
+    /// Interior pixels.
+    interior: usize,
+    /// Interior pixels whose colour changed by more than 2 per channel.
+    interior_changed: usize,
+}
+
+fn ink_stats(reference: &CapturedFrame, outlined: &CapturedFrame) -> InkStats {
+    let (object, dist) = silhouette_distance(reference);
+    let (w, h) = (outlined.width as i32, outlined.height as i32);
+    let ink_at = |x: i32, y: i32| {
+        x >= 0 && y >= 0 && x < w && y < h && is_ink(outlined.pixel(x as u32, y as u32))
+    };
+    let mut s = InkStats {
+        ink: 0,
+        coverage: 0.0,
+        farthest: 0,
+        interior_ink: 0,
+        interior: 0,
+        interior_changed: 0,
+    };
+    let (mut silhouette, mut covered) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let ink = ink_at(x, y);
+            if ink {
+                s.ink += 1;
+                s.farthest = s.farthest.max(dist[i]);
+            }
+            if dist[i] == 0 {
+                silhouette += 1;
+                if (-1..=1).any(|dy| (-1..=1).any(|dx| ink_at(x + dx, y + dy))) {
+                    covered += 1;
+                }
+            }
+            if object[i] && dist[i] > INTERIOR {
+                s.interior += 1;
+                s.interior_ink += usize::from(ink);
+                let (a, b) = (
+                    reference.pixel(x as u32, y as u32),
+                    outlined.pixel(x as u32, y as u32),
+                );
+                if (0..3).any(|c| (a[c] as i32 - b[c] as i32).abs() > 2) {
+                    s.interior_changed += 1;
+                }
+            }
+        }
+    }
+    s.coverage = covered as f32 / f32::max(silhouette as f32, 1.0);
+    s
+}
+
+/// Ink surrounds the silhouette and stays off the interior, across the toon bands.
+fn check_silhouette_ink(stats: &InkStats, max_distance: u32, what: &str) -> Result<(), Failed> {
+    if stats.coverage < 0.95 || stats.ink < 500 {
+        return Err(format!("{what}: silhouette not surrounded by ink: {stats:?}").into());
+    }
+    if stats.farthest > max_distance {
+        return Err(format!(
+            "{what}: ink {} px from the silhouette: {stats:?}",
+            stats.farthest
+        )
+        .into());
+    }
+    if stats.interior < 2000 || stats.interior_ink > 0 || stats.interior_changed > 0 {
+        return Err(format!("{what}: ink or changes inside the object: {stats:?}").into());
+    }
+    Ok(())
+}
+
+fn ink_count(frame: &CapturedFrame) -> usize {
+    frame.count(is_ink)
+}
+
+/// With the outline on, ink surrounds the strand's and the sphere's silhouettes (every silhouette
+/// pixel has ink within 1 px, no ink farther than 4 px from it) and none lies in the middle of the
+/// strand's face, although the toon ramp puts two or more shading bands there.
+fn outline_inks_silhouette_not_toon_bands() -> Result<(), Failed> {
+    let mut r = outline_scene(magenta(|o| o.enabled = false), true)?;
+    let reference = r.capture()?;
+    save(&reference, "outline_reference")?;
+    edit_outline(&mut r, |o| o.enabled = true);
+    let outlined = r.capture()?;
+    save(&outlined, "outline_on")?;
+
+    let (object, dist) = silhouette_distance(&reference);
+    let face: Vec<[u8; 4]> = (0..object.len())
+        .filter(|&i| object[i] && dist[i] > INTERIOR)
+        .map(|i| reference.pixel(i as u32 % reference.width, i as u32 / reference.width))
+        .collect();
+    let bands = distinct_shades(&face, 3, 0.01);
+    if bands.len() < 2 {
+        return Err(format!("the strand shows no toon bands to ignore: {bands:?}").into());
+    }
+    if ink_count(&reference) != 0 {
+        return Err("ink in the reference frame".into());
+    }
+    let stats = ink_stats(&reference, &outlined);
+    eprintln!("outline on: {stats:?}, {} bands", bands.len());
+    // Sobel marks one pixel each side of a step, dilation 1 one more, normals at the rim one more.
+    check_silhouette_ink(&stats, 4, "depth and normals")
+}
+
+/// A disabled outline draws nothing and adds no prepass to the camera.
+fn outline_off_draws_no_ink() -> Result<(), Failed> {
+    let mut r = outline_scene(magenta(|o| o.enabled = false), true)?;
+    let frame = r.capture()?;
+    save(&frame, "outline_off")?;
+    let hair = frame.count(|p| p != BACKGROUND);
+    if hair < 5000 {
+        return Err(format!("only {hair} object pixels rendered").into());
+    }
+    let ink = ink_count(&frame);
+    if ink != 0 {
+        return Err(format!("{ink} ink pixels with the outline off").into());
+    }
+    let camera = camera(&mut r)?;
+    let camera = r.app.world().entity(camera);
+    if camera.contains::<DepthPrepass>() || camera.contains::<NormalPrepass>() {
+        return Err("a disabled outline left prepasses on the camera".into());
+    }
+    Ok(())
+}
+
+/// On, off, on, off, on in one app (with MSAA, so the multisampled prepass variant runs), several
+/// frames each: every "on" shows the same ink, every "off" none, and the prepasses follow.
+fn outline_toggles_off_and_on_repeatedly() -> Result<(), Failed> {
+    let mut r = outline_scene(magenta(|_| {}), true)?;
+    let camera = camera(&mut r)?;
+    r.app.world_mut().entity_mut(camera).insert(Msaa::Sample4);
+    let mut first_on = None;
+    for (step, enabled) in [true, false, true, false, true].into_iter().enumerate() {
+        edit_outline(&mut r, |o| o.enabled = enabled);
+        let frame = r.capture()?;
+        save(&frame, &format!("outline_toggle_{step}"))?;
+        let ink = ink_count(&frame);
+        let entity = r.app.world().entity(camera);
+        let prepasses = entity.contains::<DepthPrepass>() && entity.contains::<NormalPrepass>();
+        let none = !entity.contains::<DepthPrepass>() && !entity.contains::<NormalPrepass>();
+        eprintln!("step {step}: enabled {enabled}, {ink} ink pixels");
+        if enabled {
+            let first = *first_on.get_or_insert(ink);
+            if ink < 500 || ink.abs_diff(first) > first / 20 {
+                return Err(
+                    format!("step {step}: on, but {ink} ink pixels (first: {first})").into(),
+                );
+            }
+            if !prepasses {
+                return Err(format!("step {step}: on, but the prepasses are missing").into());
+            }
+        } else {
+            if ink != 0 {
+                return Err(format!("step {step}: off, but {ink} ink pixels").into());
+            }
+            if !none {
+                return Err(format!("step {step}: off, but prepasses are still on").into());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Length of the first run of ink met walking from `(x, y)` by `(dx, dy)`.
+fn ink_run(frame: &CapturedFrame, (mut x, mut y): (i32, i32), (dx, dy): (i32, i32)) -> u32 {
+    let inside =
+        |x: i32, y: i32| x >= 0 && y >= 0 && x < frame.width as i32 && y < frame.height as i32;
+    while inside(x, y) && !is_ink(frame.pixel(x as u32, y as u32)) {
+        (x, y) = (x + dx, y + dy);
+    }
+    let mut run = 0;
+    while inside(x, y) && is_ink(frame.pixel(x as u32, y as u32)) {
+        run += 1;
+        (x, y) = (x + dx, y + dy);
+    }
+    run
+}
+
+/// Thicker dilation draws wider ink, each axis on its own: the strand's horizontal top edge widens
+/// with Y Dilation, its vertical left end with X Dilation.
+fn wider_dilation_draws_wider_ink() -> Result<(), Failed> {
+    let mut r = outline_scene(magenta(|_| {}), false)?;
+    let mut results = Vec::new();
+    for (dx, dy) in [(1, 1), (3, 3), (3, 0), (0, 3)] {
+        edit_outline(&mut r, |o| (o.dilation_x, o.dilation_y) = (dx, dy));
+        let frame = r.capture()?;
+        save(&frame, &format!("outline_dilation_{dx}_{dy}"))?;
+        let (w, h) = (frame.width as i32, frame.height as i32);
+        // Down the centre column onto the top edge; along the centre row onto the left end.
+        let vertical = ink_run(&frame, (w / 2, 0), (0, 1));
+        let horizontal = ink_run(&frame, (0, h / 2), (1, 0));
+        let ink = ink_count(&frame);
+        eprintln!(
+            "dilation ({dx}, {dy}): {ink} ink pixels, top edge {vertical} px, left end {horizontal} px"
+        );
+        results.push((ink, vertical, horizontal));
+    }
+    let [(ink1, v1, h1), (ink3, v3, h3), (_, v_x, h_x), (_, v_y, h_y)] = results[..] else {
+        unreachable!()
+    };
+    let fail = |m: String| -> Result<(), Failed> { Err(format!("{m}: {results:?}").into()) };
+    if ink3 as f32 <= 1.5 * ink1 as f32 || v3 < v1 + 3 || h3 < h1 + 3 {
+        return fail("dilation 3 is not wider than 1".into());
+    }
+    // Each extra pixel of dilation widens the line by two (one each side).
+    if v_y < v_x + 4 || h_x < h_y + 4 {
+        return fail("X and Y dilation do not widen their own axis".into());
+    }
+    Ok(())
+}
+
+/// The hair material draws into both prepasses: with edges from depth alone, and from normals
+/// alone, the strand's silhouette is still inked all round.
+fn hair_is_in_depth_and_normal_prepasses() -> Result<(), Failed> {
+    let mut r = outline_scene(magenta(|o| o.enabled = false), false)?;
+    let reference = r.capture()?;
+    for source in [OutlineSource::Depth, OutlineSource::Normals] {
+        edit_outline(&mut r, |o| {
+            o.enabled = true;
+            o.source = source;
+        });
+        let frame = r.capture()?;
+        save(&frame, &format!("outline_source_{source:?}"))?;
+        let camera = camera(&mut r)?;
+        let camera = r.app.world().entity(camera);
+        if camera.contains::<DepthPrepass>() != source.uses_depth()
+            || camera.contains::<NormalPrepass>() != source.uses_normals()
+        {
+            return Err(format!("{source:?}: the camera's prepasses do not match").into());
+        }
+        let stats = ink_stats(&reference, &frame);
+        eprintln!("{source:?}: {stats:?}");
+        check_silhouette_ink(&stats, 4, &format!("{source:?}"))?;
+    }
+    Ok(())
+}
