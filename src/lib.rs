@@ -14,14 +14,58 @@
 //!
 //! ## Getting started
 //!
+//! Add the plugin group next to `DefaultPlugins`, spawn your character, and attach hair to one of
+//! its bones by name ([`sim::AttachHair`] waits for the glTF scene to spawn and finds the bone):
+//!
 //! ```no_run
 //! use bevy::prelude::*;
 //! use bevy_cartoon_hair::prelude::*;
 //!
-//! App::new()
-//!     .add_plugins((DefaultPlugins, CartoonHairPlugins))
-//!     .run();
+//! fn main() {
+//!     App::new()
+//!         .add_plugins((DefaultPlugins, CartoonHairPlugins))
+//!         .add_systems(Startup, setup)
+//!         .run();
+//! }
+//!
+//! fn setup(mut commands: Commands, assets: Res<AssetServer>) {
+//!     let hair = Hair {
+//!         groom: assets.load("ninja/ninja.hair.xml"),
+//!         animation: Some(assets.load("ninja/ninja.hairanim.xml")),
+//!         collision: Some(assets.load("ninja/ninja.collision.xml")),
+//!     };
+//!     commands.spawn((
+//!         bevy::world_serialization::WorldAssetRoot(
+//!             assets.load(GltfAssetLabel::Scene(0).from_asset("ninja/ninja.glb")),
+//!         ),
+//!         AttachHair::new("head", hair),
+//!     ));
+//!     commands.spawn((
+//!         Camera3d::default(),
+//!         Transform::from_xyz(0.0, 1.7, 1.2).looking_at(Vec3::new(0.0, 1.7, 0.0), Vec3::Y),
+//!     ));
+//!     commands.spawn((DirectionalLight::default(), Transform::from_xyz(1.0, 3.0, 2.0)));
+//! }
 //! ```
+//!
+//! Tune a hair through the components on its entity: [`sim::HairSimSettings`] (springs, anchors,
+//! gravity, damping, margins), [`mesh::HairMeshSettings`] (resolutions, radius, the H curve),
+//! [`silhouette::SilhouetteSettings`] (strokes, the E curve), [`mesh::highlights::SpecularQuads`],
+//! and the `render::HairMaterial` handle to a `render::ToonHairMaterial`. The `ui` feature's panel
+//! edits the same components live.
+//!
+//! ## Contents
+//!
+//! | module | stage |
+//! |--------|-------|
+//! | [`asset`] | XML grooms, collision shapes and hair animations, and their loaders (`docs/formats.md`) |
+//! | [`sim`] | bone attachment, strand entities, the XPBD solver with Selle's structural springs, anchors, collisions |
+//! | [`mesh`] | tapered tubes swept along a spline through each strand; specular sampling quads |
+//! | [`silhouette`] | object-space silhouette strokes (edge map, chains, screen-space strips) |
+//! | `render` | toon material, ramps, image-space outlines, the WGSL library (feature `render`) |
+//! | [`hatching`] | the tonal art map generator and its texture |
+//! | `headless` | rendering without a window into an image, reading pixels back (feature `render`) |
+//! | [`curve`] | the quadratic curves (H, S, E) shared by all stages |
 //!
 //! ## Feature flags
 //!
@@ -50,6 +94,31 @@
 //!
 //! See [`HairSystems`]: attach, simulate, build meshes, silhouettes, all in `PostUpdate` after
 //! [`TransformSystems::Propagate`] so the bone the hair hangs on has its final pose for the frame.
+//!
+//! ## FAQ
+//!
+//! **Why does the hair jitter?** Usually two constraints fight: a stiff anchor (S curve near 1)
+//! pulling toward a keyframe pose that intersects the head collider, or margins larger than the
+//! gap between the styled hair and the head. Lower the anchor stiffness at the root, or the
+//! margins (`margin_min`, `margin_max`). A very low `substep_rate` also makes stiff hair ring.
+//!
+//! **Why does the hair look the same at 30 and 144 fps?** The solver runs fixed-length substeps
+//! (`substep_rate`) and interpolates the bone between frames, so the frame rate only decides how
+//! many substeps a frame takes.
+//!
+//! **My character teleported and the hair whipped across the level.** It should not: a bone that
+//! moves farther than `teleport_distance` (1 m) or turns more than `teleport_angle` (90 degrees)
+//! in one frame carries the hair with it. Lower those if your game moves characters in smaller
+//! jumps.
+//!
+//! **A keyframe groom fails to load.** Every groom in a `.hairanim.xml` must have the strand and
+//! particle counts of the first; the error names the key, the strand and both counts. Export all
+//! styles from the same base hair object.
+//!
+//! **Outlines: object space or image space?** Object-space strokes ([`silhouette`]) follow the
+//! strands, can be textured and fade toward the roots; image-space edges (`render::ImageSpaceOutline`
+//! on the camera) outline everything on screen at a constant cost. Both can be switched off and
+//! on at any time.
 
 #![warn(missing_docs)]
 
