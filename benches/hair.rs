@@ -2,6 +2,8 @@
 //!
 //! - `sim_frame/*`: one 60 Hz frame (default substeps) of the whole app update, for the thesis
 //!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands.
+//! - `solver_frame/*`: the solver alone for the same workloads, one thread (no Bevy frame, no
+//!   copy into strand entities).
 //! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
 //!   bevy_rapier ball bodies joined by spherical impulse joints, one 60 Hz step, in the same run.
 //! - `load_groom/100k_x_6`: parsing a 100,000-strand, 6-particle groom file.
@@ -41,10 +43,30 @@ fn strands(strands: usize, particles: usize) -> Vec<Vec<Vec3>> {
         .collect()
 }
 
+/// Minimal plugins with every core in the compute pool: Bevy's default on a 2-core machine keeps
+/// one thread each for IO and async work and leaves compute (where systems and `par_iter` run)
+/// a single thread. Both apps below get the same setting.
+fn minimal_plugins() -> bevy::app::PluginGroupBuilder {
+    use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    MinimalPlugins.set(TaskPoolPlugin {
+        task_pool_options: TaskPoolOptions {
+            compute: TaskPoolThreadAssignmentPolicy {
+                min_threads: cores,
+                max_threads: cores,
+                percent: 1.0,
+                on_thread_spawn: None,
+                on_thread_destroy: None,
+            },
+            ..default()
+        },
+    })
+}
+
 fn hair_app(n: usize, particles: usize) -> App {
     let mut app = App::new();
     app.add_plugins((
-        MinimalPlugins,
+        minimal_plugins(),
         TransformPlugin,
         AssetPlugin::default(),
         HairAssetPlugin,
@@ -54,20 +76,22 @@ fn hair_app(n: usize, particles: usize) -> App {
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
         1.0 / 60.0,
     )));
-    let groom = HairGroom::from_strands("head", strands(n, particles)).unwrap();
-    let groom = app
-        .world_mut()
-        .resource_mut::<Assets<HairGroom>>()
-        .add(groom);
     let bone = app
         .world_mut()
         .spawn(Transform::from_xyz(0.0, 1.6, 0.0))
         .id();
-    app.world_mut().spawn((
-        Hair { groom, ..default() },
-        HairSimSettings::default(),
-        ChildOf(bone),
-    ));
+    if n > 0 {
+        let groom = HairGroom::from_strands("head", strands(n, particles)).unwrap();
+        let groom = app
+            .world_mut()
+            .resource_mut::<Assets<HairGroom>>()
+            .add(groom);
+        app.world_mut().spawn((
+            Hair { groom, ..default() },
+            HairSimSettings::default(),
+            ChildOf(bone),
+        ));
+    }
     for _ in 0..3 {
         app.update();
     }
@@ -77,7 +101,7 @@ fn hair_app(n: usize, particles: usize) -> App {
 fn rapier_app(n: usize, particles: usize) -> App {
     let mut app = App::new();
     app.add_plugins((
-        MinimalPlugins,
+        minimal_plugins(),
         TransformPlugin,
         RapierPhysicsPlugin::<NoUserData>::default(),
     ))
@@ -116,6 +140,9 @@ fn rapier_app(n: usize, particles: usize) -> App {
 
 fn bench_sim(c: &mut Criterion) {
     let mut group = c.benchmark_group("sim_frame");
+    // The same app with no hair: Bevy's own per-frame cost, to subtract.
+    let mut app = hair_app(0, 0);
+    group.bench_function("no_hair", |b| b.iter(|| app.update()));
     for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
         let mut app = hair_app(n, p);
         group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
@@ -230,9 +257,87 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     group.finish();
 }
 
+/// The solver alone, one 60 Hz frame (4 substeps at the default 240 Hz), one thread: what the
+/// simulation itself costs, without Bevy's frame or the copy into strand entities.
+fn bench_solver(c: &mut Criterion) {
+    use bevy::math::Affine3A;
+    use bevy_cartoon_hair::sim::compliance_factor;
+    use bevy_cartoon_hair::sim::solver::{Batch, LANES, PINNED, StepInput, along, build_chain};
+    let settings = HairSimSettings::default();
+    let h = settings.substep();
+    let alpha = |s: f32| {
+        let f = compliance_factor(s, h, 1.0);
+        if f <= 0.0 {
+            f32::INFINITY
+        } else {
+            1.0 / f - 1.0
+        }
+    };
+    let mut group = c.benchmark_group("solver_frame");
+    for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
+        let chains: Vec<Vec<Vec3>> = strands(n, p)
+            .iter()
+            .map(|s| {
+                let mut c = Vec::new();
+                build_chain(s, settings.structure_offset(), None, &mut c);
+                c
+            })
+            .collect();
+        let bone = Affine3A::from_translation(Vec3::new(0.0, 1.6, 0.0));
+        let mut batches: Vec<Batch> = chains
+            .chunks(LANES)
+            .enumerate()
+            .map(|(b, group)| {
+                let ids: Vec<u32> = (0..group.len() as u32)
+                    .map(|l| (b * LANES) as u32 + l)
+                    .collect();
+                let refs: Vec<&[Vec3]> = group.iter().map(|c| &c[..]).collect();
+                let mut batch = Batch::new(&ids, &refs, &[], &vec![0.01; group.len()]);
+                batch.reset(&bone);
+                batch
+            })
+            .collect();
+        let nodes = chains[0].len();
+        let input = StepInput {
+            h,
+            bones: vec![bone; 4],
+            gravity_h2: settings.gravity() * h * h,
+            damping: settings.damping_factor(),
+            alpha: [
+                alpha(settings.edge_stiffness),
+                alpha(settings.bend_stiffness),
+                alpha(settings.torsion_stiffness),
+            ],
+            anchor_factor: (0..nodes)
+                .map(|k| {
+                    if k < PINNED {
+                        0.0
+                    } else {
+                        compliance_factor(
+                            settings.anchor_stiffness.eval_unit(along(k, nodes)),
+                            h,
+                            1.0,
+                        )
+                    }
+                })
+                .collect(),
+            ..default()
+        };
+        group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
+            b.iter(|| {
+                for batch in &mut batches {
+                    batch.step(&input);
+                }
+            })
+        });
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
     bench_sim,
+    bench_solver,
     bench_load,
     bench_tam,
     bench_mesh_and_silhouettes
