@@ -111,6 +111,29 @@
 //! in one frame carries the hair with it. Lower those if your game moves characters in smaller
 //! jumps.
 //!
+//! **Hair uses only one core.** The solver, the mesh builder and silhouette extraction spread
+//! strands over Bevy's compute task pool. On a 2-core machine Bevy's default gives that pool a
+//! single thread (the IO and async pools take the rest). Give compute every core:
+//!
+//! ```no_run
+//! use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
+//! use bevy::prelude::*;
+//!
+//! let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+//! App::new().add_plugins(DefaultPlugins.set(TaskPoolPlugin {
+//!     task_pool_options: TaskPoolOptions {
+//!         compute: TaskPoolThreadAssignmentPolicy {
+//!             min_threads: cores,
+//!             max_threads: cores,
+//!             percent: 1.0,
+//!             on_thread_spawn: None,
+//!             on_thread_destroy: None,
+//!         },
+//!         ..default()
+//!     },
+//! }));
+//! ```
+//!
 //! **A keyframe groom fails to load.** Every groom in a `.hairanim.xml` must have the strand and
 //! particle counts of the first; the error names the key, the strand and both counts. Export all
 //! styles from the same base hair object.
