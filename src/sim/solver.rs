@@ -397,15 +397,16 @@ impl Batch {
         let d = input.damping;
         let n = self.nodes.len();
         for k in PINNED..n {
-            {
-                let node = &mut self.nodes[k];
-                for c in 0..3 {
-                    for l in 0..LANES {
-                        let x = node.x[c][l];
-                        let v = (x - node.p[c][l]) * d;
-                        node.p[c][l] = x;
-                        node.x[c][l] = x + v + g[c];
-                    }
+            let (head, tail) = self.nodes.split_at_mut(k);
+            let nk = &mut tail[0];
+            // Node k stays in registers through its prediction and its three springs.
+            let mut xk = nk.x;
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let x = xk[c][l];
+                    let v = (x - nk.p[c][l]) * d;
+                    nk.p[c][l] = x;
+                    xk[c][l] = x + v + g[c];
                 }
             }
             for s in 0..3 {
@@ -421,9 +422,9 @@ impl Batch {
                 }
                 let j = k - s - 1;
                 let wj = if j < PINNED { 0.0 } else { 1.0 };
-                let (head, tail) = self.nodes.split_at_mut(k);
-                solve_distance(&mut head[j], &mut tail[0], s, wj, alpha);
+                solve_distance(&mut head[j].x, &mut xk, &nk.rest[s], wj, alpha);
             }
+            nk.x = xk;
             // Node k-3 is touched by no later spring this substep: its anchor can go now.
             if k >= PINNED + 3 {
                 self.solve_anchor(k - 3, input, bone);
@@ -516,24 +517,23 @@ impl Batch {
     }
 }
 
-/// XPBD distance constraint between node `j` (inverse mass `wj`) and node `k` (inverse mass 1),
-/// using the rest length stored on `k` for spring kind `s`.
+/// XPBD distance constraint between positions `xj` (inverse mass `wj`) and `xk` (inverse mass 1)
+/// with rest lengths `rest`.
 #[inline(always)]
-fn solve_distance(nj: &mut Node, nk: &mut Node, s: usize, wj: f32, alpha: f32) {
-    let rest = &nk.rest[s];
-    let denom = wj + 1.0 + alpha;
+fn solve_distance(xj: &mut [Lane; 3], xk: &mut [Lane; 3], rest: &Lane, wj: f32, alpha: f32) {
+    let inv_denom = 1.0 / (wj + 1.0 + alpha);
     for l in 0..LANES {
-        let dx = nk.x[0][l] - nj.x[0][l];
-        let dy = nk.x[1][l] - nj.x[1][l];
-        let dz = nk.x[2][l] - nj.x[2][l];
+        let dx = xk[0][l] - xj[0][l];
+        let dy = xk[1][l] - xj[1][l];
+        let dz = xk[2][l] - xj[2][l];
         let len = (dx * dx + dy * dy + dz * dz).sqrt();
-        let f = (len - rest[l]) / (denom * len.max(1e-9));
-        nk.x[0][l] -= f * dx;
-        nk.x[1][l] -= f * dy;
-        nk.x[2][l] -= f * dz;
-        nj.x[0][l] += wj * f * dx;
-        nj.x[1][l] += wj * f * dy;
-        nj.x[2][l] += wj * f * dz;
+        let f = (len - rest[l]) * inv_denom / len.max(1e-9);
+        xk[0][l] -= f * dx;
+        xk[1][l] -= f * dy;
+        xk[2][l] -= f * dz;
+        xj[0][l] += wj * f * dx;
+        xj[1][l] += wj * f * dy;
+        xj[2][l] += wj * f * dz;
     }
 }
 
