@@ -9,6 +9,11 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 tools/system-deps.sh mesa-vulkan-drivers libvulkan1
+# Mesa's Vulkan loader warns on every device creation when this is unset (CI, containers).
+if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
+  XDG_RUNTIME_DIR="$(mktemp -d)"
+  export XDG_RUNTIME_DIR
+fi
 if ! python3 -c "import bpy" >/dev/null 2>&1; then
   echo "Installing Blender as a Python module (bpy 4.5.4) ..." >&2
   python3 -m pip install --quiet --disable-pip-version-check bpy==4.5.4
