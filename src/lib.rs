@@ -27,7 +27,7 @@
 //!
 //! | feature  | default | what it adds |
 //! |----------|---------|--------------|
-//! | `render` | yes     | Headless capture helpers, toon materials and other GPU-side parts. |
+//! | `render` | yes     | Headless capture helpers, toon materials and other GPU-side parts, presets (`ron`), the demo scene and clip recorder. |
 //! | `ui`     | yes     | The live egui tuning panel (pulls in `bevy_egui`; implies `render`). |
 //!
 //! ## Plugins
@@ -43,6 +43,7 @@
 //! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
+//! | `ui::HairTuningUiPlugin` | The egui tuning panel (Debug, Hair properties, Effects windows; presets), stage timings, debug drawing; adds `bevy_egui`'s `EguiPlugin` if missing. Hidden until `HairTuningUi::visible` is set. | Disable in a shipped game, or when you configure egui yourself differently; it needs an egui context on a camera. |
 //!
 //! ## Frame order
 //!
@@ -53,14 +54,20 @@
 
 pub mod asset;
 pub mod curve;
+#[cfg(feature = "render")]
+pub mod demo;
 pub mod hatching;
 #[cfg(feature = "render")]
 pub mod headless;
 pub mod mesh;
 #[cfg(feature = "render")]
+pub mod preset;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod silhouette;
 pub mod sim;
+#[cfg(feature = "ui")]
+pub mod ui;
 
 use bevy::app::{PluginGroupBuilder, PostUpdate};
 use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
@@ -73,11 +80,15 @@ pub mod prelude {
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::HairMeshSettings;
     #[cfg(feature = "render")]
+    pub use crate::preset::HairPreset;
+    #[cfg(feature = "render")]
     pub use crate::render::{HairMaterial, RampMode, ToonHairMaterial, ToonRamps};
     pub use crate::sim::{
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
     };
+    #[cfg(feature = "ui")]
+    pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};
     pub use crate::{CartoonHairPlugins, HairSystems};
 }
 
@@ -91,6 +102,7 @@ pub mod prelude {
 /// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
+/// | `ui::HairTuningUiPlugin` | the egui tuning panel, hidden until `HairTuningUi::visible` (feature `ui`) |
 pub struct CartoonHairPlugins;
 
 impl PluginGroup for CartoonHairPlugins {
@@ -104,6 +116,8 @@ impl PluginGroup for CartoonHairPlugins {
         let group = group
             .add(render::HairShaderLibraryPlugin)
             .add(render::ToonHairMaterialPlugin);
+        #[cfg(feature = "ui")]
+        let group = group.add(ui::HairTuningUiPlugin);
         group
     }
 }

@@ -4,7 +4,7 @@
 //! own in world space ([`HairMeshOf`]). The triangle topology and UVs are shared by every strand
 //! and rebuilt only when a resolution in [`HairMeshSettings`] changes (the thesis's "Rebuild
 //! mesh" button, done automatically); positions and normals are rebuilt every frame, in parallel
-//! over strands, from [`StrandParticles`](crate::sim::StrandParticles).
+//! over strands, from [`StrandParticles`].
 
 pub mod tube;
 

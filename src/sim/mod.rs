@@ -8,8 +8,8 @@
 //! - [`ComputedHair`]: derived solver state (see `solver` for the model and memory layout).
 //!
 //! Systems, in `PostUpdate`:
-//! 1. [`HairSystems::Attach`](crate::HairSystems::Attach): attach named bones, build strands.
-//! 2. [`HairSystems::Simulate`](crate::HairSystems::Simulate): step, then write particles back.
+//! 1. [`HairSystems::Attach`]: attach named bones, build strands.
+//! 2. [`HairSystems::Simulate`]: step, then write particles back.
 //!
 //! # Robustness
 //! Frames longer than [`HairSimSettings::max_frame_time`] are clamped; a bone that jumps farther

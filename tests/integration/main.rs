@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod clip;
 mod render_smoke;
 mod toon_render;
 
@@ -36,6 +37,7 @@ fn main() {
     for (name, test) in render_smoke::RENDER_TESTS
         .iter()
         .chain(toon_render::RENDER_TESTS)
+        .chain(clip::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
