@@ -1,45 +1,97 @@
 //! The ninja-head example: the bundled ninja plays its idle animation (head turns and a quick
 //! shake); spiky anime hair is attached to its `head` bone, simulated, animated between keyframe
-//! styles, collides with the head, and is drawn with the toon material.
+//! styles, collides with the head, and is drawn with the toon material. The scene itself is
+//! `bevy_cartoon_hair::demo::NinjaScenePlugin`, shared with the tests.
 //!
 //! Run: `tools/run-example.sh` (or `cargo run --example ninja_head`).
 //!
 //! Keys: arrows orbit the camera, Page Up / Page Down zoom, M toggles the tuning panel, P pauses
 //! the hair, Enter steps it one frame.
 //!
-//! Flags: `--screenshot FILE` saves the window at frame 150 and exits.
+//! Flags:
+//! - `--screenshot FILE`: save the window at frame 150 and exit.
+//! - `--preset FILE`: start from a hair preset (saved from the panel's Preset section).
+//! - `--no-ui`: start with the tuning panel hidden.
+//! - `--headless --frames N --out DIR`: no window; render N consecutive frames at 1/30 s each
+//!   to `DIR/frame_0000.png`, ... (any Vulkan adapter, lavapipe included), then exit.
+//!   `--size WxH` sets the image size (default 640x360).
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use bevy::world_serialization::WorldInstanceReady;
+use bevy_cartoon_hair::demo::{ClipSettings, NinjaOrbit, NinjaScenePlugin, record_clip};
 use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::ui::tuning_ui_wants_keyboard;
 
 #[derive(Resource)]
 struct ScreenshotRequest(String);
 
-/// The idle animation to start once the character's scene is spawned.
-#[derive(Component)]
-struct IdleAnimation {
-    graph: Handle<AnimationGraph>,
-    node: AnimationNodeIndex,
+#[derive(Default)]
+struct Args {
+    screenshot: Option<String>,
+    preset: Option<String>,
+    headless: bool,
+    no_ui: bool,
+    clip: ClipSettings,
 }
 
-/// Orbit camera state: around the head.
-#[derive(Component)]
-struct Orbit {
-    yaw: f32,
-    pitch: f32,
-    distance: f32,
-    target: Vec3,
+fn parse_args() -> Result<Args, String> {
+    let mut parsed = Args::default();
+    let mut args = std::env::args().skip(1);
+    while let Some(flag) = args.next() {
+        let mut value = || args.next().ok_or(format!("{flag} needs a value"));
+        match flag.as_str() {
+            "--screenshot" => parsed.screenshot = Some(value()?),
+            "--preset" => parsed.preset = Some(value()?),
+            "--headless" => parsed.headless = true,
+            "--no-ui" => parsed.no_ui = true,
+            "--frames" => {
+                let v = value()?;
+                parsed.clip.frames = v.parse().map_err(|e| format!("--frames {v:?}: {e}"))?;
+            }
+            "--out" => parsed.clip.out = value()?.into(),
+            "--size" => {
+                let v = value()?;
+                let (w, h) = v
+                    .split_once('x')
+                    .and_then(|(w, h)| Some((w.parse().ok()?, h.parse().ok()?)))
+                    .ok_or(format!("--size {v:?}: expected WIDTHxHEIGHT"))?;
+                (parsed.clip.width, parsed.clip.height) = (w, h);
+            }
+            "--help" | "-h" => return Err("see the header of examples/ninja_head.rs".into()),
+            other => return Err(format!("unknown flag {other:?} (try --help)")),
+        }
+    }
+    Ok(parsed)
 }
 
 fn main() {
-    let mut args = std::env::args().skip(1);
-    let mut screenshot = None;
-    while let Some(arg) = args.next() {
-        if arg == "--screenshot" {
-            screenshot = args.next();
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("ninja_head: {e}");
+            std::process::exit(2);
         }
+    };
+    let preset = match args.preset.as_deref().map(HairPreset::load).transpose() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("ninja_head: {e}");
+            std::process::exit(2);
+        }
+    };
+    if args.headless {
+        let clip = ClipSettings {
+            preset,
+            ..args.clip
+        };
+        match record_clip(&clip) {
+            Ok(frames) => println!("wrote {} frames to {}", frames.len(), clip.out.display()),
+            Err(e) => {
+                eprintln!("ninja_head: {e}");
+                std::process::exit(1);
+            }
+        }
+        return;
     }
     let mut app = App::new();
     app.add_plugins((
@@ -52,158 +104,65 @@ fn main() {
             ..default()
         }),
         CartoonHairPlugins,
+        NinjaScenePlugin {
+            target: None,
+            preset,
+        },
     ))
-    .insert_resource(ClearColor(Color::srgb(0.80, 0.86, 0.95)))
-    .insert_resource(GlobalAmbientLight {
-        color: Color::WHITE,
-        brightness: 600.0,
+    .insert_resource(HairTuningUi {
+        visible: !args.no_ui,
         ..default()
     })
-    .add_systems(Startup, setup)
-    .add_systems(Update, (orbit_camera, hair_keys));
-    if let Some(path) = screenshot {
+    .add_systems(
+        Update,
+        // Typing a preset file name must not orbit the camera or pause the hair.
+        (orbit_keys, hair_keys).run_if(not(tuning_ui_wants_keyboard)),
+    );
+    if let Some(path) = args.screenshot {
         app.insert_resource(ScreenshotRequest(path))
             .add_systems(Update, take_screenshot);
     }
     app.run();
 }
 
-fn setup(
-    mut commands: Commands,
-    assets: Res<AssetServer>,
-    mut graphs: ResMut<Assets<AnimationGraph>>,
-    mut meshes: ResMut<Assets<Mesh>>,
-    mut materials: ResMut<Assets<StandardMaterial>>,
-    mut hair_materials: ResMut<Assets<ToonHairMaterial>>,
-    ramps: Res<ToonRamps>,
-) {
-    let (graph, node) = AnimationGraph::from_clip(
-        assets.load(GltfAssetLabel::Animation(0).from_asset("ninja/ninja.glb")),
-    );
-    let hair = Hair {
-        groom: assets.load("ninja/ninja.hair.xml"),
-        animation: Some(assets.load("ninja/ninja.hairanim.xml")),
-        collision: Some(assets.load("ninja/ninja.collision.xml")),
-    };
-    let material = hair_materials.add(ToonHairMaterial {
-        base_color: Color::srgb(0.98, 0.62, 0.12),
-        ramp: ramps.three_tone.clone(),
-        specular_strength: 0.35,
-        shininess: 60.0,
-        back_light_strength: 0.25,
-        back_light_power: 0.6,
-        ..default()
-    });
-    commands
-        .spawn((
-            Name::new("ninja"),
-            bevy::world_serialization::WorldAssetRoot(
-                assets.load(GltfAssetLabel::Scene(0).from_asset("ninja/ninja.glb")),
-            ),
-            IdleAnimation {
-                graph: graphs.add(graph),
-                node,
-            },
-            AttachHair {
-                bone: "head".into(),
-                hair,
-                settings: HairSimSettings::default(),
-            },
-        ))
-        .observe(play_idle_when_ready);
-    commands.insert_resource(ExampleHairMaterial(material));
-    commands.spawn((
-        Name::new("ground"),
-        Mesh3d(meshes.add(Circle::new(2.0))),
-        MeshMaterial3d(materials.add(Color::srgb(0.55, 0.6, 0.5))),
-        Transform::from_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
-    ));
-    commands.spawn((
-        DirectionalLight {
-            illuminance: 9_000.0,
-            shadow_maps_enabled: true,
-            ..default()
-        },
-        Transform::from_xyz(1.5, 3.0, 2.0).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-    ));
-    commands.spawn((
-        Camera3d::default(),
-        Orbit {
-            yaw: 0.5,
-            pitch: 0.15,
-            distance: 1.1,
-            target: Vec3::new(0.0, 1.68, 0.0),
-        },
-        Transform::default(),
-    ));
-}
-
-/// The toon material the example gives its hair.
-#[derive(Resource)]
-struct ExampleHairMaterial(Handle<ToonHairMaterial>);
-
-fn play_idle_when_ready(
-    ready: On<WorldInstanceReady>,
-    mut commands: Commands,
-    children: Query<&Children>,
-    idle: Query<&IdleAnimation>,
-    mut players: Query<&mut AnimationPlayer>,
-) {
-    let Ok(idle) = idle.get(ready.entity) else {
-        return;
-    };
-    for child in children.iter_descendants(ready.entity) {
-        if let Ok(mut player) = players.get_mut(child) {
-            player.play(idle.node).repeat();
-            commands
-                .entity(child)
-                .insert(AnimationGraphHandle(idle.graph.clone()));
-        }
-    }
-}
-
-fn orbit_camera(
+fn orbit_keys(
     keys: Res<ButtonInput<KeyCode>>,
     time: Res<Time>,
-    mut cameras: Query<(&mut Orbit, &mut Transform)>,
-    hairs: Query<Entity, (With<Hair>, Without<HairMaterial>)>,
-    material: Res<ExampleHairMaterial>,
-    mut commands: Commands,
+    mut cameras: Query<&mut NinjaOrbit>,
 ) {
-    // Hair appears once the scene is in; give it the example's material.
-    for hair in &hairs {
-        commands
-            .entity(hair)
-            .insert(HairMaterial(material.0.clone()));
-    }
     let dt = time.delta_secs();
-    for (mut orbit, mut transform) in &mut cameras {
+    for mut orbit in &mut cameras {
+        let mut o = orbit.clone();
         if keys.pressed(KeyCode::ArrowLeft) {
-            orbit.yaw -= 1.5 * dt;
+            o.yaw -= 1.5 * dt;
         }
         if keys.pressed(KeyCode::ArrowRight) {
-            orbit.yaw += 1.5 * dt;
+            o.yaw += 1.5 * dt;
         }
         if keys.pressed(KeyCode::ArrowUp) {
-            orbit.pitch = (orbit.pitch + dt).min(1.3);
+            o.pitch = (o.pitch + dt).min(1.3);
         }
         if keys.pressed(KeyCode::ArrowDown) {
-            orbit.pitch = (orbit.pitch - dt).max(-1.3);
+            o.pitch = (o.pitch - dt).max(-1.3);
         }
         if keys.pressed(KeyCode::PageUp) {
-            orbit.distance = (orbit.distance * (1.0 - dt)).max(0.3);
+            o.distance = (o.distance * (1.0 - dt)).max(0.3);
         }
         if keys.pressed(KeyCode::PageDown) {
-            orbit.distance = (orbit.distance * (1.0 + dt)).min(6.0);
+            o.distance = (o.distance * (1.0 + dt)).min(6.0);
         }
-        let offset = Quat::from_euler(EulerRot::YXZ, orbit.yaw, -orbit.pitch, 0.0)
-            * Vec3::new(0.0, 0.0, orbit.distance);
-        *transform =
-            Transform::from_translation(orbit.target + offset).looking_at(orbit.target, Vec3::Y);
+        orbit.set_if_neq(o);
     }
 }
 
-fn hair_keys(keys: Res<ButtonInput<KeyCode>>, mut control: ResMut<HairSimControl>) {
+fn hair_keys(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut control: ResMut<HairSimControl>,
+    mut ui: ResMut<HairTuningUi>,
+) {
+    if keys.just_pressed(KeyCode::KeyM) {
+        ui.toggle();
+    }
     if keys.just_pressed(KeyCode::KeyP) {
         control.paused = !control.paused;
     }

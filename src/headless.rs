@@ -255,6 +255,90 @@ impl HeadlessRenderer {
         Err(HeadlessError::Timeout(self.settings.max_frames))
     }
 
+    /// Runs frames until `ready` holds and then every render pipeline has compiled and stayed
+    /// settled for [`CaptureSettings::settle_frames`] frames: the scene is loaded and the next
+    /// frame draws it completely.
+    ///
+    /// # Errors
+    ///
+    /// [`HeadlessError::PipelineFailed`] if a pipeline fails, [`HeadlessError::Timeout`] after
+    /// [`CaptureSettings::max_frames`] frames.
+    pub fn warm_up(
+        &mut self,
+        mut ready: impl FnMut(&mut World) -> bool,
+    ) -> Result<(), HeadlessError> {
+        let deadline = self.frames + self.settings.max_frames;
+        let mut settled = 0;
+        while settled < self.settings.settle_frames.max(1) {
+            if self.frames >= deadline {
+                return Err(HeadlessError::Timeout(self.settings.max_frames));
+            }
+            self.update();
+            let idle = self.pipelines_state()?;
+            settled = if idle && ready(self.app.world_mut()) {
+                settled + 1
+            } else {
+                0
+            };
+        }
+        Ok(())
+    }
+
+    /// Captures `count` consecutive frames: one [`App::update`] per frame, each frame's image
+    /// read back and handed to `each(index, frame)` in order. Call [`HeadlessRenderer::warm_up`]
+    /// first so the first frame is complete. The app runs a few more frames after the last one
+    /// while the readbacks arrive.
+    ///
+    /// # Errors
+    ///
+    /// [`HeadlessError::Timeout`] if the frames have not all arrived
+    /// [`CaptureSettings::max_frames`] frames after the last one.
+    pub fn capture_sequence(
+        &mut self,
+        count: u32,
+        mut each: impl FnMut(u32, CapturedFrame),
+    ) -> Result<(), HeadlessError> {
+        type Arrived = Arc<Mutex<Vec<(u32, Image)>>>;
+        let arrived: Arrived = Arc::default();
+        let mut pending: std::collections::BTreeMap<u32, CapturedFrame> = default();
+        let mut next = 0;
+        let mut deliver = |arrived: &Arrived, next: &mut u32| {
+            for (index, image) in arrived.lock().unwrap().drain(..) {
+                let frame = CapturedFrame {
+                    width: image.width(),
+                    height: image.height(),
+                    rgba: image.data.unwrap_or_default(),
+                };
+                pending.insert(index, frame);
+            }
+            // In order, even if readbacks complete out of order.
+            while let Some(frame) = pending.remove(next) {
+                each(*next, frame);
+                *next += 1;
+            }
+        };
+        for index in 0..count {
+            let sink = arrived.clone();
+            self.app
+                .world_mut()
+                .spawn(Screenshot::image(self.target.clone()))
+                .observe(move |captured: On<ScreenshotCaptured>| {
+                    sink.lock().unwrap().push((index, captured.image.clone()));
+                });
+            self.update();
+            deliver(&arrived, &mut next);
+        }
+        let deadline = self.frames + self.settings.max_frames;
+        while next < count {
+            if self.frames >= deadline {
+                return Err(HeadlessError::Timeout(self.settings.max_frames));
+            }
+            self.update();
+            deliver(&arrived, &mut next);
+        }
+        Ok(())
+    }
+
     /// `Ok(true)` when no pipeline is queued or compiling; an error if one failed.
     fn pipelines_state(&self) -> Result<bool, HeadlessError> {
         let Some(render_app) = self.app.get_sub_app(RenderApp) else {
@@ -267,6 +351,11 @@ impl HeadlessRenderer {
         for pipeline in cache.pipelines() {
             match &pipeline.state {
                 CachedPipelineState::Queued | CachedPipelineState::Creating(_) => idle = false,
+                // Bevy retries these once the shader (or an import) has loaded.
+                CachedPipelineState::Err(
+                    bevy::shader::ShaderCacheError::ShaderNotLoaded(_)
+                    | bevy::shader::ShaderCacheError::ShaderImportNotYetAvailable,
+                ) => idle = false,
                 CachedPipelineState::Err(err) => {
                     let label = match &pipeline.descriptor {
                         bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),

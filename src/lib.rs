@@ -71,7 +71,7 @@
 //!
 //! | feature  | default | what it adds |
 //! |----------|---------|--------------|
-//! | `render` | yes     | Headless capture helpers, toon materials and other GPU-side parts. |
+//! | `render` | yes     | Headless capture helpers, toon materials and other GPU-side parts, presets (`ron`), the demo scene and clip recorder. |
 //! | `ui`     | yes     | The live egui tuning panel (pulls in `bevy_egui`; implies `render`). |
 //!
 //! ## Plugins
@@ -89,6 +89,7 @@
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
 //! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
 //! | `render::ImageSpaceOutlinePlugin` | Image-space silhouette edges: Sobel on the depth/normal prepass, threshold, X/Y dilation, ink over the frame, on cameras with an `ImageSpaceOutline` (switch it off and on any time). | Disable if you never outline on screen, or to use another outline post-process. |
+//! | `ui::HairTuningUiPlugin` | The egui tuning panel (Debug, Hair properties, Effects windows; presets), stage timings, debug drawing; adds `bevy_egui`'s `EguiPlugin` if missing. Hidden until `HairTuningUi::visible` is set. | Disable in a shipped game, or when you configure egui yourself differently; it needs an egui context on a camera. |
 //!
 //! ## Frame order
 //!
@@ -147,14 +148,20 @@
 
 pub mod asset;
 pub mod curve;
+#[cfg(feature = "render")]
+pub mod demo;
 pub mod hatching;
 #[cfg(feature = "render")]
 pub mod headless;
 pub mod mesh;
 #[cfg(feature = "render")]
+pub mod preset;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod silhouette;
 pub mod sim;
+#[cfg(feature = "ui")]
+pub mod ui;
 
 use bevy::app::{PluginGroupBuilder, PostUpdate};
 use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
@@ -168,6 +175,8 @@ pub mod prelude {
     pub use crate::mesh::HairMeshSettings;
     pub use crate::mesh::highlights::SpecularQuads;
     #[cfg(feature = "render")]
+    pub use crate::preset::HairPreset;
+    #[cfg(feature = "render")]
     pub use crate::render::{
         HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
     };
@@ -176,6 +185,8 @@ pub mod prelude {
         AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
     };
+    #[cfg(feature = "ui")]
+    pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};
     pub use crate::{CartoonHairPlugins, HairSystems};
 }
 
@@ -191,6 +202,7 @@ pub mod prelude {
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 /// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
+/// | `ui::HairTuningUiPlugin` | the egui tuning panel, hidden until `HairTuningUi::visible` (feature `ui`) |
 pub struct CartoonHairPlugins;
 
 impl PluginGroup for CartoonHairPlugins {
@@ -206,6 +218,8 @@ impl PluginGroup for CartoonHairPlugins {
             .add(render::HairShaderLibraryPlugin)
             .add(render::ToonHairMaterialPlugin)
             .add(render::ImageSpaceOutlinePlugin);
+        #[cfg(feature = "ui")]
+        let group = group.add(ui::HairTuningUiPlugin);
         group
     }
 }

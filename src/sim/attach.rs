@@ -127,6 +127,30 @@ impl ComputedHair {
         let (b, l) = self.lane_of[s];
         self.batches[b as usize].particle(l as usize, i)
     }
+
+    /// Puts every strand back on its styled (base) pose under the hair entity's current
+    /// transform `bone`, at rest, as when the strands were built. The clip recorder does this
+    /// before its first frame so a clip never depends on when assets finished loading.
+    pub fn reset(&mut self, bone: &GlobalTransform) {
+        let bone = bone.affine();
+        for b in &mut self.batches {
+            b.reset(&bone);
+        }
+        self.last_bone = Some(bone);
+        self.accumulator = 0.0;
+        self.animation_time = 0.0;
+    }
+
+    /// World position of the anchor (the keyframed style the anchor spring pulls toward) of
+    /// particle `i` of strand `s`, at last frame's bone pose; `None` before the first step or
+    /// out of range. For debug drawing.
+    pub fn anchor(&self, s: usize, i: usize) -> Option<Vec3> {
+        let bone = self.last_bone?;
+        let &(b, l) = self.lane_of.get(s)?;
+        let batch = self.batches.get(b as usize)?;
+        let k = 2 * i + 1;
+        (k < batch.nodes.len()).then(|| bone.transform_point3(batch.anchor(l as usize, k)))
+    }
 }
 
 /// A strand's margin: a hash of (seed, strand) mapped into `[min, max]`.

@@ -340,6 +340,11 @@ impl Batch {
         get3(&self.nodes[2 * i + 1].x, l)
     }
 
+    /// Anchor (keyframe target) of chain node `k` of lane `l`, bone space.
+    pub fn anchor(&self, l: usize, k: usize) -> Vec3 {
+        get3(&self.nodes[k].anchor, l)
+    }
+
     /// Position of any chain node of lane `l`.
     pub fn node(&self, l: usize, k: usize) -> Vec3 {
         get3(&self.nodes[k].x, l)

@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod clip;
 mod outline_render;
 mod render_smoke;
 mod silhouette_render;
@@ -40,6 +41,7 @@ fn main() {
         .chain(toon_render::RENDER_TESTS)
         .chain(silhouette_render::RENDER_TESTS)
         .chain(outline_render::RENDER_TESTS)
+        .chain(clip::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

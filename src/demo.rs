@@ -1,0 +1,390 @@
+//! The ninja-head demo scene and the headless clip recorder.
+//!
+//! [`NinjaScenePlugin`] builds the scene of the `ninja_head` example: the bundled ninja
+//! (`assets/ninja/`) playing its idle animation, spiky hair attached to its `head` bone with the
+//! example's toon material, a ground disc, a sun and an orbit camera ([`NinjaOrbit`]). The
+//! example adds keys and a window; [`record_clip`] renders the same scene without a window, one
+//! PNG per simulation frame, at a fixed time step, so a clip is the same on every run.
+//!
+//! ```no_run
+//! use bevy_cartoon_hair::demo::{ClipSettings, record_clip};
+//!
+//! let frames = record_clip(&ClipSettings {
+//!     frames: 90,
+//!     out: "clip".into(),
+//!     ..Default::default()
+//! })
+//! .unwrap();
+//! println!("wrote {} frames", frames.len());
+//! ```
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy::world_serialization::{WorldAsset, WorldAssetRoot, WorldInstanceReady};
+
+use crate::CartoonHairPlugins;
+use crate::headless::{CaptureSettings, HeadlessError, HeadlessRenderer};
+use crate::mesh::ComputedHairMesh;
+use crate::preset::HairPreset;
+use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps};
+use crate::sim::{AttachHair, ComputedHair, Hair, HairSimSettings};
+
+/// The demo hair's colour (orange).
+pub const HAIR_COLOR: Color = Color::srgb(0.98, 0.62, 0.12);
+
+/// The ninja-head scene. Add it after `DefaultPlugins` and [`CartoonHairPlugins`].
+#[derive(Clone, Debug, Default)]
+pub struct NinjaScenePlugin {
+    /// Render the camera into this image instead of the primary window.
+    pub target: Option<Handle<Image>>,
+    /// Start the hair from this preset instead of the demo's own tuning.
+    pub preset: Option<HairPreset>,
+}
+
+/// Where the demo camera looks from: an orbit around the head. Change it and the camera follows
+/// in the same frame.
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct NinjaOrbit {
+    /// Turn around the vertical axis, radians (0 looks at the face).
+    pub yaw: f32,
+    /// Height angle, radians, clamped to `[-1.3, 1.3]`.
+    pub pitch: f32,
+    /// Distance from the target, metres, clamped to `[0.3, 6]`.
+    pub distance: f32,
+    /// The point looked at.
+    pub target: Vec3,
+}
+
+impl Default for NinjaOrbit {
+    fn default() -> Self {
+        Self {
+            yaw: 0.5,
+            pitch: 0.15,
+            distance: 1.1,
+            target: Vec3::new(0.0, 1.68, 0.0),
+        }
+    }
+}
+
+impl NinjaOrbit {
+    /// The camera transform of this orbit.
+    pub fn transform(&self) -> Transform {
+        let pitch = self.pitch.clamp(-1.3, 1.3);
+        let distance = self.distance.clamp(0.3, 6.0);
+        let offset =
+            Quat::from_euler(EulerRot::YXZ, self.yaw, -pitch, 0.0) * Vec3::new(0.0, 0.0, distance);
+        Transform::from_translation(self.target + offset).looking_at(self.target, Vec3::Y)
+    }
+}
+
+/// The demo's handles: the character's glTF scene and the hair's material.
+#[derive(Resource, Clone, Debug)]
+pub struct NinjaScene {
+    /// The character's scene.
+    pub scene: Handle<WorldAsset>,
+    /// The material the demo hair is drawn with.
+    pub hair_material: Handle<ToonHairMaterial>,
+}
+
+/// What the startup system needs from the plugin.
+#[derive(Resource, Clone)]
+struct NinjaSceneConfig(NinjaScenePlugin);
+
+/// The idle animation to start once the character's scene is spawned.
+#[derive(Component)]
+struct IdleAnimation {
+    graph: Handle<AnimationGraph>,
+    node: AnimationNodeIndex,
+}
+
+impl Plugin for NinjaScenePlugin {
+    fn build(&self, app: &mut App) {
+        app.insert_resource(NinjaSceneConfig(self.clone()))
+            .insert_resource(ClearColor(Color::srgb(0.80, 0.86, 0.95)))
+            .insert_resource(GlobalAmbientLight {
+                color: Color::WHITE,
+                brightness: 600.0,
+                ..default()
+            })
+            .add_systems(Startup, (spawn_ninja_scene, spawn_ninja_stage))
+            .add_systems(Update, place_orbit_cameras)
+            .add_observer(give_hair_its_tuning);
+    }
+}
+
+fn spawn_ninja_scene(
+    mut commands: Commands,
+    config: Res<NinjaSceneConfig>,
+    assets: Res<AssetServer>,
+    mut graphs: ResMut<Assets<AnimationGraph>>,
+    mut hair_materials: ResMut<Assets<ToonHairMaterial>>,
+    ramps: Res<ToonRamps>,
+) {
+    let config = &config.0;
+    let (graph, node) = AnimationGraph::from_clip(
+        assets.load(GltfAssetLabel::Animation(0).from_asset("ninja/ninja.glb")),
+    );
+    let hair = Hair {
+        groom: assets.load("ninja/ninja.hair.xml"),
+        animation: Some(assets.load("ninja/ninja.hairanim.xml")),
+        collision: Some(assets.load("ninja/ninja.collision.xml")),
+    };
+    let mut material = ToonHairMaterial {
+        base_color: HAIR_COLOR,
+        ramp: ramps.three_tone.clone(),
+        specular_strength: 0.35,
+        shininess: 60.0,
+        back_light_strength: 0.25,
+        back_light_power: 0.6,
+        ..default()
+    };
+    let mut settings = HairSimSettings::default();
+    if let Some(preset) = &config.preset {
+        preset.material.apply(&mut material, &ramps);
+        settings = preset.simulation.clone();
+    }
+    let scene = assets.load(GltfAssetLabel::Scene(0).from_asset("ninja/ninja.glb"));
+    commands
+        .spawn((
+            Name::new("ninja"),
+            WorldAssetRoot(scene.clone()),
+            IdleAnimation {
+                graph: graphs.add(graph),
+                node,
+            },
+            AttachHair {
+                bone: "head".into(),
+                hair,
+                settings,
+            },
+        ))
+        .observe(play_idle_when_ready);
+    commands.insert_resource(NinjaScene {
+        scene,
+        hair_material: hair_materials.add(material),
+    });
+}
+
+/// Ground, sun and camera.
+fn spawn_ninja_stage(
+    mut commands: Commands,
+    config: Res<NinjaSceneConfig>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    commands.spawn((
+        Name::new("ground"),
+        Mesh3d(meshes.add(Circle::new(2.0))),
+        MeshMaterial3d(materials.add(Color::srgb(0.55, 0.6, 0.5))),
+        Transform::from_rotation(Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2)),
+    ));
+    commands.spawn((
+        Name::new("sun"),
+        DirectionalLight {
+            illuminance: 9_000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(1.5, 3.0, 2.0).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
+    ));
+    let orbit = NinjaOrbit::default();
+    let mut camera = commands.spawn((
+        Name::new("camera"),
+        Camera3d::default(),
+        orbit.transform(),
+        orbit,
+    ));
+    if let Some(target) = &config.0.target {
+        camera.insert(RenderTarget::Image(target.clone().into()));
+    }
+}
+
+fn play_idle_when_ready(
+    ready: On<WorldInstanceReady>,
+    mut commands: Commands,
+    children: Query<&Children>,
+    idle: Query<&IdleAnimation>,
+    mut players: Query<&mut AnimationPlayer>,
+) {
+    let Ok(idle) = idle.get(ready.entity) else {
+        return;
+    };
+    for child in children.iter_descendants(ready.entity) {
+        if let Ok(mut player) = players.get_mut(child) {
+            player.play(idle.node).repeat();
+            commands
+                .entity(child)
+                .insert(AnimationGraphHandle(idle.graph.clone()));
+        }
+    }
+}
+
+/// Hair appears once the scene is in: give it the demo's material (and the preset's mesh) the
+/// moment it is added, before the default material would be.
+fn give_hair_its_tuning(
+    add: On<Add, Hair>,
+    mut commands: Commands,
+    scene: Option<Res<NinjaScene>>,
+    config: Res<NinjaSceneConfig>,
+) {
+    let Some(scene) = scene else {
+        return;
+    };
+    let mut entity = commands.entity(add.entity);
+    entity.insert(HairMaterial(scene.hair_material.clone()));
+    if let Some(preset) = &config.0.preset {
+        entity.insert(preset.mesh.clone());
+    }
+}
+
+fn place_orbit_cameras(mut cameras: Query<(&NinjaOrbit, &mut Transform), Changed<NinjaOrbit>>) {
+    for (orbit, mut transform) in &mut cameras {
+        *transform = orbit.transform();
+    }
+}
+
+/// What [`record_clip`] renders.
+#[derive(Clone, Debug)]
+pub struct ClipSettings {
+    /// Frames to write. Default: `90` (3 s).
+    pub frames: u32,
+    /// Folder for `frame_0000.png`, `frame_0001.png`, ...; created if missing.
+    /// Default: `"clip"`.
+    pub out: PathBuf,
+    /// Tuning to start the hair from. Default: `None` (the demo's own).
+    pub preset: Option<HairPreset>,
+    /// Image width in pixels. Default: `640`.
+    pub width: u32,
+    /// Image height in pixels. Default: `360`.
+    pub height: u32,
+    /// Simulated seconds per frame. Default: `1/30`.
+    pub frame_time: f32,
+    /// Draw the tuning panel into the frames (feature `ui`). Default: `false`.
+    pub show_ui: bool,
+}
+
+impl Default for ClipSettings {
+    fn default() -> Self {
+        Self {
+            frames: 90,
+            out: "clip".into(),
+            preset: None,
+            width: 640,
+            height: 360,
+            frame_time: 1.0 / 30.0,
+            show_ui: false,
+        }
+    }
+}
+
+/// Why a clip could not be recorded.
+#[derive(Debug, thiserror::Error)]
+pub enum ClipError {
+    /// The headless renderer failed (no adapter, a pipeline error, a timeout).
+    #[error(transparent)]
+    Headless(#[from] HeadlessError),
+    /// The output folder or a frame could not be written.
+    #[error("{}: {message}", path.display())]
+    Write {
+        /// The folder or file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// Whether the ninja scene is ready to record: the character and its assets are loaded and the
+/// hair mesh is drawn with its material. For [`HeadlessRenderer::warm_up`].
+pub fn ninja_scene_ready(world: &mut World) -> bool {
+    let Some(scene) = world.get_resource::<NinjaScene>() else {
+        return false;
+    };
+    let scene = scene.scene.id();
+    if !world
+        .resource::<AssetServer>()
+        .is_loaded_with_dependencies(scene)
+    {
+        return false;
+    }
+    let mut meshes = world.query::<&ComputedHairMesh>();
+    let mesh_entities: Vec<Entity> = meshes.iter(world).map(|m| m.entity).collect();
+    !mesh_entities.is_empty()
+        && mesh_entities
+            .iter()
+            .all(|&e| world.get::<MeshMaterial3d<ToonHairMaterial>>(e).is_some())
+}
+
+/// Renders `settings.frames` consecutive simulation frames of the ninja scene without a window
+/// and writes them as PNGs; returns their paths in order.
+///
+/// Time stands still while assets load and pipelines compile, then every frame advances the
+/// app by exactly [`ClipSettings::frame_time`] (`TimeUpdateStrategy::ManualDuration`), so the
+/// same settings give the same clip on any machine. Uses [`HeadlessRenderer`]: any Vulkan
+/// adapter works, including lavapipe.
+///
+/// # Errors
+///
+/// [`ClipError::Headless`] without an adapter, on a pipeline error or a timeout;
+/// [`ClipError::Write`] if the folder or a frame cannot be written.
+pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
+    std::fs::create_dir_all(&settings.out).map_err(|e| ClipError::Write {
+        path: settings.out.clone(),
+        message: e.to_string(),
+    })?;
+    let mut renderer = HeadlessRenderer::new(CaptureSettings {
+        width: settings.width,
+        height: settings.height,
+        max_frames: 5_000,
+        ..default()
+    })?;
+    renderer.app.add_plugins((
+        CartoonHairPlugins,
+        NinjaScenePlugin {
+            target: Some(renderer.target()),
+            preset: settings.preset.clone(),
+        },
+    ));
+    #[cfg(feature = "ui")]
+    renderer.app.insert_resource(crate::ui::HairTuningUi {
+        visible: settings.show_ui,
+        ..default()
+    });
+    // Nothing moves until the scene is ready: the clip starts from the same state every time.
+    renderer
+        .app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    renderer.warm_up(ninja_scene_ready)?;
+    // Assets load in a different order from run to run, so the hair may have hung from the bone
+    // at rest or in its animated pose first: start it from its style, the same every time.
+    let world = renderer.app.world_mut();
+    let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
+    for (bone, mut hair) in hairs.iter_mut(world) {
+        hair.reset(bone);
+    }
+    let step = Duration::from_secs_f32(settings.frame_time.max(0.0));
+    renderer
+        .app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(step));
+    let mut paths = Vec::with_capacity(settings.frames as usize);
+    let mut failure = None;
+    renderer.capture_sequence(settings.frames, |index, frame| {
+        let path = settings.out.join(format!("frame_{index:04}.png"));
+        match frame.save_png(&path) {
+            Ok(()) => paths.push(path),
+            Err(message) => {
+                failure.get_or_insert(ClipError::Write { path, message });
+            }
+        }
+    })?;
+    match failure {
+        Some(e) => Err(e),
+        None => {
+            paths.sort();
+            Ok(paths)
+        }
+    }
+}

@@ -1,0 +1,485 @@
+//! Hair presets: a hair's tuning (simulation, mesh and toon material) saved as a RON file and
+//! loaded back, so a look found in the tuning panel can be kept, shared and used in a game.
+//!
+//! A [`HairPreset`] holds the same settings types the plugins use ([`HairSimSettings`],
+//! [`HairMeshSettings`]) and the tunable scalars and modes of a [`ToonHairMaterial`]
+//! ([`ToonMaterialPreset`]). It is written with Bevy reflection (no serde derives), so a preset
+//! file reads like the structs:
+//!
+//! ```text
+//! (
+//!     simulation: (edge_stiffness: 1.0, bend_stiffness: 0.8, ...),
+//!     mesh: (hair_resolution: 16, shape_resolution: 8, ...),
+//!     material: (ramp: ThreeTone, ramp_mode: Constant, ...),
+//! )
+//! ```
+//!
+//! Fields left out of a file keep their defaults, so older presets still load; an unknown field,
+//! a wrong type or a syntax error is an error naming the file, the line and column and what is
+//! wrong. Loading never panics.
+//!
+//! ```no_run
+//! use bevy_cartoon_hair::preset::HairPreset;
+//!
+//! let preset = HairPreset::default();
+//! preset.save("spiky.preset.ron").unwrap();
+//! let back = HairPreset::load("spiky.preset.ron").unwrap();
+//! assert_eq!(back, preset);
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use bevy::prelude::*;
+use bevy::reflect::serde::{TypedReflectDeserializer, TypedReflectSerializer};
+use bevy::reflect::{FromReflect, GetTypeRegistration, TypeRegistry};
+
+use crate::mesh::HairMeshSettings;
+use crate::render::{HatchingMode, RampMode, ToonHairMaterial, ToonRamps};
+use crate::sim::HairSimSettings;
+
+/// Which of the default [`ToonRamps`] a material uses.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Debug, PartialEq)]
+pub enum RampKind {
+    /// [`ToonRamps::two_tone`].
+    TwoTone,
+    /// [`ToonRamps::three_tone`].
+    #[default]
+    ThreeTone,
+    /// [`ToonRamps::depth`], made for [`RampMode::Depth`].
+    Depth,
+    /// [`ToonRamps::back_light`], made for [`RampMode::BackLight`].
+    BackLight,
+    /// [`ToonRamps::specular`], made for [`RampMode::Specular`].
+    Specular,
+    /// A ramp of the game's own: applying the preset leaves the material's ramp as it is.
+    Custom,
+}
+
+impl RampKind {
+    /// Every kind, in menu order.
+    pub const ALL: [RampKind; 6] = [
+        RampKind::TwoTone,
+        RampKind::ThreeTone,
+        RampKind::Depth,
+        RampKind::BackLight,
+        RampKind::Specular,
+        RampKind::Custom,
+    ];
+
+    /// The ramp made for `mode` (three tones for [`RampMode::Constant`]).
+    pub fn for_mode(mode: RampMode) -> Self {
+        match mode {
+            RampMode::Constant => RampKind::ThreeTone,
+            RampMode::Depth => RampKind::Depth,
+            RampMode::BackLight => RampKind::BackLight,
+            RampMode::Specular => RampKind::Specular,
+        }
+    }
+
+    /// The kind of `ramp` among `ramps`, or [`RampKind::Custom`].
+    pub fn of(ramp: &Handle<Image>, ramps: &ToonRamps) -> Self {
+        let id = ramp.id();
+        [
+            (&ramps.two_tone, RampKind::TwoTone),
+            (&ramps.three_tone, RampKind::ThreeTone),
+            (&ramps.depth, RampKind::Depth),
+            (&ramps.back_light, RampKind::BackLight),
+            (&ramps.specular, RampKind::Specular),
+        ]
+        .into_iter()
+        .find(|(h, _)| h.id() == id)
+        .map_or(RampKind::Custom, |(_, k)| k)
+    }
+
+    /// The ramp's handle, `None` for [`RampKind::Custom`].
+    pub fn handle(self, ramps: &ToonRamps) -> Option<Handle<Image>> {
+        match self {
+            RampKind::TwoTone => Some(ramps.two_tone.clone()),
+            RampKind::ThreeTone => Some(ramps.three_tone.clone()),
+            RampKind::Depth => Some(ramps.depth.clone()),
+            RampKind::BackLight => Some(ramps.back_light.clone()),
+            RampKind::Specular => Some(ramps.specular.clone()),
+            RampKind::Custom => None,
+        }
+    }
+
+    /// A short name for menus.
+    pub fn label(self) -> &'static str {
+        match self {
+            RampKind::TwoTone => "two tone",
+            RampKind::ThreeTone => "three tone",
+            RampKind::Depth => "depth",
+            RampKind::BackLight => "back light",
+            RampKind::Specular => "specular",
+            RampKind::Custom => "custom",
+        }
+    }
+}
+
+/// The tunable part of a [`ToonHairMaterial`]: everything but the textures, which are named
+/// ([`ToonMaterialPreset::ramp`]) or generated (the tonal art map) instead. Each field means
+/// what the material's field of the same name means.
+#[derive(Reflect, Clone, Debug, PartialEq)]
+#[reflect(Default, Debug, PartialEq)]
+pub struct ToonMaterialPreset {
+    /// [`ToonHairMaterial::base_color`]. Default: `srgb(0.95, 0.55, 0.15)`.
+    pub base_color: Color,
+    /// Which default ramp to use. Default: [`RampKind::ThreeTone`].
+    pub ramp: RampKind,
+    /// [`ToonHairMaterial::ramp_mode`]. Default: [`RampMode::Constant`].
+    pub ramp_mode: RampMode,
+    /// [`ToonHairMaterial::ramp_row`]. Default: `0.5`.
+    pub ramp_row: f32,
+    /// [`ToonHairMaterial::z_min`]. Default: `1.0`.
+    pub z_min: f32,
+    /// [`ToonHairMaterial::z_scale`]. Default: `6.0`.
+    pub z_scale: f32,
+    /// [`ToonHairMaterial::back_light_power`]. Default: `2.0`.
+    pub back_light_power: f32,
+    /// [`ToonHairMaterial::back_light_strength`]. Default: `0.0`.
+    pub back_light_strength: f32,
+    /// [`ToonHairMaterial::back_light_color`]. Default: white.
+    pub back_light_color: Color,
+    /// [`ToonHairMaterial::specular_strength`]. Default: `0.0`.
+    pub specular_strength: f32,
+    /// [`ToonHairMaterial::shininess`]. Default: `40.0`.
+    pub shininess: f32,
+    /// [`ToonHairMaterial::specular_color`]. Default: white.
+    pub specular_color: Color,
+    /// [`ToonHairMaterial::hatching`]; hatching also needs a tonal art map, which the tuning
+    /// panel's plugin generates when a material asks for hatching without one.
+    /// Default: [`HatchingMode::None`].
+    pub hatching: HatchingMode,
+    /// [`ToonHairMaterial::hatch_scale`]. Default: `1.0`.
+    pub hatch_scale: f32,
+}
+
+impl Default for ToonMaterialPreset {
+    fn default() -> Self {
+        Self::from_material(&ToonHairMaterial::default(), None)
+    }
+}
+
+impl ToonMaterialPreset {
+    /// The tunable fields of `material`; its ramp is named by looking it up in `ramps`
+    /// ([`RampKind::ThreeTone`] when `ramps` is `None`).
+    pub fn from_material(material: &ToonHairMaterial, ramps: Option<&ToonRamps>) -> Self {
+        Self {
+            base_color: material.base_color,
+            ramp: ramps.map_or(RampKind::ThreeTone, |r| RampKind::of(&material.ramp, r)),
+            ramp_mode: material.ramp_mode,
+            ramp_row: material.ramp_row,
+            z_min: material.z_min,
+            z_scale: material.z_scale,
+            back_light_power: material.back_light_power,
+            back_light_strength: material.back_light_strength,
+            back_light_color: material.back_light_color,
+            specular_strength: material.specular_strength,
+            shininess: material.shininess,
+            specular_color: material.specular_color,
+            hatching: material.hatching,
+            hatch_scale: material.hatch_scale,
+        }
+    }
+
+    /// Writes these fields into `material`, and its ramp from `ramps` unless the ramp is
+    /// [`RampKind::Custom`]. The tonal art map is left as it is.
+    pub fn apply(&self, material: &mut ToonHairMaterial, ramps: &ToonRamps) {
+        if let Some(ramp) = self.ramp.handle(ramps) {
+            material.ramp = ramp;
+        }
+        material.base_color = self.base_color;
+        material.ramp_mode = self.ramp_mode;
+        material.ramp_row = self.ramp_row;
+        material.z_min = self.z_min;
+        material.z_scale = self.z_scale;
+        material.back_light_power = self.back_light_power;
+        material.back_light_strength = self.back_light_strength;
+        material.back_light_color = self.back_light_color;
+        material.specular_strength = self.specular_strength;
+        material.shininess = self.shininess;
+        material.specular_color = self.specular_color;
+        material.hatching = self.hatching;
+        material.hatch_scale = self.hatch_scale;
+    }
+}
+
+/// A hair's whole tuning, as saved in a preset file. See the [module docs](self).
+#[derive(Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Default, Debug, PartialEq)]
+pub struct HairPreset {
+    /// How the hair moves.
+    pub simulation: HairSimSettings,
+    /// How strands become tubes.
+    pub mesh: HairMeshSettings,
+    /// How the hair is shaded.
+    pub material: ToonMaterialPreset,
+}
+
+/// Why a preset could not be saved or loaded. Every message names the file (or `<string>` for
+/// [`HairPreset::from_ron`]).
+#[derive(Debug, thiserror::Error)]
+pub enum HairPresetError {
+    /// The file could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// The text is not a valid preset: bad RON syntax, an unknown field, a value of the wrong
+    /// type.
+    #[error("{file}:{line}:{column}: {message}")]
+    Parse {
+        /// The file, or `<string>`.
+        file: String,
+        /// Line of the error, from 1.
+        line: usize,
+        /// Column of the error, from 1.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The preset could not be written as RON (a value RON cannot express).
+    #[error("{file}: cannot write the preset: {message}")]
+    Serialize {
+        /// The file, or `<string>`.
+        file: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// A registry holding just the preset's types.
+fn preset_registry() -> TypeRegistry {
+    let mut registry = TypeRegistry::new();
+    registry.register::<HairPreset>();
+    registry
+}
+
+impl HairPreset {
+    /// The preset of a hair: its settings and its material's tunable fields.
+    pub fn new(
+        simulation: &HairSimSettings,
+        mesh: &HairMeshSettings,
+        material: &ToonHairMaterial,
+        ramps: Option<&ToonRamps>,
+    ) -> Self {
+        Self {
+            simulation: simulation.clone(),
+            mesh: mesh.clone(),
+            material: ToonMaterialPreset::from_material(material, ramps),
+        }
+    }
+
+    /// Writes the preset into a hair's settings and material (see
+    /// [`ToonMaterialPreset::apply`]).
+    pub fn apply(
+        &self,
+        simulation: &mut HairSimSettings,
+        mesh: &mut HairMeshSettings,
+        material: &mut ToonHairMaterial,
+        ramps: &ToonRamps,
+    ) {
+        simulation.clone_from(&self.simulation);
+        mesh.clone_from(&self.mesh);
+        self.material.apply(material, ramps);
+    }
+
+    /// The preset as pretty-printed RON.
+    ///
+    /// # Errors
+    ///
+    /// [`HairPresetError::Serialize`] if RON cannot express a value.
+    pub fn to_ron(&self) -> Result<String, HairPresetError> {
+        self.to_ron_named("<string>")
+    }
+
+    fn to_ron_named(&self, file: &str) -> Result<String, HairPresetError> {
+        let registry = preset_registry();
+        let serializer = TypedReflectSerializer::new(self, &registry);
+        let config = ron::ser::PrettyConfig::new()
+            .depth_limit(3)
+            .indentor("    ");
+        ron::ser::to_string_pretty(&serializer, config).map_err(|e| HairPresetError::Serialize {
+            file: file.to_owned(),
+            message: e.to_string(),
+        })
+    }
+
+    /// Reads a preset from RON text. Fields left out keep their defaults.
+    ///
+    /// # Errors
+    ///
+    /// [`HairPresetError::Parse`] with the line, column and problem; the file is `<string>`.
+    pub fn from_ron(text: &str) -> Result<Self, HairPresetError> {
+        Self::from_ron_named("<string>", text)
+    }
+
+    fn from_ron_named(file: &str, text: &str) -> Result<Self, HairPresetError> {
+        let registry = preset_registry();
+        let registration = HairPreset::get_type_registration();
+        let seed = TypedReflectDeserializer::new(&registration, &registry);
+        let value = ron::Options::default()
+            .from_str_seed(text, seed)
+            .map_err(|e| HairPresetError::Parse {
+                file: file.to_owned(),
+                line: e.span.start.line,
+                column: e.span.start.col,
+                message: e.code.to_string(),
+            })?;
+        HairPreset::from_reflect(value.as_partial_reflect()).ok_or_else(|| HairPresetError::Parse {
+            file: file.to_owned(),
+            line: 1,
+            column: 1,
+            message: "the file does not describe a HairPreset".to_owned(),
+        })
+    }
+
+    /// Saves the preset as a RON file, replacing any file at `path`.
+    ///
+    /// # Errors
+    ///
+    /// [`HairPresetError::Io`] naming the file if it cannot be written.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), HairPresetError> {
+        let path = path.as_ref();
+        let text = self.to_ron_named(&path.display().to_string())?;
+        std::fs::write(path, text + "\n").map_err(|source| HairPresetError::Io {
+            path: path.to_owned(),
+            source,
+        })
+    }
+
+    /// Loads a preset from a RON file.
+    ///
+    /// # Errors
+    ///
+    /// [`HairPresetError::Io`] if the file cannot be read, [`HairPresetError::Parse`] naming the
+    /// file, line and column if it is not a valid preset.
+    pub fn load(path: impl AsRef<Path>) -> Result<Self, HairPresetError> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| HairPresetError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::from_ron_named(&path.display().to_string(), &text)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::curve::QuadraticCurve;
+
+    fn tuned() -> HairPreset {
+        HairPreset {
+            simulation: HairSimSettings {
+                edge_stiffness: 0.9,
+                anchor_stiffness: QuadraticCurve::new(0.1, -0.3, 0.6),
+                gravity: Vec3::new(0.5, -4.0, 0.0),
+                margin_seed: 42,
+                ..default()
+            },
+            mesh: HairMeshSettings {
+                hair_resolution: 24,
+                shape_resolution: 5,
+                taper: QuadraticCurve::linear(1.0, 0.1),
+                ..default()
+            },
+            material: ToonMaterialPreset {
+                base_color: Color::srgb(0.98, 0.62, 0.12),
+                ramp: RampKind::Specular,
+                ramp_mode: RampMode::Specular,
+                hatching: HatchingMode::Surface,
+                hatch_scale: 2.5,
+                specular_color: Color::linear_rgba(0.2, 0.3, 0.4, 1.0),
+                ..default()
+            },
+        }
+    }
+
+    #[test]
+    fn round_trips_through_ron_text() {
+        let preset = tuned();
+        let text = preset.to_ron().unwrap();
+        assert!(text.contains("hair_resolution: 24"), "{text}");
+        assert_eq!(HairPreset::from_ron(&text).unwrap(), preset);
+    }
+
+    #[test]
+    fn round_trips_through_a_file() {
+        let path = std::env::temp_dir().join(format!(
+            "bevy_cartoon_hair_preset_{}.ron",
+            std::process::id()
+        ));
+        let preset = tuned();
+        preset.save(&path).unwrap();
+        let back = HairPreset::load(&path);
+        let _ = std::fs::remove_file(&path);
+        assert_eq!(back.unwrap(), preset);
+    }
+
+    #[test]
+    fn missing_fields_keep_their_defaults() {
+        let preset = HairPreset::from_ron("(mesh: (hair_resolution: 9))").unwrap();
+        assert_eq!(preset.mesh.hair_resolution, 9);
+        assert_eq!(preset.mesh.shape_resolution, 8);
+        assert_eq!(preset.simulation, HairSimSettings::default());
+    }
+
+    #[test]
+    fn malformed_presets_are_errors_naming_file_place_and_problem() {
+        let unknown = HairPreset::from_ron("(\n  mesh: (hair_rezolution: 9),\n)").unwrap_err();
+        let text = unknown.to_string();
+        assert!(text.starts_with("<string>:2:"), "{text}");
+        assert!(text.contains("hair_rezolution"), "{text}");
+
+        let wrong_type = HairPreset::from_ron("(mesh: (hair_resolution: \"many\"))").unwrap_err();
+        assert!(
+            matches!(wrong_type, HairPresetError::Parse { .. }),
+            "{wrong_type}"
+        );
+
+        let syntax = HairPreset::from_ron("(simulation: (damping: 2.0,").unwrap_err();
+        assert!(matches!(syntax, HairPresetError::Parse { .. }), "{syntax}");
+
+        let path = std::env::temp_dir().join(format!(
+            "bevy_cartoon_hair_bad_preset_{}.ron",
+            std::process::id()
+        ));
+        std::fs::write(&path, "(material: (ramp: Rainbow))").unwrap();
+        let bad_file = HairPreset::load(&path).unwrap_err().to_string();
+        let _ = std::fs::remove_file(&path);
+        assert!(
+            bad_file.starts_with(&path.display().to_string()),
+            "{bad_file}"
+        );
+        assert!(bad_file.contains("Rainbow"), "{bad_file}");
+
+        let missing = HairPreset::load("/nonexistent/dir/x.preset.ron").unwrap_err();
+        assert!(matches!(missing, HairPresetError::Io { .. }), "{missing}");
+        assert!(
+            missing
+                .to_string()
+                .contains("/nonexistent/dir/x.preset.ron")
+        );
+    }
+
+    #[test]
+    fn applying_a_preset_sets_the_matching_ramp() {
+        let mut images = Assets::<Image>::default();
+        let ramps = ToonRamps::generate(&mut images);
+        let preset = tuned();
+        let mut sim = HairSimSettings::default();
+        let mut mesh = HairMeshSettings::default();
+        let mut material = ToonHairMaterial::default();
+        preset.apply(&mut sim, &mut mesh, &mut material, &ramps);
+        assert_eq!(material.ramp, ramps.specular);
+        assert_eq!(
+            HairPreset::new(&sim, &mesh, &material, Some(&ramps)),
+            preset
+        );
+    }
+}

@@ -1,0 +1,212 @@
+//! The live tuning panel (thesis 3.6 and 4.4): three egui windows over the game, shown and hidden
+//! together with [`HairTuningUi::visible`] (the `ninja_head` example toggles it with M).
+//!
+//! | window | what it holds |
+//! |--------|---------------|
+//! | **Debug** | draw particles, springs, anchors and head colliders ([`HairDebugDraw`]); pause and step ([`HairSimControl`](crate::sim::HairSimControl)); milliseconds per stage ([`HairStageTimings`]); the hair's step counters. |
+//! | **Hair properties** | the H curve, hair and shape resolution with *Rebuild mesh*, the S curve, edge, bend and torsion stiffness, gravity, damping, margins with *Alter margins*; presets (save and load). |
+//! | **Effects** | the toon material: ramp mode and ramp, depth detail (Zmin, Zscale), back lighting, specular, hatching and HScale. |
+//!
+//! Every control edits the plugin's own types: [`HairSimSettings`](crate::sim::HairSimSettings)
+//! and [`HairMeshSettings`](crate::mesh::HairMeshSettings) on the hair entity, the
+//! [`ToonHairMaterial`](crate::render::ToonHairMaterial) asset behind its
+//! [`HairMaterial`](crate::render::HairMaterial). There is no copy to keep in sync: an edit takes
+//! effect on the next frame, and a change made by game code shows in the panel. Values are
+//! written back only when a control changed them, so an open panel does not mark settings or
+//! materials as changed every frame. The one exception is the resolution pair, which the thesis
+//! applies with *Rebuild mesh*: it is edited as a pending copy and applied by the button.
+//!
+//! The panel edits one hair at a time ([`HairTuningUi::hair`]; the first hair when unset).
+//!
+//! The E curve (silhouette fade) and the silhouette controls of the thesis's effects window are
+//! not here yet: silhouettes have no settings component to edit.
+
+mod debug;
+mod panels;
+
+pub use bevy_egui;
+pub use debug::{HairDebugDraw, HairDebugGizmos, HairStageTimings, HairStageTimingsPlugin};
+pub use panels::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
+
+use bevy::prelude::*;
+use bevy_egui::{EguiPlugin, EguiPrimaryContextPass, egui};
+
+use crate::HairSystems;
+use crate::sim::Hair;
+
+/// Whether the tuning panel is shown, which hair it edits, and where presets go.
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default, Debug)]
+pub struct HairTuningUi {
+    /// Show the three windows. Toggle it from a key (the example uses M). Default: `false`.
+    pub visible: bool,
+    /// The hair the panel edits; `None` (or a despawned entity) picks the first hair.
+    /// Default: `None`.
+    pub hair: Option<Entity>,
+    /// The preset file the *Save* and *Load* buttons use. Default: `"hair.preset.ron"`.
+    pub preset_path: String,
+}
+
+impl Default for HairTuningUi {
+    fn default() -> Self {
+        Self {
+            visible: false,
+            hair: None,
+            preset_path: "hair.preset.ron".into(),
+        }
+    }
+}
+
+impl HairTuningUi {
+    /// Shows the panel if hidden and hides it if shown.
+    pub fn toggle(&mut self) {
+        self.visible = !self.visible;
+    }
+}
+
+/// Run condition: the tuning panel is shown.
+pub fn tuning_ui_visible(ui: Option<Res<HairTuningUi>>) -> bool {
+    ui.is_some_and(|ui| ui.visible)
+}
+
+/// Run condition: egui is using the keyboard (a text field has focus or a popup is open), so
+/// game keys should be ignored. `false` when egui is not running.
+pub fn tuning_ui_wants_keyboard(wants: Option<Res<bevy_egui::input::EguiWantsInput>>) -> bool {
+    wants.is_some_and(|w| w.wants_any_keyboard_input())
+}
+
+/// Panel state that is not a setting: pending edits and the last message.
+#[derive(Resource, Default)]
+pub(crate) struct PanelState {
+    /// Resolutions being edited, applied by *Rebuild mesh*: `(hair, hair_resolution,
+    /// shape_resolution)`.
+    pending_mesh: Option<(Entity, u32, u32)>,
+    /// The last preset or hatching message, and whether it is an error.
+    message: Option<(String, bool)>,
+}
+
+impl PanelState {
+    fn report(&mut self, message: impl Into<String>, error: bool) {
+        let message = message.into();
+        if error {
+            warn!("{message}");
+        } else {
+            info!("{message}");
+        }
+        self.message = Some((message, error));
+    }
+
+    fn show_message(&self, ui: &mut egui::Ui) {
+        if let Some((text, error)) = &self.message {
+            let color = if *error {
+                egui::Color32::from_rgb(255, 120, 100)
+            } else {
+                egui::Color32::from_rgb(150, 220, 150)
+            };
+            ui.colored_label(color, text);
+        }
+    }
+}
+
+/// The tuning panel. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins) with the `ui`
+/// feature; adds bevy_egui's [`EguiPlugin`] unless the app already has it.
+#[derive(Default)]
+pub struct HairTuningUiPlugin;
+
+impl Plugin for HairTuningUiPlugin {
+    fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<EguiPlugin>() {
+            app.add_plugins(EguiPlugin::default());
+        }
+        if !app.is_plugin_added::<HairStageTimingsPlugin>() {
+            app.add_plugins(HairStageTimingsPlugin);
+        }
+        app.init_resource::<HairTuningUi>()
+            .init_resource::<HairDebugDraw>()
+            .init_resource::<HatchingMapSettings>()
+            .init_resource::<TonalArtMapCache>()
+            .init_resource::<PanelState>()
+            .register_type::<HairTuningUi>()
+            .register_type::<HairDebugDraw>()
+            .init_gizmo_group::<HairDebugGizmos>()
+            .add_systems(Startup, debug::configure_debug_gizmos)
+            .add_systems(Update, select_hair)
+            .add_systems(
+                PostUpdate,
+                (
+                    debug::draw_hair_debug
+                        // Draw the particles this frame's step wrote.
+                        .after(HairSystems::Simulate)
+                        .run_if(|d: Res<HairDebugDraw>| d.any()),
+                    assign_tonal_art_maps,
+                ),
+            )
+            .add_systems(
+                EguiPrimaryContextPass,
+                (
+                    debug::debug_window,
+                    panels::properties_window,
+                    panels::effects_window,
+                )
+                    .chain()
+                    .run_if(tuning_ui_visible),
+            );
+    }
+}
+
+/// Keeps [`HairTuningUi::hair`] on an existing hair.
+fn select_hair(mut ui: ResMut<HairTuningUi>, hairs: Query<Entity, With<Hair>>) {
+    if ui.hair.is_some_and(|e| hairs.contains(e)) {
+        return;
+    }
+    let first = hairs.iter().min();
+    if ui.hair != first {
+        ui.hair = first;
+    }
+}
+
+/// A labelled row of three drag values editing a quadratic curve; `true` when changed.
+fn curve_row(ui: &mut egui::Ui, label: &str, curve: &mut crate::curve::QuadraticCurve) -> bool {
+    let mut changed = false;
+    ui.label(label);
+    ui.horizontal(|ui| {
+        for (name, v) in [
+            ("a", &mut curve.a),
+            ("b", &mut curve.b),
+            ("c", &mut curve.c),
+        ] {
+            changed |= ui
+                .add(
+                    egui::DragValue::new(v)
+                        .speed(0.01)
+                        .prefix(format!("{name} ")),
+                )
+                .changed();
+        }
+    });
+    ui.end_row();
+    changed
+}
+
+/// A labelled slider row in a grid; `true` when changed.
+fn slider_row(
+    ui: &mut egui::Ui,
+    label: &str,
+    value: &mut f32,
+    range: std::ops::RangeInclusive<f32>,
+) -> bool {
+    ui.label(label);
+    let changed = ui.add(egui::Slider::new(value, range)).changed();
+    ui.end_row();
+    changed
+}
+
+/// A labelled drag value row in a grid; `true` when changed.
+fn drag_row(ui: &mut egui::Ui, label: &str, value: &mut f32, speed: f64) -> bool {
+    ui.label(label);
+    let changed = ui
+        .add(egui::DragValue::new(value).speed(speed).max_decimals(4))
+        .changed();
+    ui.end_row();
+    changed
+}

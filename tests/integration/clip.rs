@@ -1,0 +1,168 @@
+//! The ninja scene rendered headless: the clip recorder of the `ninja_head` example, and the
+//! tuning panel with debug drawing.
+
+use std::path::{Path, PathBuf};
+
+use bevy::asset::RenderAssetUsages;
+use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
+use bevy::prelude::*;
+use bevy_cartoon_hair::demo::{ClipSettings, NinjaScenePlugin, ninja_scene_ready, record_clip};
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::ui::HairDebugDraw;
+use libtest_mimic::Failed;
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "clip_recorder_writes_consecutive_deterministic_frames_with_hair",
+        clip_recorder_writes_consecutive_deterministic_frames_with_hair,
+    ),
+    (
+        "tuning_panel_and_debug_drawing_render",
+        tuning_panel_and_debug_drawing_render,
+    ),
+];
+
+/// The demo hair, `srgb(0.98, 0.62, 0.12)`, in any of its toon tones: orange, unlike the red
+/// headband (too little green), the skin (too much blue) and the grey-green ground.
+fn is_hair([r, g, b, _]: [u8; 4]) -> bool {
+    let (r, g, b) = (f32::from(r), f32::from(g), f32::from(b));
+    r > 90.0 && g > 0.35 * r && g < 0.85 * r && b < 0.5 * g
+}
+
+fn read_png(path: &Path) -> Result<CapturedFrame, Failed> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let image = Image::from_buffer(
+        &bytes,
+        ImageType::Extension("png"),
+        CompressedImageFormats::NONE,
+        true,
+        ImageSampler::Default,
+        RenderAssetUsages::default(),
+    )
+    .map_err(|e| format!("{}: {e}", path.display()))?;
+    let image = image
+        .convert(bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb)
+        .ok_or("PNG is not convertible to RGBA8")?;
+    Ok(CapturedFrame {
+        width: image.width(),
+        height: image.height(),
+        rgba: image.data.unwrap_or_default(),
+    })
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bevy_cartoon_hair_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+/// Records three frames twice: the PNGs exist with the right names and size, show the orange
+/// hair, differ from frame to frame (the clip moves), and are identical between the two runs
+/// (fixed time step, same start).
+fn clip_recorder_writes_consecutive_deterministic_frames_with_hair() -> Result<(), Failed> {
+    let mut runs = Vec::new();
+    for run in 0..2 {
+        let out = temp_dir(&format!("clip{run}"));
+        let settings = ClipSettings {
+            frames: 3,
+            out: out.clone(),
+            width: 320,
+            height: 180,
+            ..default()
+        };
+        let paths = record_clip(&settings)?;
+        let expected: Vec<PathBuf> = (0..3)
+            .map(|i| out.join(format!("frame_{i:04}.png")))
+            .collect();
+        if paths != expected {
+            return Err(format!("wrote {paths:?}, expected {expected:?}").into());
+        }
+        let frames = paths
+            .iter()
+            .map(|p| read_png(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+            frames[0].save_png(Path::new(&dir).join("clip_frame_0000.png"))?;
+        }
+        let _ = std::fs::remove_dir_all(&out);
+        runs.push(frames);
+    }
+    for (i, frame) in runs[0].iter().enumerate() {
+        if (frame.width, frame.height) != (320, 180) {
+            return Err(format!("frame {i} is {}x{}", frame.width, frame.height).into());
+        }
+        let hair = frame.count(is_hair);
+        // The hair covers about 2.5% of the frame at this zoom.
+        if hair < 320 * 180 / 100 {
+            return Err(format!("frame {i} has only {hair} hair-coloured pixels").into());
+        }
+    }
+    for i in 1..3 {
+        if runs[0][i].rgba == runs[0][i - 1].rgba {
+            return Err(format!(
+                "frames {} and {i} are the same: time did not advance",
+                i - 1
+            )
+            .into());
+        }
+    }
+    for (i, (a, b)) in runs[0].iter().zip(&runs[1]).enumerate() {
+        if a.rgba != b.rgba {
+            let differing = a
+                .rgba
+                .chunks_exact(4)
+                .zip(b.rgba.chunks_exact(4))
+                .filter(|(a, b)| a != b)
+                .count();
+            return Err(format!("frame {i} differs between runs in {differing} pixels").into());
+        }
+    }
+    Ok(())
+}
+
+/// The panel's three windows draw over the scene (egui's dark window fill covers a good part
+/// of the frame) and the debug drawing shows the particles (magenta) in front of the hair.
+fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        width: 1280,
+        height: 720,
+        max_frames: 5_000,
+        ..default()
+    })?;
+    r.app.add_plugins((
+        CartoonHairPlugins,
+        NinjaScenePlugin {
+            target: Some(r.target()),
+            preset: None,
+        },
+    ));
+    r.app
+        .insert_resource(HairTuningUi {
+            visible: true,
+            ..default()
+        })
+        .insert_resource(HairDebugDraw {
+            particles: true,
+            springs: true,
+            anchors: false,
+            colliders: true,
+        });
+    r.warm_up(ninja_scene_ready)?;
+    let frame = r.capture()?;
+    if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+        frame.save_png(Path::new(&dir).join("tuning_panel.png"))?;
+    }
+    let total = (frame.width * frame.height) as f32;
+    // egui's dark theme fills windows with grey 27 (the scene's background is light blue).
+    let panel = frame.count(|[r, g, b, _]| r.abs_diff(g) < 6 && g.abs_diff(b) < 6 && r < 50) as f32;
+    if panel / total < 0.15 {
+        return Err(format!("egui windows cover only {:.3} of the frame", panel / total).into());
+    }
+    // Particle gizmos: srgb(1.0, 0.1, 0.6).
+    let particles = frame.count(|[r, g, b, _]| r > 200 && g < 90 && (110..200).contains(&b));
+    if particles < 50 {
+        return Err(format!("only {particles} magenta particle pixels").into());
+    }
+    Ok(())
+}
