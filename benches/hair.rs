@@ -47,20 +47,7 @@ fn strands(strands: usize, particles: usize) -> Vec<Vec<Vec3>> {
 /// one thread each for IO and async work and leaves compute (where systems and `par_iter` run)
 /// a single thread. Both apps below get the same setting.
 fn minimal_plugins() -> bevy::app::PluginGroupBuilder {
-    use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
-    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-    MinimalPlugins.set(TaskPoolPlugin {
-        task_pool_options: TaskPoolOptions {
-            compute: TaskPoolThreadAssignmentPolicy {
-                min_threads: cores,
-                max_threads: cores,
-                percent: 1.0,
-                on_thread_spawn: None,
-                on_thread_destroy: None,
-            },
-            ..default()
-        },
-    })
+    MinimalPlugins.set(bevy_cartoon_hair::compute_on_every_core())
 }
 
 fn hair_app(n: usize, particles: usize) -> App {

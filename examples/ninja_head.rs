@@ -95,14 +95,17 @@ fn main() {
     }
     let mut app = App::new();
     app.add_plugins((
-        DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window {
-                title: "bevy_cartoon_hair: ninja head".into(),
-                resolution: (1280, 720).into(),
+        DefaultPlugins
+            .set(WindowPlugin {
+                primary_window: Some(Window {
+                    title: "bevy_cartoon_hair: ninja head".into(),
+                    resolution: (1280, 720).into(),
+                    ..default()
+                }),
                 ..default()
-            }),
-            ..default()
-        }),
+            })
+            // Hair work spreads over the compute pool; give it every core.
+            .set(bevy_cartoon_hair::compute_on_every_core()),
         CartoonHairPlugins,
         NinjaScenePlugin {
             target: None,

@@ -114,25 +114,13 @@
 //!
 //! **Hair uses only one core.** The solver, the mesh builder and silhouette extraction spread
 //! strands over Bevy's compute task pool. On a 2-core machine Bevy's default gives that pool a
-//! single thread (the IO and async pools take the rest). Give compute every core:
+//! single thread (the IO and async pools take the rest). [`compute_on_every_core`] gives compute
+//! every core:
 //!
 //! ```no_run
-//! use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
 //! use bevy::prelude::*;
 //!
-//! let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-//! App::new().add_plugins(DefaultPlugins.set(TaskPoolPlugin {
-//!     task_pool_options: TaskPoolOptions {
-//!         compute: TaskPoolThreadAssignmentPolicy {
-//!             min_threads: cores,
-//!             max_threads: cores,
-//!             percent: 1.0,
-//!             on_thread_spawn: None,
-//!             on_thread_destroy: None,
-//!         },
-//!         ..default()
-//!     },
-//! }));
+//! App::new().add_plugins(DefaultPlugins.set(bevy_cartoon_hair::compute_on_every_core()));
 //! ```
 //!
 //! **A keyframe groom fails to load.** Every groom in a `.hairanim.xml` must have the strand and
@@ -167,6 +155,29 @@ use bevy::app::{PluginGroupBuilder, PostUpdate};
 use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
+
+/// A [`TaskPoolPlugin`](bevy::app::TaskPoolPlugin) whose compute pool has a thread per core.
+///
+/// Bevy's default splits small machines between IO, async and compute pools, leaving compute (where
+/// systems, `par_iter` and this crate's strand work run) one thread on 2 cores. Hair simulation
+/// roughly halves in wall time with this on such machines. Use as
+/// `DefaultPlugins.set(compute_on_every_core())`.
+pub fn compute_on_every_core() -> bevy::app::TaskPoolPlugin {
+    use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    TaskPoolPlugin {
+        task_pool_options: TaskPoolOptions {
+            compute: TaskPoolThreadAssignmentPolicy {
+                min_threads: cores,
+                max_threads: cores,
+                percent: 1.0,
+                on_thread_spawn: None,
+                on_thread_destroy: None,
+            },
+            ..default()
+        },
+    }
+}
 
 /// The things most apps need: `use bevy_cartoon_hair::prelude::*;`.
 pub mod prelude {
