@@ -22,6 +22,7 @@
 //! not here yet: silhouettes have no settings component to edit.
 
 mod debug;
+mod outlines;
 mod panels;
 
 pub use bevy_egui;

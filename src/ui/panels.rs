@@ -1,7 +1,8 @@
 //! The **Hair properties** window (base mesh: H curve, resolutions, *Rebuild mesh*; simulation:
 //! S curve, stiffnesses, gravity, damping, margins, *Alter margins*; presets) and the
 //! **Effects** window (the hair's [`ToonHairMaterial`]: ramp, depth detail, back light,
-//! specular, hatching), with the tonal art map hatching needs, generated once on demand.
+//! specular, hatching; then silhouettes and highlights, see `outlines`), with the tonal art map
+//! hatching needs, generated once on demand.
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
@@ -9,8 +10,12 @@ use bevy_egui::{EguiContexts, egui};
 use super::{HairTuningUi, PanelState, curve_row, drag_row, slider_row};
 use crate::hatching::{StrokeImage, TamSettings, generate, tonal_art_map_image};
 use crate::mesh::HairMeshSettings;
+use crate::mesh::highlights::SpecularQuads;
 use crate::preset::{HairPreset, RampKind, ToonMaterialPreset};
-use crate::render::{HairMaterial, HatchingMode, RampMode, ToonHairMaterial, ToonRamps};
+use crate::render::{
+    HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps,
+};
+use crate::silhouette::SilhouetteSettings;
 use crate::sim::{Hair, HairSimSettings};
 
 /// The hairs the window edits.
@@ -333,12 +338,17 @@ fn color_row(ui: &mut egui::Ui, label: &str, color: &mut Color) {
 }
 
 /// The Effects window.
+// A Bevy system: its parameters are its queries.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub(super) fn effects_window(
     mut contexts: EguiContexts,
     tuning: Res<HairTuningUi>,
     hairs: Query<&HairMaterial>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
     ramps: Res<ToonRamps>,
+    mut outlines: Query<(&mut SilhouetteSettings, &mut SpecularQuads)>,
+    mut cameras: Query<(Entity, Option<&mut ImageSpaceOutline>), With<Camera3d>>,
+    mut commands: Commands,
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
@@ -368,6 +378,31 @@ pub(super) fn effects_window(
                 && let Some(mut material) = materials.get_mut(&handle.0)
             {
                 m.apply(&mut material, &ramps);
+            }
+            if let Some(hair) = tuning.hair
+                && let Ok((mut strokes, mut quads)) = outlines.get_mut(hair)
+            {
+                egui::CollapsingHeader::new("Silhouettes and highlights")
+                    .default_open(false)
+                    .show(ui, |ui| {
+                        let mut camera = cameras.iter_mut().next();
+                        let mut toggle = false;
+                        let outline = camera.as_mut().and_then(|(_, o)| o.as_mut());
+                        super::outlines::outline_controls(
+                            ui,
+                            &mut strokes,
+                            &mut quads,
+                            outline,
+                            &mut toggle,
+                        );
+                        if toggle && let Some((entity, outline)) = camera.as_mut() {
+                            super::outlines::toggle_image_outline(
+                                &mut commands,
+                                *entity,
+                                outline.as_mut(),
+                            );
+                        }
+                    });
             }
         });
 }
