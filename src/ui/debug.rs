@@ -302,13 +302,19 @@ mod tests {
         .add_systems(PostUpdate, sleep_ms(2).in_set(HairSystems::Attach))
         .add_systems(PostUpdate, sleep_ms(12).in_set(HairSystems::Simulate))
         .add_systems(PostUpdate, sleep_ms(6).in_set(HairSystems::BuildMesh));
+        let start = std::time::Instant::now();
         app.update();
+        let frame_ms = start.elapsed().as_secs_f32() * 1000.0;
         let t = app.world().resource::<HairStageTimings>().clone();
         assert_eq!(t.frames, 1);
         assert!(t.attach >= 2.0, "{t:?}");
         assert!(t.simulate >= 12.0, "{t:?}");
         assert!(t.build_mesh >= 6.0, "{t:?}");
-        // Each stage is measured on its own: Simulate's sleep does not leak into the others.
-        assert!(t.attach < 12.0 && t.build_mesh < 12.0, "{t:?}");
+        // Each stage is measured on its own: the windows do not overlap, so together they fit in
+        // the frame (an upper bound that holds however loaded the machine is).
+        assert!(
+            t.attach + t.simulate + t.build_mesh <= frame_ms + 0.5,
+            "{t:?} in {frame_ms} ms"
+        );
     }
 }
