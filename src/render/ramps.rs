@@ -107,19 +107,20 @@ impl ToonRamps {
     }
 }
 
-/// The default stroke texture for object-space silhouettes: an ink line, opaque in the middle and
-/// soft at both edges across `v`, with a little pressure variation along `u` (which repeats).
-pub fn stroke_texture_image() -> Image {
-    let (w, h) = (128u32, 16u32);
+/// A white, linearly filtered `w x h` texture whose alpha is `alpha(u, v)` at texel centres
+/// (`u`, `v` in `[0, 1]`); `repeat_u` makes it tile along `u`.
+fn white_alpha_image(
+    label: &'static str,
+    (w, h): (u32, u32),
+    repeat_u: bool,
+    alpha: impl Fn(f32, f32) -> f32,
+) -> Image {
     let mut data = Vec::with_capacity((w * h * 4) as usize);
     for row in 0..h {
         let v = (row as f32 + 0.5) / h as f32;
-        // Opaque core, soft edges.
-        let across = (1.6 * (1.0 - (2.0 * v - 1.0).abs().powi(2))).min(1.0);
         for col in 0..w {
-            let u = col as f32 / w as f32 * std::f32::consts::TAU;
-            let pressure = 0.95 + 0.05 * (3.0 * u).sin() * (7.0 * u).cos();
-            let a = (across * pressure).clamp(0.0, 1.0);
+            let u = (col as f32 + 0.5) / w as f32;
+            let a = alpha(u, v).clamp(0.0, 1.0);
             data.extend_from_slice(&[255, 255, 255, (a * 255.0).round() as u8]);
         }
     }
@@ -135,8 +136,12 @@ pub fn stroke_texture_image() -> Image {
         RenderAssetUsages::RENDER_WORLD,
     );
     image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
-        label: Some("silhouette stroke".into()),
-        address_mode_u: ImageAddressMode::Repeat,
+        label: Some(label.into()),
+        address_mode_u: if repeat_u {
+            ImageAddressMode::Repeat
+        } else {
+            ImageAddressMode::ClampToEdge
+        },
         address_mode_v: ImageAddressMode::ClampToEdge,
         mag_filter: ImageFilterMode::Linear,
         min_filter: ImageFilterMode::Linear,
@@ -145,39 +150,22 @@ pub fn stroke_texture_image() -> Image {
     image
 }
 
+/// The default stroke texture for object-space silhouettes: an ink line, opaque in the middle and
+/// soft at both edges across `v`, with a little pressure variation along `u` (which repeats).
+pub fn stroke_texture_image() -> Image {
+    white_alpha_image("silhouette stroke", (128, 16), true, |u, v| {
+        // Opaque core, soft edges.
+        let across = (1.6 * (1.0 - (2.0 * v - 1.0).abs().powi(2))).min(1.0);
+        let u = u * std::f32::consts::TAU;
+        across * (0.95 + 0.05 * (3.0 * u).sin() * (7.0 * u).cos())
+    })
+}
+
 /// The default highlight texture for specular sampling quads: white, opaque along the middle of
 /// the strip and fading to its sides and ends.
 pub fn highlight_texture_image() -> Image {
-    let (w, h) = (64u32, 16u32);
-    let mut data = Vec::with_capacity((w * h * 4) as usize);
-    for row in 0..h {
-        let v = (row as f32 + 0.5) / h as f32;
-        for col in 0..w {
-            let u = (col as f32 + 0.5) / w as f32;
-            let across = 1.0 - (2.0 * v - 1.0).powi(2);
-            let along = (std::f32::consts::PI * u).sin();
-            let a = (across * along * 1.4).clamp(0.0, 1.0);
-            data.extend_from_slice(&[255, 255, 255, (a * 255.0).round() as u8]);
-        }
-    }
-    let mut image = Image::new(
-        Extent3d {
-            width: w,
-            height: h,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        data,
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::RENDER_WORLD,
-    );
-    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
-        label: Some("specular quad".into()),
-        address_mode_u: ImageAddressMode::ClampToEdge,
-        address_mode_v: ImageAddressMode::ClampToEdge,
-        mag_filter: ImageFilterMode::Linear,
-        min_filter: ImageFilterMode::Linear,
-        ..default()
-    });
-    image
+    white_alpha_image("specular quad", (64, 16), false, |u, v| {
+        let across = 1.0 - (2.0 * v - 1.0).powi(2);
+        across * (std::f32::consts::PI * u).sin() * 1.4
+    })
 }
