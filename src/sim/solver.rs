@@ -320,16 +320,22 @@ impl Batch {
         }
     }
 
-    /// Lanes whose state is not finite (bit `l` set for lane `l`).
+    /// Lanes whose state is not finite (bit `l` set for lane `l`). Checking positions suffices:
+    /// a non-finite previous position makes the position non-finite at the next substep.
     pub fn non_finite_lanes(&self) -> u32 {
-        let mut bad = 0u32;
+        // `x * 0` is 0 for finite x and NaN for NaN or infinity; the sum keeps any NaN.
+        let mut acc = [0.0f32; LANES];
         for node in &self.nodes {
             for c in 0..3 {
                 for l in 0..LANES {
-                    if !(node.x[c][l].is_finite() && node.p[c][l].is_finite()) {
-                        bad |= 1 << l;
-                    }
+                    acc[l] += node.x[c][l] * 0.0;
                 }
+            }
+        }
+        let mut bad = 0u32;
+        for (l, a) in acc.iter().enumerate() {
+            if a.is_nan() {
+                bad |= 1 << l;
             }
         }
         bad

@@ -1,5 +1,7 @@
 //! The per-frame systems: gather colliders, step every hair's batches, write particles back.
 
+use std::sync::atomic::{AtomicU32, Ordering};
+
 use bevy::ecs::entity::EntityHashMap;
 use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
@@ -245,10 +247,13 @@ pub(crate) fn step_hair_strands(
         let workers = pool.thread_num().max(1) + 1;
         let chunk = batches.len().div_ceil(workers * 4).max(1);
         let factors = anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()));
+        let last = &input.bones.last().copied().unwrap_or(bone);
+        let resets = AtomicU32::new(0);
         pool.scope(|scope| {
             for (i, part) in batches.chunks_mut(chunk).enumerate() {
                 let input = &input;
                 let factors = &factors;
+                let resets = &resets;
                 let work = async move {
                     let mut local = StepInput {
                         anchor_factor: Vec::new(),
@@ -263,6 +268,18 @@ pub(crate) fn step_hair_strands(
                         local.anchor_factor.clear();
                         local.anchor_factor.extend_from_slice(f);
                         b.step(&local);
+                        // A strand whose state stopped being finite starts again on its anchors.
+                        let bad = b.non_finite_lanes();
+                        if bad != 0 {
+                            for l in 0..super::solver::LANES {
+                                if bad & (1 << l) != 0 {
+                                    b.reset_lane(l, last);
+                                    if l < b.count {
+                                        resets.fetch_add(1, Ordering::Relaxed);
+                                    }
+                                }
+                            }
+                        }
                     }
                 };
                 if i % workers == 0 {
@@ -272,20 +289,7 @@ pub(crate) fn step_hair_strands(
                 }
             }
         });
-        let last = input.bones.last().copied().unwrap_or(bone);
-        for b in &mut computed.batches {
-            let bad = b.non_finite_lanes();
-            if bad != 0 {
-                for l in 0..super::solver::LANES {
-                    if bad & (1 << l) != 0 {
-                        b.reset_lane(l, &last);
-                        if l < b.count {
-                            computed.stats.strand_resets += 1;
-                        }
-                    }
-                }
-            }
-        }
+        computed.stats.strand_resets += resets.load(Ordering::Relaxed);
     }
 }
 
