@@ -156,7 +156,7 @@ use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
 
-/// A [`TaskPoolPlugin`](bevy::app::TaskPoolPlugin) whose compute pool has a thread per core.
+/// A `TaskPoolPlugin` whose compute pool has a thread per core.
 ///
 /// Bevy's default splits small machines between IO, async and compute pools, leaving compute (where
 /// systems, `par_iter` and this crate's strand work run) one thread on 2 cores. Hair simulation
