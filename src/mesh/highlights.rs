@@ -13,7 +13,7 @@ use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 
 use super::tube::sample_spline;
-use super::{ComputedHairMesh, HairMeshSettings};
+use super::{ComputedHairMesh, HairMeshSettings, StripBuffers};
 use crate::sim::{Hair, HairStrands, Strand, StrandParticles};
 
 /// Specular sampling quads of a hair. Off by default; inserted with defaults when missing.
@@ -252,11 +252,11 @@ pub fn build_specular_quads(
             }
         }
         if let Some(mut mesh) = meshes.get_mut(&handle) {
-            let normals = vec![[0.0f32, 0.0, 1.0]; builder.positions.len()];
-            mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, builder.positions.clone());
-            mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
-            mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, builder.uvs.clone());
-            mesh.insert_indices(Indices::U32(builder.indices.clone()));
+            let mut buffers = StripBuffers::take(&mut mesh);
+            buffers.positions.extend_from_slice(&builder.positions);
+            buffers.uvs.extend_from_slice(&builder.uvs);
+            buffers.indices.extend_from_slice(&builder.indices);
+            buffers.put(&mut mesh);
         }
     }
 }

@@ -211,17 +211,25 @@ pub fn rebuild_strand_meshes(
         } else {
             computed.map(|c| c.clone()).expect("checked above")
         };
-        // Gather particles in strand order.
-        scratch.clear();
+        // Gather particles in strand order, reusing last frame's buffers.
+        let mut gathered = 0;
         for e in strand_list.iter() {
             if let Ok((strand, particles)) = strands.get(e) {
-                scratch.push((strand.index, particles.positions.clone()));
+                if gathered == scratch.len() {
+                    scratch.push((0, Vec::new()));
+                }
+                let (index, buffer) = &mut scratch[gathered];
+                *index = strand.index;
+                buffer.clear();
+                buffer.extend_from_slice(&particles.positions);
+                gathered += 1;
             }
         }
-        scratch.sort_by_key(|(i, _)| *i);
-        if scratch.len() != computed.strands {
+        if gathered != computed.strands {
             continue;
         }
+        let scratch = &mut scratch[..gathered];
+        scratch.sort_unstable_by_key(|(i, _)| *i);
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {
             continue;
         };
@@ -289,5 +297,59 @@ fn take_f32x3(mesh: &mut Mesh, id: bevy::mesh::MeshVertexAttribute) -> Vec<[f32;
     match mesh.remove_attribute(id) {
         Some(VertexAttributeValues::Float32x3(v)) => v,
         _ => Vec::new(),
+    }
+}
+
+/// The buffers of a mesh rebuilt from scratch every frame (silhouette strokes, highlight
+/// strips), taken out of the mesh and cleared so refilling them reuses last frame's memory.
+#[derive(Default)]
+pub(crate) struct StripBuffers {
+    pub positions: Vec<[f32; 3]>,
+    pub uvs: Vec<[f32; 2]>,
+    /// Left empty for meshes without vertex colours.
+    pub colors: Vec<[f32; 4]>,
+    pub indices: Vec<u32>,
+    normals: Vec<[f32; 3]>,
+}
+
+impl StripBuffers {
+    /// Takes the buffers out of `mesh`, emptied.
+    pub(crate) fn take(mesh: &mut Mesh) -> Self {
+        let mut b = Self {
+            positions: take_f32x3(mesh, Mesh::ATTRIBUTE_POSITION),
+            normals: take_f32x3(mesh, Mesh::ATTRIBUTE_NORMAL),
+            ..default()
+        };
+        if let Some(VertexAttributeValues::Float32x2(v)) =
+            mesh.remove_attribute(Mesh::ATTRIBUTE_UV_0)
+        {
+            b.uvs = v;
+        }
+        if let Some(VertexAttributeValues::Float32x4(v)) =
+            mesh.remove_attribute(Mesh::ATTRIBUTE_COLOR)
+        {
+            b.colors = v;
+        }
+        if let Some(Indices::U32(v)) = mesh.remove_indices() {
+            b.indices = v;
+        }
+        b.positions.clear();
+        b.normals.clear();
+        b.uvs.clear();
+        b.colors.clear();
+        b.indices.clear();
+        b
+    }
+
+    /// Puts the buffers back; normals face +Z (the strip materials are unlit).
+    pub(crate) fn put(mut self, mesh: &mut Mesh) {
+        self.normals.resize(self.positions.len(), [0.0, 0.0, 1.0]);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, self.positions);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, self.normals);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, self.uvs);
+        if !self.colors.is_empty() {
+            mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, self.colors);
+        }
+        mesh.insert_indices(Indices::U32(self.indices));
     }
 }

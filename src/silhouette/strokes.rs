@@ -21,7 +21,7 @@ use super::edges::{
     build_chain_strip, chain_edges, silhouette_edges,
 };
 use crate::curve::QuadraticCurve;
-use crate::mesh::{ComputedHairMesh, HairMeshSettings};
+use crate::mesh::{ComputedHairMesh, HairMeshSettings, StripBuffers};
 use crate::sim::Hair;
 
 /// Object-space outline strokes of a hair (thesis 4.3.7). A component on the [`Hair`] entity,
@@ -292,24 +292,14 @@ fn empty_stroke_mesh() -> Mesh {
 
 fn fill_stroke_mesh(mesh: &mut Mesh, workers: &[Worker], color: Color) {
     let c = color.to_linear();
-    let (mut positions, mut uvs, mut colors, mut indices) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut b = StripBuffers::take(mesh);
     for w in workers {
-        let base = positions.len() as u32;
-        positions.extend_from_slice(&w.out.positions);
-        uvs.extend_from_slice(&w.out.uvs);
-        colors.extend(
-            w.out
-                .alphas
-                .iter()
-                .map(|a| [c.red, c.green, c.blue, c.alpha * a]),
-        );
-        indices.extend(w.out.indices.iter().map(|i| i + base));
+        let base = b.positions.len() as u32;
+        b.positions.extend_from_slice(&w.out.positions);
+        b.uvs.extend_from_slice(&w.out.uvs);
+        let rgba = |a: &f32| [c.red, c.green, c.blue, c.alpha * a];
+        b.colors.extend(w.out.alphas.iter().map(rgba));
+        b.indices.extend(w.out.indices.iter().map(|i| i + base));
     }
-    let normals = vec![[0.0f32, 0.0, 1.0]; positions.len()];
-    mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
-    mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
-    mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs);
-    mesh.insert_attribute(Mesh::ATTRIBUTE_COLOR, colors);
-    mesh.insert_indices(Indices::U32(indices));
+    b.put(mesh);
 }

@@ -187,10 +187,6 @@ impl std::fmt::Debug for ShapeCollider {
     }
 }
 
-fn splat3(v: Vec3) -> [Lane; 3] {
-    [[v.x; LANES], [v.y; LANES], [v.z; LANES]]
-}
-
 fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
     Vec3::new(a[0][l], a[1][l], a[2][l])
 }
@@ -546,9 +542,4 @@ fn solve_distance(xj: &mut [Lane; 3], xk: &mut [Lane; 3], rest: &Lane, wj: f32, 
         xj[1][l] += wj * f * dy;
         xj[2][l] += wj * f * dz;
     }
-}
-
-/// Splats a point for all lanes (test helper and initial anchors).
-pub fn splat(v: Vec3) -> [Lane; 3] {
-    splat3(v)
 }
