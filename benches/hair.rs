@@ -180,13 +180,16 @@ fn bench_tam(c: &mut Criterion) {
 }
 
 /// 1,000 strands at 16 rings x 8 sides: tube positions and normals, then silhouette extraction,
-/// chaining and stroke strips, single-threaded (the plugin spreads strands over threads).
+/// chaining and stroke strips: single-threaded (`tube_*`, `general_*` and the stages), and as the
+/// plugin runs it on this machine's two cores, mesh writing included (`plugin_2_threads_*`).
 fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     use bevy_cartoon_hair::mesh::tube::{TubeParams, TubeScratch, TubeTopology, build_tube};
     use bevy_cartoon_hair::silhouette::edges::{
         EdgeAdjacency, SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams,
         StrokeVertices, build_chain_strip, chain_edges, silhouette_edges,
     };
+    use bevy_cartoon_hair::silhouette::strokes::{StrokeBuilder, StrokeWorker};
+    use bevy_cartoon_hair::silhouette::tube_edges::{TubeEdgeScratch, TubeEdges};
     let topology = TubeTopology::new(16, 8);
     let per = topology.vertex_count();
     let strands = strands(1_000, 12);
@@ -197,6 +200,14 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
         ..default()
     };
     let mut scratch = TubeScratch::default();
+    // Filled here too, so that the silhouette benches see real tubes when run alone.
+    for ((s, p), n) in strands
+        .iter()
+        .zip(positions.chunks_mut(per))
+        .zip(normals.chunks_mut(per))
+    {
+        build_tube(&topology, s, &params, &mut scratch, p, n, None);
+    }
     let mut group = c.benchmark_group("mesh");
     group.bench_function("rebuild_1000x16x8", |b| {
         b.iter(|| {
@@ -211,18 +222,51 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     });
     group.finish();
     let adjacency = EdgeAdjacency::from_triangles(&topology.indices).unwrap();
+    let tube = TubeEdges::new(&topology);
     let along: Vec<f32> = topology.uvs.iter().map(|uv| uv[1]).collect();
     let eye = Vec3::new(0.0, 0.2, 1.5);
-    let view = Mat4::look_at_rh(eye, Vec3::ZERO, Vec3::Y);
+    let camera_transform = Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y);
     let proj = Mat4::perspective_rh(0.8, 16.0 / 9.0, 0.05, 100.0);
-    let camera = StrokeCamera::new(proj * view, Vec2::new(1280.0, 720.0));
-    let stroke = StrokeParams::default();
+    let camera =
+        StrokeCamera::from_view(camera_transform.to_matrix(), proj, Vec2::new(1280.0, 720.0));
+    // What the plugin passes with its default settings: a 0.6-radius pull toward the camera.
+    let stroke = StrokeParams {
+        depth_bias: 0.6 * params.radius,
+        ..default()
+    };
+    let mut group = c.benchmark_group("silhouettes");
+    // What `extract_silhouettes` runs per strand (facing masks on the tube grid).
+    let mut worker = StrokeWorker::default();
+    group.bench_function("tube_1000x16x8", |b| {
+        b.iter(|| {
+            worker.clear();
+            for s in positions.chunks(per) {
+                worker.add_strand(&tube, s, &along, &camera, &stroke);
+            }
+        })
+    });
+    // What the plugin does per frame on this machine: the strands split between Bevy's compute
+    // thread (one on two cores, by default) and the system's own thread, then the strokes
+    // copied into the stroke mesh.
+    let pool = bevy::tasks::TaskPoolBuilder::new().num_threads(1).build();
+    let mut builder = StrokeBuilder::default();
+    let mut mesh = Mesh::new(
+        bevy::mesh::PrimitiveTopology::TriangleList,
+        bevy::asset::RenderAssetUsages::default(),
+    );
+    group.bench_function("plugin_2_threads_1000x16x8", |b| {
+        b.iter(|| {
+            builder.build(&pool, &positions, &tube, &along, &camera, &stroke);
+            builder.write_mesh(&pool, &mut mesh, Color::BLACK);
+        })
+    });
+    assert!(mesh.count_vertices() > 10_000);
+    // The same strokes through the general closed-mesh path (any triangle list).
     let mut sil_scratch = SilhouetteScratch::default();
     let mut edges = Vec::new();
     let mut chains = SilhouetteChains::default();
     let mut out = StrokeVertices::new();
-    let mut group = c.benchmark_group("silhouettes");
-    group.bench_function("extract_chain_strip_1000x16x8", |b| {
+    group.bench_function("general_1000x16x8", |b| {
         b.iter(|| {
             out.clear();
             for s in positions.chunks(per) {
@@ -236,6 +280,50 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
                 );
                 chain_edges(&edges, &mut sil_scratch, &mut chains);
                 for chain in chains.iter() {
+                    build_chain_strip(chain, s, &along, &camera, &stroke, &mut out);
+                }
+            }
+        })
+    });
+    // The stages alone, to see where the time goes.
+    let mut tube_scratch = TubeEdgeScratch::default();
+    group.bench_function("stage_tube_edges_1000x16x8", |b| {
+        b.iter(|| {
+            for s in positions.chunks(per) {
+                tube.silhouette_edges(s, eye, &mut tube_scratch, &mut edges);
+            }
+        })
+    });
+    let all_edges: Vec<Vec<[u32; 2]>> = positions
+        .chunks(per)
+        .map(|s| {
+            let mut e = Vec::new();
+            tube.silhouette_edges(s, eye, &mut tube_scratch, &mut e);
+            e
+        })
+        .collect();
+    let edge_count: usize = all_edges.iter().map(Vec::len).sum();
+    group.bench_function(format!("stage_chain_{edge_count}_edges"), |b| {
+        b.iter(|| {
+            for e in &all_edges {
+                chain_edges(e, &mut sil_scratch, &mut chains);
+            }
+        })
+    });
+    let all_chains: Vec<SilhouetteChains> = all_edges
+        .iter()
+        .map(|e| {
+            let mut c = SilhouetteChains::default();
+            chain_edges(e, &mut sil_scratch, &mut c);
+            c
+        })
+        .collect();
+    let points: usize = all_chains.iter().map(|c| c.vertices.len()).sum();
+    group.bench_function(format!("stage_strips_{points}_points"), |b| {
+        b.iter(|| {
+            out.clear();
+            for (s, c) in positions.chunks(per).zip(&all_chains) {
+                for chain in c.iter() {
                     build_chain_strip(chain, s, &along, &camera, &stroke, &mut out);
                 }
             }

@@ -167,6 +167,8 @@ pub struct SilhouetteScratch {
     used: Vec<bool>,
     /// Sorted distinct vertex ids, when they are too sparse to index directly.
     ids: Vec<u32>,
+    /// Per compact vertex id: the edge leaving it (see [`chain_loops`]).
+    next: Vec<u32>,
 }
 
 /// An edge end at a vertex: the edge and its far end.
@@ -179,12 +181,46 @@ struct Slot {
     far_id: u32,
 }
 
-/// Writes the silhouette edges of a closed mesh seen from `eye` (a perspective eye point) into
+/// Where a mesh is seen from, for the facing test of silhouette extraction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Viewer {
+    /// A perspective eye point: triangle `(a, b, c)` faces it when
+    /// `dot((b - a) x (c - a), eye - a) > 0`.
+    Point(Vec3),
+    /// An orthographic view: the direction toward the viewer (need not be normalised); a
+    /// triangle faces it when `dot((b - a) x (c - a), direction) > 0`.
+    Direction(Vec3),
+}
+
+impl From<Vec3> for Viewer {
+    /// A perspective eye point.
+    fn from(eye: Vec3) -> Self {
+        Self::Point(eye)
+    }
+}
+
+impl Viewer {
+    /// Whether triangle `(a, b, c)` (counter-clockwise seen from its front) faces the viewer.
+    /// Zero-area and non-finite triangles do not.
+    #[inline(always)]
+    pub fn faces(self, a: Vec3A, b: Vec3A, c: Vec3A) -> bool {
+        // Edge vectors first: they are small and exact, unlike positions relative to the eye.
+        let normal = (b - a).cross(c - a);
+        let toward = match self {
+            Self::Point(eye) => Vec3A::from(eye) - a,
+            Self::Direction(d) => Vec3A::from(d),
+        };
+        normal.dot(toward) > 0.0
+    }
+}
+
+/// Writes the silhouette edges of a closed mesh seen from `viewer` (an eye point as a `Vec3`, or
+/// a [`Viewer`]) (a perspective eye point) into
 /// `out` (cleared first).
 ///
-/// A triangle is front-facing when `dot(normal, eye - point on it) > 0` (normal from the
-/// counter-clockwise index order; zero-area triangles, such as those of a tip tapered to a
-/// point, are not front-facing); an edge is a silhouette edge when one of its triangles is
+/// A triangle is front-facing when [`Viewer::faces`] says so: `dot(normal, eye - point on it) > 0`
+/// for an eye point (normal from the counter-clockwise index order; zero-area triangles, such as
+/// those of a tip tapered to a point, are not front-facing); an edge is a silhouette edge when one of its triangles is
 /// front-facing and the other is not. Each edge is oriented so that its front-facing triangle lies
 /// on its left as seen from the eye (it runs along the edge in that triangle's winding), so the
 /// edges of a silhouette loop all run the same way round.
@@ -197,7 +233,7 @@ pub fn silhouette_edges(
     adjacency: &EdgeAdjacency,
     indices: &[u32],
     positions: &[[f32; 3]],
-    eye: Vec3,
+    viewer: impl Into<Viewer>,
     scratch: &mut SilhouetteScratch,
     out: &mut Vec<[u32; 2]>,
 ) {
@@ -210,25 +246,27 @@ pub fn silhouette_edges(
     // Aligned 4-wide copies make the per-triangle test cheaper than reading `[f32; 3]`s.
     points.clear();
     points.extend(positions.iter().map(|p| Vec3A::from_array(*p)));
-    let eye = Vec3A::from(eye);
+    let viewer = viewer.into();
     facing.clear();
     facing.extend(indices.chunks_exact(3).map(|tri| {
         let a = points[tri[0] as usize];
         let b = points[tri[1] as usize];
         let c = points[tri[2] as usize];
-        // For a plane, dot(normal, eye - p) is the same for every p on it: use a vertex. Edge
-        // vectors first: they are small and exact, unlike positions relative to the eye.
-        (b - a).cross(c - a).dot(eye - a) > 0.0
+        viewer.faces(a, b, c)
     }));
     let facing: &[bool] = facing;
+    // Branch-free: every edge is written, and kept only when its faces differ (silhouette edges
+    // are few and scattered, so a branch on them would mispredict often).
     out.clear();
+    out.resize(adjacency.edges.len(), [0; 2]);
+    let mut kept = 0;
     for edge in &adjacency.edges {
         let front0 = facing[edge.faces[0] as usize];
-        if front0 != facing[edge.faces[1] as usize] {
-            let [v0, v1] = edge.v;
-            out.push(if front0 { [v0, v1] } else { [v1, v0] });
-        }
+        let [v0, v1] = edge.v;
+        out[kept] = if front0 { [v0, v1] } else { [v1, v0] };
+        kept += usize::from(front0 != facing[edge.faces[1] as usize]);
     }
+    out.truncate(kept);
 }
 
 /// One ordered polyline of silhouette vertices, borrowed from [`SilhouetteChains`].
@@ -312,6 +350,16 @@ pub fn chain_edges(
     scratch: &mut SilhouetteScratch,
     out: &mut SilhouetteChains,
 ) {
+    chain_edges_with(edges, scratch, out, true);
+}
+
+/// [`chain_edges`], with the fast path for pure loops ([`chain_loops`]) on or off.
+fn chain_edges_with(
+    edges: &[[u32; 2]],
+    scratch: &mut SilhouetteScratch,
+    out: &mut SilhouetteChains,
+    fast_loops: bool,
+) {
     out.clear();
     if edges.is_empty() {
         return;
@@ -322,6 +370,7 @@ pub fn chain_edges(
         slots,
         used,
         ids,
+        next,
         ..
     } = scratch;
     let max_id = edges.iter().map(|e| e[0].max(e[1])).max().unwrap_or(0) as usize;
@@ -343,6 +392,10 @@ pub fn chain_edges(
     if degree.len() < vertex_count {
         degree.resize(vertex_count, 0);
         slots.resize(vertex_count, [Slot::default(); 2]);
+        next.resize(vertex_count, 0);
+    }
+    if fast_loops && chain_loops(edges, ends, degree, next, out) {
+        return;
     }
     for (e, (pair, ids)) in ends.iter().zip(edges).enumerate() {
         for side in 0..2 {
@@ -388,6 +441,62 @@ pub fn chain_edges(
         degree[pair[0] as usize] = 0;
         degree[pair[1] as usize] = 0;
     }
+}
+
+/// The common case of [`chain_edges`], fast: when every vertex has exactly one edge leaving it
+/// and one arriving (as at every silhouette vertex that is not a junction, since the edges of
+/// [`silhouette_edges`] run round the front-facing region), the edges form loops, found by
+/// following the edge leaving each vertex. Writes them and returns `true` then; otherwise
+/// writes nothing and returns `false`. The chains are those the general walk finds: each loop
+/// starts at the first vertex of its first edge. `degree` is all zero before and after.
+fn chain_loops(
+    edges: &[[u32; 2]],
+    ends: &[[u32; 2]],
+    degree: &mut [u32],
+    next: &mut [u32],
+    out: &mut SilhouetteChains,
+) -> bool {
+    // Leaving edges count in the low half of `degree`, arriving ones in the high half.
+    const ONE_EACH: u32 = 0x1_0001;
+    for (e, &[a, b]) in ends.iter().enumerate() {
+        degree[a as usize] += 1;
+        degree[b as usize] += 1 << 16;
+        next[a as usize] = e as u32;
+    }
+    let loops = ends
+        .iter()
+        .all(|&[a, b]| degree[a as usize] == ONE_EACH && degree[b as usize] == ONE_EACH);
+    if !loops {
+        for &[a, b] in ends {
+            degree[a as usize] = 0;
+            degree[b as usize] = 0;
+        }
+        return false;
+    }
+    // `next` is a permutation of the vertices: following it from any vertex comes back. Visited
+    // vertices get their degree reset to zero.
+    for &[start, _] in ends {
+        if degree[start as usize] == 0 {
+            continue;
+        }
+        let begin = out.vertices.len();
+        let mut v = start;
+        loop {
+            degree[v as usize] = 0;
+            let e = next[v as usize] as usize;
+            out.vertices.push(edges[e][0]);
+            v = ends[e][1];
+            if v == start {
+                break;
+            }
+        }
+        out.spans.push(ChainSpan {
+            start: begin,
+            end: out.vertices.len(),
+            closed: true,
+        });
+    }
+    true
 }
 
 /// The state of [`chain_edges`] while it walks the chains.
@@ -470,6 +579,11 @@ pub struct StrokeParams {
     /// Pixels of stroke per texture repeat: `u = arc length in px / texture_length_px`.
     /// Default `64.0`.
     pub texture_length_px: f32,
+    /// World-space distance each stroke point is pulled toward the camera's viewer (see
+    /// [`StrokeCamera::with_viewer`]; nothing is pulled without one) before it is projected. A
+    /// point moved along its eye ray keeps its place on screen, so the stroke keeps its shape and
+    /// pixel width, but it is drawn in front of the surface it outlines. Default `0.0`.
+    pub depth_bias: f32,
 }
 
 impl Default for StrokeParams {
@@ -482,6 +596,7 @@ impl Default for StrokeParams {
             stroke_limit_px: 8.0,
             fade: [0.0, 0.0, 1.0],
             texture_length_px: 64.0,
+            depth_bias: 0.0,
         }
     }
 }
@@ -494,9 +609,8 @@ pub struct StrokeCamera {
     /// World-space (homogeneous) offset per pixel along screen x and y, per unit clip `w`.
     unproject_x: Vec4,
     unproject_y: Vec4,
-    /// Whether offsets leave the homogeneous `w` at `1` (the usual cameras): no division.
-    affine_offsets: bool,
     half_viewport: Vec2,
+    viewer: Option<Viewer>,
 }
 
 impl StrokeCamera {
@@ -523,14 +637,40 @@ impl StrokeCamera {
             view_proj,
             unproject_x,
             unproject_y,
-            affine_offsets: unproject_x.w == 0.0 && unproject_y.w == 0.0,
             half_viewport,
+            viewer: None,
         }
     }
 
-    /// The view-projection matrix.
-    pub fn view_proj(&self) -> Mat4 {
-        self.view_proj
+    /// The camera whose view (the camera's world transform) and projection are given: its
+    /// viewer is the camera's position for a perspective projection (the projection's last row
+    /// depends on depth) and its backward direction otherwise.
+    pub fn from_view(world_from_view: Mat4, clip_from_view: Mat4, viewport: Vec2) -> Self {
+        let view_from_world = world_from_view.inverse();
+        let orthographic = clip_from_view.row(3) == Vec4::W;
+        let viewer = if orthographic {
+            Viewer::Direction(world_from_view.z_axis.truncate())
+        } else {
+            Viewer::Point(world_from_view.w_axis.truncate())
+        };
+        Self::new(clip_from_view * view_from_world, viewport).with_viewer(viewer)
+    }
+
+    /// This camera, seen from `viewer`: the eye point of a perspective camera, or the direction
+    /// toward an orthographic one. It is what [`StrokeParams::depth_bias`] pulls toward and
+    /// what the facing test of [`silhouette_edges`] should be given.
+    pub fn with_viewer(mut self, viewer: Viewer) -> Self {
+        let finite = match viewer {
+            Viewer::Point(p) => p.is_finite(),
+            Viewer::Direction(d) => d.is_finite() && d != Vec3::ZERO,
+        };
+        self.viewer = finite.then_some(viewer);
+        self
+    }
+
+    /// The viewer given by [`StrokeCamera::with_viewer`] or [`StrokeCamera::from_view`].
+    pub fn viewer(&self) -> Option<Viewer> {
+        self.viewer
     }
 
     /// The viewport size in pixels.
@@ -546,39 +686,80 @@ impl StrokeCamera {
             clip.w,
         )
     }
-
-    /// The two world points at the same depth as `p` (clip `w`), `offset` pixels away on
-    /// screen on either side.
-    fn unproject_offsets(&self, p: Vec3, w: f32, offset: Vec2) -> (Vec3, Vec3) {
-        let k = (self.unproject_x * offset.x + self.unproject_y * offset.y) * w;
-        let p = p.extend(1.0);
-        let (left, right) = (p + k, p - k);
-        let (left, right) = if self.affine_offsets {
-            (left.truncate(), right.truncate())
-        } else {
-            (left.truncate() / left.w, right.truncate() / right.w)
-        };
-        if left.is_finite() && right.is_finite() {
-            (left, right)
-        } else {
-            (p.truncate(), p.truncate())
-        }
-    }
 }
 
-/// A projected stroke point.
-#[derive(Clone, Copy, Debug, Default)]
-struct StrokePoint {
-    world: Vec3,
+/// The points of a stroke being built, one array per quantity so that the passes over them
+/// vectorise.
+#[derive(Clone, Debug, Default)]
+struct Run {
+    /// World position (after the depth bias).
+    x: Vec<f32>,
+    y: Vec<f32>,
+    z: Vec<f32>,
     /// Pixels from the viewport centre, `y` up.
-    screen: Vec2,
-    /// Clip-space `w`.
-    w: f32,
-    alpha: f32,
-    /// Unit screen direction to the next point (to the first for the last point of a loop).
-    direction: Vec2,
-    /// Screen distance to the next point, in pixels.
-    length: f32,
+    sx: Vec<f32>,
+    sy: Vec<f32>,
+    /// Clip-space `w`; NaN for a point behind the camera or not finite.
+    w: Vec<f32>,
+    /// Position along the strand on input, alpha after projection.
+    alpha: Vec<f32>,
+    /// Unit screen direction to the next point (to the first for the last point of a loop) and
+    /// the screen distance to it in pixels.
+    dx: Vec<f32>,
+    dy: Vec<f32>,
+    length: Vec<f32>,
+    /// Width factor of depth scaling.
+    depth: Vec<f32>,
+    /// The stroke's left and right vertices (world space).
+    left: [Vec<f32>; 3],
+    right: [Vec<f32>; 3],
+}
+
+impl Run {
+    /// Makes every array `n` long (contents unspecified).
+    fn resize(&mut self, n: usize) {
+        for v in [
+            &mut self.x,
+            &mut self.y,
+            &mut self.z,
+            &mut self.sx,
+            &mut self.sy,
+            &mut self.w,
+            &mut self.alpha,
+            &mut self.dx,
+            &mut self.dy,
+            &mut self.length,
+            &mut self.depth,
+        ]
+        .into_iter()
+        .chain(&mut self.left)
+        .chain(&mut self.right)
+        {
+            v.resize(n, 0.0);
+        }
+    }
+
+    /// The per-point arrays that survive projection.
+    fn point_arrays(&mut self) -> [&mut Vec<f32>; 7] {
+        [
+            &mut self.x,
+            &mut self.y,
+            &mut self.z,
+            &mut self.sx,
+            &mut self.sy,
+            &mut self.w,
+            &mut self.alpha,
+        ]
+    }
+
+    fn valid(&self, i: usize) -> bool {
+        !self.w[i].is_nan()
+    }
+
+    fn screen_distance_squared(&self, i: usize, j: usize) -> f32 {
+        let (dx, dy) = (self.sx[i] - self.sx[j], self.sy[i] - self.sy[j]);
+        dx * dx + dy * dy
+    }
 }
 
 /// Stroke geometry: world-space triangles of screen-space strokes, appended to by
@@ -595,7 +776,7 @@ pub struct StrokeVertices {
     pub alphas: Vec<f32>,
     /// Triangle list into the vertices, counter-clockwise as seen from the camera.
     pub indices: Vec<u32>,
-    run: Vec<StrokePoint>,
+    run: Run,
 }
 
 impl StrokeVertices {
@@ -697,68 +878,73 @@ fn build_strip(
     if n < 2 {
         return;
     }
-    // Project every point; `w` is NaN for points behind the camera or not finite.
     let mut run = std::mem::take(&mut out.run);
-    run.clear();
-    run.extend((0..n).map(|i| {
-        let (world, along) = point(i);
-        let clip = camera.view_proj * world.extend(1.0);
-        // Non-finite points give non-finite clip coordinates.
-        let valid = clip.w > MIN_CLIP_W && clip.is_finite();
-        StrokePoint {
-            world,
-            screen: clip.truncate().truncate() * (camera.half_viewport / clip.w),
-            w: if valid { clip.w } else { f32::NAN },
-            alpha: eval_unit(params.fade, along),
-            ..StrokePoint::default()
-        }
-    }));
-    let valid = |p: &StrokePoint| !p.w.is_nan();
+    run.resize(n);
+    for i in 0..n {
+        let (p, along) = point(i);
+        (run.x[i], run.y[i], run.z[i], run.alpha[i]) = (p.x, p.y, p.z, along);
+    }
+    project(&mut run, camera, params);
     // A closed polyline with a bad point is cut open just after its last bad point.
     let mut wrap = closed;
-    if closed && let Some(bad) = run.iter().rposition(|p| !valid(p)) {
-        run.rotate_left(bad + 1);
+    if closed && let Some(bad) = (0..n).rposition(|i| !run.valid(i)) {
+        for v in run.point_arrays() {
+            v.rotate_left(bad + 1);
+        }
         wrap = false;
     }
     // Emit each stretch of valid points, merging near-duplicates in place.
     let mut i = 0;
     while i < n {
-        if !valid(&run[i]) {
+        if !run.valid(i) {
             i += 1;
             continue;
         }
         let start = i;
-        let mut kept = i;
-        while i < n && valid(&run[i]) {
-            let p = run[i];
-            if kept == start
-                || run[kept - 1].screen.distance_squared(p.screen)
-                    >= MIN_SEGMENT_PX * MIN_SEGMENT_PX
-            {
-                run[kept] = p;
-                kept += 1;
-            }
+        while i < n && run.valid(i) {
             i += 1;
         }
-        let stretch = &mut run[start..kept];
-        let len = stretch.len();
+        let kept = merge_duplicates(&mut run, start, i);
+        let len = kept - start;
         // Only a closed polyline without bad points (one stretch) wraps; its end may repeat its
         // start.
         let len = if wrap
             && len > 2
-            && stretch[0].screen.distance_squared(stretch[len - 1].screen)
-                < MIN_SEGMENT_PX * MIN_SEGMENT_PX
+            && run.screen_distance_squared(start, kept - 1) < MIN_SEGMENT_PX * MIN_SEGMENT_PX
         {
             len - 1
         } else {
             len
         };
-        emit_run(&mut stretch[..len], wrap, camera, params, out);
+        emit_run(&mut run, start, len, wrap, camera, params, out);
     }
     out.run = run;
 }
 
+/// Drops the points of `start..end` closer than [`MIN_SEGMENT_PX`] on screen to the point kept
+/// before them, moving the rest down; returns the new end.
+fn merge_duplicates(run: &mut Run, start: usize, end: usize) -> usize {
+    let close = |run: &Run, i: usize, j: usize| {
+        run.screen_distance_squared(i, j) < MIN_SEGMENT_PX * MIN_SEGMENT_PX
+    };
+    // Usually there are none: then nothing moves.
+    let Some(first) = (start + 1..end).find(|&i| close(run, i, i - 1)) else {
+        return end;
+    };
+    let mut kept = first;
+    for i in first + 1..end {
+        if !close(run, i, kept - 1) {
+            for v in run.point_arrays() {
+                v[kept] = v[i];
+            }
+            kept += 1;
+        }
+    }
+    kept
+}
+
 /// `a*x^2 + b*x + c` at `x` clamped to `[0, 1]`, clamped to `[0, 1]`; `0` when not finite.
+#[inline(always)]
 fn eval_unit([a, b, c]: [f32; 3], x: f32) -> f32 {
     let x = if x.is_finite() {
         x.clamp(0.0, 1.0)
@@ -773,109 +959,354 @@ fn eval_unit([a, b, c]: [f32; 3], x: f32) -> f32 {
     }
 }
 
-/// Appends the strip of one run of valid, distinct points.
+/// Moves the run's points toward the viewer by the depth bias, projects them, and turns their
+/// position along the strand into alpha.
+fn project(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked just above.
+        unsafe { project_avx2(run, camera, params) };
+        return;
+    }
+    project_portable(run, camera, params);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn project_avx2(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
+    project_portable(run, camera, params);
+}
+
+/// The projection pass: straight-line arithmetic per point, so that it vectorises.
+#[inline(always)]
+fn project_portable(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
+    let n = run.x.len();
+    let bias = if params.depth_bias.is_finite() {
+        params.depth_bias
+    } else {
+        0.0
+    };
+    // Pull toward an eye point (`eye_weight = 1`) or along a direction (`0`).
+    let (eye, eye_weight, direction) = match camera.viewer {
+        _ if bias == 0.0 => (Vec3::ZERO, 0.0, Vec3::ZERO),
+        Some(Viewer::Point(eye)) => (eye, 1.0, Vec3::ZERO),
+        Some(Viewer::Direction(d)) => (Vec3::ZERO, 0.0, d.normalize_or_zero() * bias),
+        None => (Vec3::ZERO, 0.0, Vec3::ZERO),
+    };
+    let m = camera.view_proj;
+    let (hx, hy) = (camera.half_viewport.x, camera.half_viewport.y);
+    let fade = params.fade;
+    let Run {
+        x,
+        y,
+        z,
+        sx,
+        sy,
+        w,
+        alpha,
+        ..
+    } = run;
+    let (x, y, z) = (&mut x[..n], &mut y[..n], &mut z[..n]);
+    let (sx, sy, w, alpha) = (&mut sx[..n], &mut sy[..n], &mut w[..n], &mut alpha[..n]);
+    for i in 0..n {
+        let (mut px, mut py, mut pz) = (x[i], y[i], z[i]);
+        // Toward the eye: (eye - p) / |eye - p| * bias (nothing at the eye itself).
+        let (tx, ty, tz) = (eye.x - px, eye.y - py, eye.z - pz);
+        let d2 = tx * tx + ty * ty + tz * tz;
+        let k = if d2 > 0.0 {
+            eye_weight * bias / d2.sqrt()
+        } else {
+            0.0
+        };
+        px += tx * k + direction.x;
+        py += ty * k + direction.y;
+        pz += tz * k + direction.z;
+        let cx = m.x_axis.x * px + m.y_axis.x * py + m.z_axis.x * pz + m.w_axis.x;
+        let cy = m.x_axis.y * px + m.y_axis.y * py + m.z_axis.y * pz + m.w_axis.y;
+        let cz = m.x_axis.z * px + m.y_axis.z * py + m.z_axis.z * pz + m.w_axis.z;
+        let cw = m.x_axis.w * px + m.y_axis.w * py + m.z_axis.w * pz + m.w_axis.w;
+        // Non-finite points give non-finite clip coordinates.
+        let finite = cx.is_finite() & cy.is_finite() & cz.is_finite() & cw.is_finite();
+        let valid = finite & (cw > MIN_CLIP_W);
+        (x[i], y[i], z[i]) = (px, py, pz);
+        sx[i] = cx * (hx / cw);
+        sy[i] = cy * (hy / cw);
+        w[i] = if valid { cw } else { f32::NAN };
+        alpha[i] = eval_unit(fade, alpha[i]);
+    }
+}
+
+/// Appends the strip of the `m` valid, distinct points of `run` from `start`.
 fn emit_run(
-    run: &mut [StrokePoint],
+    run: &mut Run,
+    start: usize,
+    m: usize,
     closed: bool,
     camera: &StrokeCamera,
     params: &StrokeParams,
     out: &mut StrokeVertices,
 ) {
-    let m = run.len();
     if m < 2 {
         return;
     }
     let closed = closed && m > 2;
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2, checked just above.
+        unsafe { emit_run_avx2(run, start, m, closed, camera, params, out) };
+        return;
+    }
+    emit_run_portable(run, start, m, closed, camera, params, out);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn emit_run_avx2(
+    run: &mut Run,
+    start: usize,
+    m: usize,
+    closed: bool,
+    camera: &StrokeCamera,
+    params: &StrokeParams,
+    out: &mut StrokeVertices,
+) {
+    emit_run_portable(run, start, m, closed, camera, params, out);
+}
+
+/// What every stroke point's offset needs.
+#[derive(Clone, Copy)]
+struct OffsetParams {
+    half_width: f32,
+    half_limit: f32,
+    angle_scale: f32,
+    unproject_x: Vec4,
+    unproject_y: Vec4,
+}
+
+/// The left and right stroke vertices of a point at world `p` with clip `w` and depth-scaling
+/// factor `depth`, between screen directions `incoming` and `outgoing`: offset both ways
+/// perpendicular to the miter, unprojected at the point's depth.
+#[inline(always)]
+fn offset_point(
+    o: &OffsetParams,
+    incoming: (f32, f32),
+    outgoing: (f32, f32),
+    p: (f32, f32, f32),
+    w: f32,
+    depth: f32,
+) -> ([f32; 3], [f32; 3]) {
+    let (sx, sy) = (incoming.0 + outgoing.0, incoming.1 + outgoing.1);
+    let sum_length = (sx * sx + sy * sy).sqrt();
+    // cos of the angle between the miter and each segment's normal is |sum| / 2.
+    let turned = sum_length > 1e-6;
+    let inv = if turned { sum_length.recip() } else { 0.0 };
+    let (tx, ty) = if turned {
+        (sx * inv, sy * inv)
+    } else {
+        incoming
+    };
+    let cos = (0.5 * sum_length).max(MAX_MITER.recip());
+    let miter = if turned {
+        1.0 + o.angle_scale * (cos.recip() - 1.0)
+    } else {
+        1.0
+    };
+    let hw = o.half_width * miter * depth;
+    let hw = if hw.is_finite() {
+        hw.clamp(0.0, o.half_limit)
+    } else {
+        0.0
+    };
+    // The perpendicular (-ty, tx) scaled to the half-width, in pixels, then in world units at
+    // clip depth `w` (homogeneous: the `w` offset is zero for the usual cameras, and dividing by
+    // exactly one changes nothing).
+    let (ox, oy) = (-ty * hw * w, tx * hw * w);
+    let (ux, uy) = (o.unproject_x, o.unproject_y);
+    let (kx, ky, kz, kw) = (
+        ux.x * ox + uy.x * oy,
+        ux.y * ox + uy.y * oy,
+        ux.z * ox + uy.z * oy,
+        ux.w * ox + uy.w * oy,
+    );
+    let (lw, rw) = ((1.0 + kw).recip(), (1.0 - kw).recip());
+    let left = [(p.0 + kx) * lw, (p.1 + ky) * lw, (p.2 + kz) * lw];
+    let right = [(p.0 - kx) * rw, (p.1 - ky) * rw, (p.2 - kz) * rw];
+    let finite = left[0].is_finite()
+        & left[1].is_finite()
+        & left[2].is_finite()
+        & right[0].is_finite()
+        & right[1].is_finite()
+        & right[2].is_finite();
+    let pick = |a: f32, b: f32| if finite { a } else { b };
+    (
+        [pick(left[0], p.0), pick(left[1], p.1), pick(left[2], p.2)],
+        [
+            pick(right[0], p.0),
+            pick(right[1], p.1),
+            pick(right[2], p.2),
+        ],
+    )
+}
+
+/// The strip of one run; inlined into each target-feature variant.
+#[inline(always)]
+fn emit_run_portable(
+    run: &mut Run,
+    start: usize,
+    m: usize,
+    closed: bool,
+    camera: &StrokeCamera,
+    params: &StrokeParams,
+    out: &mut StrokeVertices,
+) {
+    let end = start + m;
+    let Run {
+        x,
+        y,
+        z,
+        sx,
+        sy,
+        w,
+        alpha,
+        dx,
+        dy,
+        length,
+        depth,
+        left,
+        right,
+    } = run;
+    let (x, y, z, w, alpha) = (
+        &x[start..end],
+        &y[start..end],
+        &z[start..end],
+        &w[start..end],
+        &alpha[start..end],
+    );
+    let (sx, sy) = (&sx[start..end], &sy[start..end]);
+    let (dx, dy, length) = (
+        &mut dx[start..end],
+        &mut dy[start..end],
+        &mut length[start..end],
+    );
     // Segment directions and lengths; the last point's segment closes the loop (unused when
     // open).
-    for i in 0..m {
-        let next = if i + 1 < m {
-            run[i + 1].screen
+    let segment = |i: usize, j: usize| {
+        let (ex, ey) = (sx[j] - sx[i], sy[j] - sy[i]);
+        let l = (ex * ex + ey * ey).sqrt();
+        if l > 0.0 {
+            (ex / l, ey / l, l)
         } else {
-            run[0].screen
-        };
-        let d = next - run[i].screen;
-        let length = d.length();
-        run[i].length = length;
-        run[i].direction = if length > 0.0 {
-            d * length.recip()
-        } else {
-            Vec2::X
-        };
+            (1.0, 0.0, l)
+        }
+    };
+    for i in 0..m - 1 {
+        (dx[i], dy[i], length[i]) = segment(i, i + 1);
     }
-    let base = out.positions.len() as u32;
+    (dx[m - 1], dy[m - 1], length[m - 1]) = segment(m - 1, 0);
+    let (dx, dy) = (&*dx, &*dy);
+    let depth = &mut depth[start..end];
+    if params.depth_scale == 0.0 {
+        depth.fill(1.0);
+    } else {
+        for (d, &w) in depth.iter_mut().zip(w) {
+            *d = w.recip().powf(params.depth_scale);
+        }
+    }
+    let depth = &*depth;
+    let o = OffsetParams {
+        half_width: 0.5 * params.width_px * params.stroke_scale,
+        half_limit: (0.5 * params.stroke_limit_px).max(0.0),
+        angle_scale: params.angle_scale,
+        unproject_x: camera.unproject_x,
+        unproject_y: camera.unproject_y,
+    };
+    let [lx, ly, lz] = left;
+    let [rx, ry, rz] = right;
+    let (lx, ly, lz) = (
+        &mut lx[start..end],
+        &mut ly[start..end],
+        &mut lz[start..end],
+    );
+    let (rx, ry, rz) = (
+        &mut rx[start..end],
+        &mut ry[start..end],
+        &mut rz[start..end],
+    );
+    let dir = |i: usize| (dx[i], dy[i]);
+    let at = |i: usize| (x[i], y[i], z[i]);
+    // Open ends use their one segment twice: a plain perpendicular, no miter.
+    let last = m - 1;
+    let first_in = if closed { dir(last) } else { dir(0) };
+    let last_out = if closed { dir(last) } else { dir(last - 1) };
+    let ends = [
+        offset_point(&o, first_in, dir(0), at(0), w[0], depth[0]),
+        offset_point(&o, dir(last - 1), last_out, at(last), w[last], depth[last]),
+    ];
+    // The inner points: one straight loop over equally long slices, which vectorises.
+    let k = last - 1;
+    let (ix, iy, ox, oy) = (&dx[..k], &dy[..k], &dx[1..=k], &dy[1..=k]);
+    let (px, py, pz) = (&x[1..=k], &y[1..=k], &z[1..=k]);
+    let (pw, pd) = (&w[1..=k], &depth[1..=k]);
+    {
+        let (lx, ly, lz) = (&mut lx[1..=k], &mut ly[1..=k], &mut lz[1..=k]);
+        let (rx, ry, rz) = (&mut rx[1..=k], &mut ry[1..=k], &mut rz[1..=k]);
+        for j in 0..k {
+            let (l, r) = offset_point(
+                &o,
+                (ix[j], iy[j]),
+                (ox[j], oy[j]),
+                (px[j], py[j], pz[j]),
+                pw[j],
+                pd[j],
+            );
+            [lx[j], ly[j], lz[j]] = l;
+            [rx[j], ry[j], rz[j]] = r;
+        }
+    }
+    for (i, (l, r)) in [(0, ends[0]), (last, ends[1])] {
+        [lx[i], ly[i], lz[i]] = l;
+        [rx[i], ry[i], rz[i]] = r;
+    }
+    // Sized first, then written by index: no capacity check per element.
+    let base = out.positions.len();
     let pairs = m + usize::from(closed);
-    out.positions.reserve(2 * pairs);
-    out.uvs.reserve(2 * pairs);
-    out.alphas.reserve(2 * pairs);
-    out.indices.reserve(6 * (pairs - 1));
-    let half_width = 0.5 * params.width_px * params.stroke_scale;
-    let half_limit = (0.5 * params.stroke_limit_px).max(0.0);
-    let angle_scale = params.angle_scale;
+    let vertices = base..base + 2 * pairs;
+    out.positions.resize(vertices.end, [0.0; 3]);
+    out.alphas.resize(vertices.end, 0.0);
+    out.uvs.resize(vertices.end, [0.0; 2]);
+    let positions = &mut out.positions[vertices.clone()];
+    let alphas = &mut out.alphas[vertices.clone()];
+    let uvs = &mut out.uvs[vertices];
+    for i in 0..m {
+        positions[2 * i] = [lx[i], ly[i], lz[i]];
+        positions[2 * i + 1] = [rx[i], ry[i], rz[i]];
+        alphas[2 * i] = alpha[i];
+        alphas[2 * i + 1] = alpha[i];
+    }
     let inv_texture = if params.texture_length_px > 0.0 {
         params.texture_length_px.recip()
     } else {
         0.0
     };
     let mut arc = 0.0;
-    for i in 0..m {
-        let point = run[i];
-        // Open ends use their one segment twice: a plain perpendicular, no miter.
-        let incoming = if i > 0 {
-            run[i - 1].direction
-        } else if closed {
-            run[m - 1].direction
-        } else {
-            point.direction
-        };
-        let outgoing = if i + 1 < m || closed {
-            point.direction
-        } else {
-            incoming
-        };
-        let sum = incoming + outgoing;
-        let sum_length = sum.length();
-        // cos of the angle between the miter and each segment's normal is |sum| / 2.
-        let (tangent, miter) = if sum_length > 1e-6 {
-            let cos = (0.5 * sum_length).max(MAX_MITER.recip());
-            (
-                sum * sum_length.recip(),
-                1.0 + angle_scale * (cos.recip() - 1.0),
-            )
-        } else {
-            (incoming, 1.0)
-        };
-        let depth = if params.depth_scale == 0.0 {
-            1.0
-        } else {
-            point.w.recip().powf(params.depth_scale)
-        };
-        let hw = half_width * miter * depth;
-        let hw = if hw.is_finite() {
-            hw.clamp(0.0, half_limit)
-        } else {
-            0.0
-        };
-        let (left, right) = camera.unproject_offsets(point.world, point.w, tangent.perp() * hw);
+    for (pair, &l) in uvs.chunks_exact_mut(2).zip(&length[..m]) {
         let u = arc * inv_texture;
-        arc += point.length;
-        out.positions
-            .extend_from_slice(&[left.to_array(), right.to_array()]);
-        out.uvs.extend_from_slice(&[[u, 0.0], [u, 1.0]]);
-        out.alphas.extend_from_slice(&[point.alpha, point.alpha]);
+        pair.copy_from_slice(&[[u, 0.0], [u, 1.0]]);
+        arc += l;
     }
     if closed {
         let u = arc * inv_texture;
-        let first = base as usize;
-        out.positions
-            .extend_from_slice(&[out.positions[first], out.positions[first + 1]]);
-        out.uvs.extend_from_slice(&[[u, 0.0], [u, 1.0]]);
-        out.alphas.extend_from_slice(&[run[0].alpha, run[0].alpha]);
+        positions.copy_within(0..2, 2 * m);
+        alphas.copy_within(0..2, 2 * m);
+        uvs[2 * m..].copy_from_slice(&[[u, 0.0], [u, 1.0]]);
     }
-    for i in 0..pairs as u32 - 1 {
+    let base = base as u32;
+    let first_index = out.indices.len();
+    out.indices.resize(first_index + 6 * (pairs - 1), 0);
+    for (i, quad) in (0..).zip(out.indices[first_index..].chunks_exact_mut(6)) {
         let l0 = base + 2 * i;
         let (r0, l1, r1) = (l0 + 1, l0 + 2, l0 + 3);
-        out.indices.extend_from_slice(&[r0, r1, l1, r0, l1, l0]);
+        quad.copy_from_slice(&[r0, r1, l1, r0, l1, l0]);
     }
 }
 
@@ -1105,6 +1536,55 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn loop_fast_path_gives_the_general_walk() {
+        let mut scratch = SilhouetteScratch::default();
+        let (mut edges, mut fast, mut general) = (
+            Vec::new(),
+            SilhouetteChains::default(),
+            SilhouetteChains::default(),
+        );
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut random = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        };
+        let mut loops = 0;
+        for trial in 0..300 {
+            // Random bent tubes from random eye points: mostly plain loops, sometimes junctions.
+            let particles: Vec<Vec3> = (0..5)
+                .map(|k| Vec3::new(random(), random(), random()) * 0.1 + Vec3::Y * 0.1 * k as f32)
+                .collect();
+            let tube = tube(12, 6, &particles, 0.02);
+            let topology = &tube.topology;
+            let positions = &tube.positions;
+            let adjacency = EdgeAdjacency::from_triangles(&topology.indices).unwrap();
+            let eye = Vec3::new(random(), random(), random()) * 6.0;
+            silhouette_edges(
+                &adjacency,
+                &topology.indices,
+                positions,
+                eye,
+                &mut scratch,
+                &mut edges,
+            );
+            // Odd inputs too: reversed and repeated edges.
+            if trial % 10 == 9 && !edges.is_empty() {
+                let e = edges[0];
+                edges.push([e[1], e[0]]);
+                edges.push(e);
+            }
+            chain_edges_with(&edges, &mut scratch, &mut fast, true);
+            chain_edges_with(&edges, &mut scratch, &mut general, false);
+            assert_eq!(fast, general, "trial {trial}: {edges:?}");
+            assert_chains_cover(&edges, &fast);
+            loops += usize::from(fast.spans.iter().all(|s| s.closed) && !fast.is_empty());
+        }
+        assert!(loops > 100, "only {loops} trials were pure loops");
     }
 
     #[test]

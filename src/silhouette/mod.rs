@@ -12,6 +12,7 @@
 
 pub mod edges;
 pub mod strokes;
+pub mod tube_edges;
 
 pub use strokes::{
     ComputedSilhouettes, HairStrokes, HairStrokesOf, SilhouetteCamera, SilhouetteSettings,

@@ -17,9 +17,10 @@ use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 
 use super::edges::{
-    EdgeAdjacency, SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams, StrokeVertices,
-    build_chain_strip, chain_edges, silhouette_edges,
+    SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams, StrokeVertices,
+    build_chain_strip, chain_edges,
 };
+use super::tube_edges::{TubeEdgeScratch, TubeEdges};
 use crate::curve::QuadraticCurve;
 use crate::mesh::{ComputedHairMesh, HairMeshSettings, StripBuffers};
 use crate::sim::Hair;
@@ -104,8 +105,8 @@ pub struct HairStrokes(Vec<Entity>);
 /// topology, shared by every strand) and the stroke mesh.
 #[derive(Component)]
 pub struct ComputedSilhouettes {
-    /// Edge adjacency of one strand's tube.
-    pub adjacency: EdgeAdjacency,
+    /// The silhouette-edge finder of the strands' tube topology.
+    pub tube: TubeEdges,
     /// Position along the strand (0 root, 1 tip) of each tube vertex.
     pub along: Vec<f32>,
     /// Topology this was built for: (rings, sides).
@@ -118,13 +119,48 @@ pub struct ComputedSilhouettes {
     pub chains: usize,
 }
 
-/// Per-thread scratch of [`extract_silhouettes`] (reused every frame, no allocation).
+/// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread.
+/// After warming up, nothing allocates.
 #[derive(Default)]
-pub struct Worker {
+pub struct StrokeWorker {
+    tube_scratch: TubeEdgeScratch,
     scratch: SilhouetteScratch,
     edges: Vec<[u32; 2]>,
     chains: SilhouetteChains,
-    out: StrokeVertices,
+    /// The strokes built since the last [`StrokeVertices::clear`].
+    pub out: StrokeVertices,
+    /// The chains built since the last [`StrokeWorker::clear`].
+    pub chain_count: usize,
+}
+
+impl StrokeWorker {
+    /// Removes every stroke, keeping the buffers.
+    pub fn clear(&mut self) {
+        self.out.clear();
+        self.chain_count = 0;
+    }
+
+    /// Appends the strokes of one strand: its tube's silhouette edges seen by the camera's
+    /// viewer (nothing without one), chained, then extruded into strips. `strand` is the strand's
+    /// tube vertices and `along` each vertex's position along the strand (`0` root, `1` tip).
+    pub fn add_strand(
+        &mut self,
+        tube: &TubeEdges,
+        strand: &[[f32; 3]],
+        along: &[f32],
+        camera: &StrokeCamera,
+        params: &StrokeParams,
+    ) {
+        let Some(viewer) = camera.viewer() else {
+            return;
+        };
+        tube.silhouette_edges(strand, viewer, &mut self.tube_scratch, &mut self.edges);
+        chain_edges(&self.edges, &mut self.scratch, &mut self.chains);
+        self.chain_count += self.chains.len();
+        for chain in self.chains.iter() {
+            build_chain_strip(chain, strand, along, camera, params, &mut self.out);
+        }
+    }
 }
 
 /// Finds each strand's silhouette edges for the camera, chains them, and rebuilds the stroke mesh.
@@ -144,7 +180,7 @@ pub fn extract_silhouettes(
     >,
     cameras: Query<(&Camera, &GlobalTransform, Has<SilhouetteCamera>), With<Camera3d>>,
     mut visibility: Query<&mut Visibility>,
-    mut workers: Local<Vec<Worker>>,
+    mut builder: Local<StrokeBuilder>,
 ) {
     let camera = cameras
         .iter()
@@ -157,10 +193,6 @@ pub fn extract_silhouettes(
         let mut computed = match computed {
             Some(c) if c.built_for == key => c,
             other => {
-                let Ok(adjacency) = EdgeAdjacency::from_triangles(&topology.indices) else {
-                    warn_once!("strand topology is not closed; no silhouettes");
-                    continue;
-                };
                 let along = topology.uvs.iter().map(|uv| uv[1]).collect();
                 let (mesh, entity) = match &other {
                     Some(c) => (c.mesh.clone(), c.entity),
@@ -179,7 +211,7 @@ pub fn extract_silhouettes(
                     }
                 };
                 commands.entity(hair).insert(ComputedSilhouettes {
-                    adjacency,
+                    tube: TubeEdges::new(topology),
                     along,
                     built_for: key,
                     mesh,
@@ -206,10 +238,11 @@ pub fn extract_silhouettes(
         let Some(viewport) = camera.physical_viewport_size() else {
             continue;
         };
-        let view_proj = camera.clip_from_view() * camera_transform.affine().inverse();
-        let stroke_camera =
-            StrokeCamera::new(view_proj, Vec2::new(viewport.x as f32, viewport.y as f32));
-        let eye = camera_transform.translation();
+        let stroke_camera = StrokeCamera::from_view(
+            camera_transform.to_matrix(),
+            camera.clip_from_view(),
+            Vec2::new(viewport.x as f32, viewport.y as f32),
+        );
         let Some(hair_mesh_asset) = meshes.get(&hair_mesh.mesh) else {
             continue;
         };
@@ -219,49 +252,61 @@ pub fn extract_silhouettes(
         else {
             continue;
         };
-        let per = topology.vertex_count();
-        let strands = positions.len() / per.max(1);
-        let params = settings.stroke_params();
-        let bias = settings.depth_bias.max(0.0) * mesh_settings.radius.max(0.0);
-        // The pool's threads plus this one (which would otherwise only wait in `scope`).
+        // Pull strokes toward the viewer (see the module docs on visibility).
+        let params = StrokeParams {
+            depth_bias: settings.depth_bias.max(0.0) * mesh_settings.radius.max(0.0),
+            ..settings.stroke_params()
+        };
+        computed.chains = builder.build(
+            pool,
+            positions,
+            &computed.tube,
+            &computed.along,
+            &stroke_camera,
+            &params,
+        );
+        if let Some(mut mesh) = meshes.get_mut(&computed.mesh) {
+            builder.write_mesh(pool, &mut mesh, settings.color);
+        }
+    }
+}
+
+/// Builds the strokes of a hair's strands on several threads and writes them into a mesh: the
+/// work of [`extract_silhouettes`] for one hair and camera, public so that it can be measured and
+/// reused. Keep one across frames: its buffers are reused.
+#[derive(Default)]
+pub struct StrokeBuilder {
+    workers: Vec<StrokeWorker>,
+}
+
+impl StrokeBuilder {
+    /// Builds the strokes of every strand in `positions` (strand after strand, each
+    /// [`TubeEdges::vertex_count`] vertices) with `along` as in [`StrokeWorker::add_strand`],
+    /// spread over `pool`'s threads and the calling thread (which would otherwise only wait).
+    /// Returns the number of chains.
+    pub fn build(
+        &mut self,
+        pool: &TaskPool,
+        positions: &[[f32; 3]],
+        tube: &TubeEdges,
+        along: &[f32],
+        camera: &StrokeCamera,
+        params: &StrokeParams,
+    ) -> usize {
+        let per = tube.vertex_count();
+        let strands = positions.len() / per;
         let threads = pool.thread_num().max(1) + 1;
         let chunk = strands.div_ceil(threads).max(1);
-        workers.resize_with(strands.div_ceil(chunk), Worker::default);
-        let adjacency = &computed.adjacency;
-        let along = &computed.along;
-        let indices = &topology.indices;
+        self.workers
+            .resize_with(strands.div_ceil(chunk).max(1), StrokeWorker::default);
         pool.scope(|scope| {
-            for (w, worker) in workers.iter_mut().enumerate() {
-                let stroke_camera = &stroke_camera;
-                let params = &params;
+            for (w, worker) in self.workers.iter_mut().enumerate() {
+                let strands = &positions[(w * chunk * per).min(strands * per)
+                    ..((w + 1) * chunk * per).min(strands * per)];
                 let work = async move {
-                    worker.out.clear();
-                    for s in w * chunk..((w + 1) * chunk).min(strands) {
-                        let strand = &positions[s * per..(s + 1) * per];
-                        silhouette_edges(
-                            adjacency,
-                            indices,
-                            strand,
-                            eye,
-                            &mut worker.scratch,
-                            &mut worker.edges,
-                        );
-                        chain_edges(&worker.edges, &mut worker.scratch, &mut worker.chains);
-                        for chain in worker.chains.iter() {
-                            build_chain_strip(
-                                chain,
-                                strand,
-                                along,
-                                stroke_camera,
-                                params,
-                                &mut worker.out,
-                            );
-                        }
-                    }
-                    // Pull strokes toward the eye (see the module docs on visibility).
-                    for p in &mut worker.out.positions {
-                        let v = Vec3::from(*p);
-                        *p = (v + (eye - v).normalize_or_zero() * bias).to_array();
+                    worker.clear();
+                    for strand in strands.chunks_exact(per) {
+                        worker.add_strand(tube, strand, along, camera, params);
                     }
                 };
                 if w == 0 {
@@ -271,10 +316,64 @@ pub fn extract_silhouettes(
                 }
             }
         });
-        computed.chains = workers.iter().map(|w| w.chains.len()).sum();
-        if let Some(mut mesh) = meshes.get_mut(&computed.mesh) {
-            fill_stroke_mesh(&mut mesh, &workers, settings.color);
-        }
+        self.workers.iter().map(|w| w.chain_count).sum()
+    }
+
+    /// The strokes built, per thread.
+    pub fn workers(&self) -> &[StrokeWorker] {
+        &self.workers
+    }
+
+    /// Replaces `mesh`'s positions, UVs, colours (`color` with each vertex's alpha) and indices
+    /// with the strokes last built (reusing the mesh's buffers), copying each thread's part on
+    /// its own thread.
+    pub fn write_mesh(&self, pool: &TaskPool, mesh: &mut Mesh, color: Color) {
+        let c = color.to_linear();
+        let mut b = StripBuffers::take(mesh);
+        let vertices: usize = self.workers.iter().map(|w| w.out.positions.len()).sum();
+        let indices: usize = self.workers.iter().map(|w| w.out.indices.len()).sum();
+        b.positions.resize(vertices, [0.0; 3]);
+        b.uvs.resize(vertices, [0.0; 2]);
+        b.colors.resize(vertices, [0.0; 4]);
+        b.indices.resize(indices, 0);
+        pool.scope(|scope| {
+            let (mut positions, mut uvs, mut colors, mut index_rest) = (
+                &mut b.positions[..],
+                &mut b.uvs[..],
+                &mut b.colors[..],
+                &mut b.indices[..],
+            );
+            let mut base = 0u32;
+            for (w, worker) in self.workers.iter().enumerate() {
+                let out = &worker.out;
+                let n = out.positions.len();
+                let (p, rest) = std::mem::take(&mut positions).split_at_mut(n);
+                positions = rest;
+                let (u, rest) = std::mem::take(&mut uvs).split_at_mut(n);
+                uvs = rest;
+                let (col, rest) = std::mem::take(&mut colors).split_at_mut(n);
+                colors = rest;
+                let (ind, rest) = std::mem::take(&mut index_rest).split_at_mut(out.indices.len());
+                index_rest = rest;
+                let work = async move {
+                    p.copy_from_slice(&out.positions);
+                    u.copy_from_slice(&out.uvs);
+                    for (col, a) in col.iter_mut().zip(&out.alphas) {
+                        *col = [c.red, c.green, c.blue, c.alpha * a];
+                    }
+                    for (i, &j) in ind.iter_mut().zip(&out.indices) {
+                        *i = j + base;
+                    }
+                };
+                base += n as u32;
+                if w == 0 {
+                    scope.spawn_on_scope(work);
+                } else {
+                    scope.spawn(work);
+                }
+            }
+        });
+        b.put(mesh);
     }
 }
 
@@ -288,18 +387,4 @@ fn empty_stroke_mesh() -> Mesh {
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, Vec::<[f32; 2]>::new())
     .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, Vec::<[f32; 4]>::new())
     .with_inserted_indices(Indices::U32(Vec::new()))
-}
-
-fn fill_stroke_mesh(mesh: &mut Mesh, workers: &[Worker], color: Color) {
-    let c = color.to_linear();
-    let mut b = StripBuffers::take(mesh);
-    for w in workers {
-        let base = b.positions.len() as u32;
-        b.positions.extend_from_slice(&w.out.positions);
-        b.uvs.extend_from_slice(&w.out.uvs);
-        let rgba = |a: &f32| [c.red, c.green, c.blue, c.alpha * a];
-        b.colors.extend(w.out.alphas.iter().map(rgba));
-        b.indices.extend(w.out.indices.iter().map(|i| i + base));
-    }
-    b.put(mesh);
 }
