@@ -250,17 +250,23 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     // copied into the stroke mesh.
     let pool = bevy::tasks::TaskPoolBuilder::new().num_threads(1).build();
     let mut builder = StrokeBuilder::default();
-    let mut mesh = Mesh::new(
-        bevy::mesh::PrimitiveTopology::TriangleList,
-        bevy::asset::RenderAssetUsages::default(),
-    );
+    let mut meshes = vec![
+        Mesh::new(
+            bevy::mesh::PrimitiveTopology::TriangleList,
+            bevy::asset::RenderAssetUsages::default(),
+        );
+        2
+    ];
     group.bench_function("plugin_2_threads_1000x16x8", |b| {
         b.iter(|| {
             builder.build(&pool, &positions, &tube, &along, &camera, &stroke);
-            builder.write_mesh(&pool, &mut mesh, Color::BLACK);
+            for (w, mesh) in meshes.iter_mut().enumerate() {
+                builder.swap_into_mesh(w, mesh);
+            }
         })
     });
-    assert!(mesh.count_vertices() > 10_000);
+    let drawn: usize = meshes.iter().map(Mesh::count_vertices).sum();
+    assert!(drawn > 10_000, "{drawn} stroke vertices");
     // The same strokes through the general closed-mesh path (any triangle list).
     let mut sil_scratch = SilhouetteScratch::default();
     let mut edges = Vec::new();

@@ -201,6 +201,9 @@ fn spawn_ninja_stage(
     if let Some(target) = &config.0.target {
         camera.insert(RenderTarget::Image(target.clone().into()));
     }
+    if let Some(outline) = config.0.preset.as_ref().and_then(|p| p.outline.clone()) {
+        camera.insert(outline);
+    }
 }
 
 fn play_idle_when_ready(
@@ -238,6 +241,9 @@ fn give_hair_its_tuning(
     entity.insert(HairMaterial(scene.hair_material.clone()));
     if let Some(preset) = &config.0.preset {
         entity.insert(preset.mesh.clone());
+        if let Some(silhouettes) = &preset.silhouettes {
+            entity.insert(silhouettes.clone());
+        }
     }
 }
 

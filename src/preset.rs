@@ -1,8 +1,10 @@
-//! Hair presets: a hair's tuning (simulation, mesh and toon material) saved as a RON file and
-//! loaded back, so a look found in the tuning panel can be kept, shared and used in a game.
+//! Hair presets: a hair's tuning (simulation, mesh, toon material and outlines) saved as a RON
+//! file and loaded back, so a look found in the tuning panel can be kept, shared and used in a
+//! game.
 //!
 //! A [`HairPreset`] holds the same settings types the plugins use ([`HairSimSettings`],
-//! [`HairMeshSettings`]) and the tunable scalars and modes of a [`ToonHairMaterial`]
+//! [`HairMeshSettings`], [`SilhouetteSettings`] for the object-space strokes and the camera's
+//! [`ImageSpaceOutline`]) and the tunable scalars and modes of a [`ToonHairMaterial`]
 //! ([`ToonMaterialPreset`]). It is written with Bevy reflection (no serde derives), so a preset
 //! file reads like the structs:
 //!
@@ -11,6 +13,8 @@
 //!     simulation: (edge_stiffness: 1.0, bend_stiffness: 0.8, ...),
 //!     mesh: (hair_resolution: 16, shape_resolution: 8, ...),
 //!     material: (ramp: ThreeTone, ramp_mode: Constant, ...),
+//!     silhouettes: Some((enabled: true, width_px: 3.0, ...)),
+//!     outline: Some((enabled: false, threshold: 0.3, ...)),
 //! )
 //! ```
 //!
@@ -34,7 +38,8 @@ use bevy::reflect::serde::{TypedReflectDeserializer, TypedReflectSerializer};
 use bevy::reflect::{FromReflect, GetTypeRegistration, TypeRegistry};
 
 use crate::mesh::HairMeshSettings;
-use crate::render::{HatchingMode, RampMode, ToonHairMaterial, ToonRamps};
+use crate::render::{HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps};
+use crate::silhouette::SilhouetteSettings;
 use crate::sim::HairSimSettings;
 
 /// Which of the default [`ToonRamps`] a material uses.
@@ -215,6 +220,11 @@ pub struct HairPreset {
     pub mesh: HairMeshSettings,
     /// How the hair is shaded.
     pub material: ToonMaterialPreset,
+    /// The object-space strokes (a component of the hair); `None` (as in presets older than
+    /// this field) leaves the hair's strokes as they are.
+    pub silhouettes: Option<SilhouetteSettings>,
+    /// The image-space outline (a component of the camera); `None` leaves the camera as it is.
+    pub outline: Option<ImageSpaceOutline>,
 }
 
 /// Why a preset could not be saved or loaded. Every message names the file (or `<string>` for
@@ -271,7 +281,20 @@ impl HairPreset {
             simulation: simulation.clone(),
             mesh: mesh.clone(),
             material: ToonMaterialPreset::from_material(material, ramps),
+            ..default()
         }
+    }
+
+    /// This preset with the hair's stroke settings.
+    pub fn with_silhouettes(mut self, silhouettes: Option<&SilhouetteSettings>) -> Self {
+        self.silhouettes = silhouettes.cloned();
+        self
+    }
+
+    /// This preset with the camera's image-space outline.
+    pub fn with_outline(mut self, outline: Option<&ImageSpaceOutline>) -> Self {
+        self.outline = outline.cloned();
+        self
     }
 
     /// Writes the preset into a hair's settings and material (see
@@ -397,6 +420,19 @@ mod tests {
                 specular_color: Color::linear_rgba(0.2, 0.3, 0.4, 1.0),
                 ..default()
             },
+            silhouettes: Some(SilhouetteSettings {
+                width_px: 4.5,
+                fade: QuadraticCurve::new(0.5, 0.2, 0.1),
+                color: Color::srgb(0.2, 0.1, 0.3),
+                ..default()
+            }),
+            outline: Some(ImageSpaceOutline {
+                enabled: false,
+                threshold: 0.45,
+                dilation_x: 3,
+                source: crate::render::OutlineSource::Depth,
+                ..default()
+            }),
         }
     }
 
@@ -405,6 +441,8 @@ mod tests {
         let preset = tuned();
         let text = preset.to_ron().unwrap();
         assert!(text.contains("hair_resolution: 24"), "{text}");
+        assert!(text.contains("width_px: 4.5"), "{text}");
+        assert!(text.contains("dilation_x: 3"), "{text}");
         assert_eq!(HairPreset::from_ron(&text).unwrap(), preset);
     }
 
@@ -427,6 +465,8 @@ mod tests {
         assert_eq!(preset.mesh.hair_resolution, 9);
         assert_eq!(preset.mesh.shape_resolution, 8);
         assert_eq!(preset.simulation, HairSimSettings::default());
+        // Presets older than the outline fields leave strokes and outline alone.
+        assert_eq!((preset.silhouettes, preset.outline), (None, None));
     }
 
     #[test]
@@ -477,9 +517,9 @@ mod tests {
         let mut material = ToonHairMaterial::default();
         preset.apply(&mut sim, &mut mesh, &mut material, &ramps);
         assert_eq!(material.ramp, ramps.specular);
-        assert_eq!(
-            HairPreset::new(&sim, &mesh, &material, Some(&ramps)),
-            preset
-        );
+        let back = HairPreset::new(&sim, &mesh, &material, Some(&ramps))
+            .with_silhouettes(preset.silhouettes.as_ref())
+            .with_outline(preset.outline.as_ref());
+        assert_eq!(back, preset);
     }
 }

@@ -313,7 +313,7 @@ pub(crate) struct StripBuffers {
 }
 
 impl StripBuffers {
-    /// Takes the buffers out of `mesh`, emptied.
+    /// Takes the buffers out of `mesh`, emptied (except the normals, which are constant).
     pub(crate) fn take(mesh: &mut Mesh) -> Self {
         let mut b = Self {
             positions: take_f32x3(mesh, Mesh::ATTRIBUTE_POSITION),
@@ -334,7 +334,8 @@ impl StripBuffers {
             b.indices = v;
         }
         b.positions.clear();
-        b.normals.clear();
+        // Normals are all +Z: kept as they are, so that `put` only writes new ones when the
+        // mesh grows.
         b.uvs.clear();
         b.colors.clear();
         b.indices.clear();

@@ -584,6 +584,9 @@ pub struct StrokeParams {
     /// point moved along its eye ray keeps its place on screen, so the stroke keeps its shape and
     /// pixel width, but it is drawn in front of the surface it outlines. Default `0.0`.
     pub depth_bias: f32,
+    /// Linear RGBA stroke colour; each vertex gets it with its alpha multiplied by the **E**
+    /// curve. Default opaque black.
+    pub color: [f32; 4],
 }
 
 impl Default for StrokeParams {
@@ -597,6 +600,7 @@ impl Default for StrokeParams {
             fade: [0.0, 0.0, 1.0],
             texture_length_px: 64.0,
             depth_bias: 0.0,
+            color: [0.0, 0.0, 0.0, 1.0],
         }
     }
 }
@@ -772,8 +776,8 @@ pub struct StrokeVertices {
     /// across it: `0` on the left side, `1` on the right side (seen from the camera, walking the
     /// stroke forward).
     pub uvs: Vec<[f32; 2]>,
-    /// Alpha from the **E** curve per vertex.
-    pub alphas: Vec<f32>,
+    /// [`StrokeParams::color`] per vertex, its alpha multiplied by the **E** curve.
+    pub colors: Vec<[f32; 4]>,
     /// Triangle list into the vertices, counter-clockwise as seen from the camera.
     pub indices: Vec<u32>,
     run: Run,
@@ -789,7 +793,7 @@ impl StrokeVertices {
     pub fn clear(&mut self) {
         self.positions.clear();
         self.uvs.clear();
-        self.alphas.clear();
+        self.colors.clear();
         self.indices.clear();
     }
 }
@@ -1029,8 +1033,9 @@ fn project_portable(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams)
         let finite = cx.is_finite() & cy.is_finite() & cz.is_finite() & cw.is_finite();
         let valid = finite & (cw > MIN_CLIP_W);
         (x[i], y[i], z[i]) = (px, py, pz);
-        sx[i] = cx * (hx / cw);
-        sy[i] = cy * (hy / cw);
+        let inv_w = cw.recip();
+        sx[i] = cx * hx * inv_w;
+        sy[i] = cy * hy * inv_w;
         w[i] = if valid { cw } else { f32::NAN };
         alpha[i] = eval_unit(fade, alpha[i]);
     }
@@ -1079,6 +1084,8 @@ struct OffsetParams {
     half_width: f32,
     half_limit: f32,
     angle_scale: f32,
+    /// Whether offsets leave the homogeneous `w` alone (the usual cameras): no division.
+    affine: bool,
     unproject_x: Vec4,
     unproject_y: Vec4,
 }
@@ -1105,9 +1112,10 @@ fn offset_point(
     } else {
         incoming
     };
-    let cos = (0.5 * sum_length).max(MAX_MITER.recip());
+    // 1 / cos, with cos = max(|sum| / 2, 1 / MAX_MITER).
+    let inv_cos = (2.0 * inv).min(MAX_MITER);
     let miter = if turned {
-        1.0 + o.angle_scale * (cos.recip() - 1.0)
+        1.0 + o.angle_scale * (inv_cos - 1.0)
     } else {
         1.0
     };
@@ -1128,7 +1136,11 @@ fn offset_point(
         ux.z * ox + uy.z * oy,
         ux.w * ox + uy.w * oy,
     );
-    let (lw, rw) = ((1.0 + kw).recip(), (1.0 - kw).recip());
+    let (lw, rw) = if o.affine {
+        (1.0, 1.0)
+    } else {
+        ((1.0 + kw).recip(), (1.0 - kw).recip())
+    };
     let left = [(p.0 + kx) * lw, (p.1 + ky) * lw, (p.2 + kz) * lw];
     let right = [(p.0 - kx) * rw, (p.1 - ky) * rw, (p.2 - kz) * rw];
     let finite = left[0].is_finite()
@@ -1193,8 +1205,9 @@ fn emit_run_portable(
     let segment = |i: usize, j: usize| {
         let (ex, ey) = (sx[j] - sx[i], sy[j] - sy[i]);
         let l = (ex * ex + ey * ey).sqrt();
+        let inv = l.recip();
         if l > 0.0 {
-            (ex / l, ey / l, l)
+            (ex * inv, ey * inv, l)
         } else {
             (1.0, 0.0, l)
         }
@@ -1217,6 +1230,7 @@ fn emit_run_portable(
         half_width: 0.5 * params.width_px * params.stroke_scale,
         half_limit: (0.5 * params.stroke_limit_px).max(0.0),
         angle_scale: params.angle_scale,
+        affine: camera.unproject_x.w == 0.0 && camera.unproject_y.w == 0.0,
         unproject_x: camera.unproject_x,
         unproject_y: camera.unproject_y,
     };
@@ -1272,16 +1286,18 @@ fn emit_run_portable(
     let pairs = m + usize::from(closed);
     let vertices = base..base + 2 * pairs;
     out.positions.resize(vertices.end, [0.0; 3]);
-    out.alphas.resize(vertices.end, 0.0);
+    out.colors.resize(vertices.end, [0.0; 4]);
     out.uvs.resize(vertices.end, [0.0; 2]);
     let positions = &mut out.positions[vertices.clone()];
-    let alphas = &mut out.alphas[vertices.clone()];
+    let colors = &mut out.colors[vertices.clone()];
+    let [red, green, blue, opacity] = params.color;
     let uvs = &mut out.uvs[vertices];
     for i in 0..m {
         positions[2 * i] = [lx[i], ly[i], lz[i]];
         positions[2 * i + 1] = [rx[i], ry[i], rz[i]];
-        alphas[2 * i] = alpha[i];
-        alphas[2 * i + 1] = alpha[i];
+        let c = [red, green, blue, opacity * alpha[i]];
+        colors[2 * i] = c;
+        colors[2 * i + 1] = c;
     }
     let inv_texture = if params.texture_length_px > 0.0 {
         params.texture_length_px.recip()
@@ -1297,7 +1313,7 @@ fn emit_run_portable(
     if closed {
         let u = arc * inv_texture;
         positions.copy_within(0..2, 2 * m);
-        alphas.copy_within(0..2, 2 * m);
+        colors.copy_within(0..2, 2 * m);
         uvs[2 * m..].copy_from_slice(&[[u, 0.0], [u, 1.0]]);
     }
     let base = base as u32;
@@ -1700,6 +1716,82 @@ mod tests {
     }
 
     #[test]
+    fn cameras_know_their_viewer_and_bias_keeps_the_stroke_on_screen() {
+        let eye = Vec3::new(0.3, 0.2, 5.0);
+        let world_from_view = bevy::transform::components::Transform::from_translation(eye)
+            .looking_at(Vec3::ZERO, Vec3::Y)
+            .to_matrix();
+        let viewport = Vec2::new(800.0, 600.0);
+        let perspective = Mat4::perspective_infinite_reverse_rh(1.0, 4.0 / 3.0, 0.1);
+        let camera = StrokeCamera::from_view(world_from_view, perspective, viewport);
+        assert_eq!(camera.viewer(), Some(Viewer::Point(eye)));
+        let orthographic = Mat4::orthographic_rh(-2.0, 2.0, -1.5, 1.5, 100.0, 0.1);
+        let ortho = StrokeCamera::from_view(world_from_view, orthographic, viewport);
+        let Some(Viewer::Direction(back)) = ortho.viewer() else {
+            panic!("orthographic camera without a view direction");
+        };
+        assert!(back.normalize().dot((eye - Vec3::ZERO).normalize()) > 0.999);
+        assert_eq!(StrokeCamera::new(Mat4::IDENTITY, viewport).viewer(), None);
+
+        // The pulled stroke covers the same pixels, is nearer, and keeps its width.
+        let points = [Vec3::new(-0.4, 0.1, 0.0), Vec3::new(0.5, -0.2, 0.3)];
+        for camera in [camera, ortho] {
+            let (mut plain, mut pulled) = (StrokeVertices::new(), StrokeVertices::new());
+            let params = StrokeParams::default();
+            build_stroke_strip(&points, &[], false, &camera, &params, &mut plain);
+            let biased = StrokeParams {
+                depth_bias: 0.25,
+                ..params
+            };
+            build_stroke_strip(&points, &[], false, &camera, &biased, &mut pulled);
+            for (a, b) in plain.positions.iter().zip(&pulled.positions) {
+                let (a, b) = (Vec3::from_array(*a), Vec3::from_array(*b));
+                let (sa, _) = camera.project(a);
+                let (sb, _) = camera.project(b);
+                assert!(sa.distance(sb) < 0.01, "{sa} vs {sb}");
+                let toward = match camera.viewer().unwrap() {
+                    Viewer::Point(e) => (e - a).normalize(),
+                    Viewer::Direction(d) => d.normalize(),
+                };
+                assert!(((b - a).dot(toward) - 0.25).abs() < 0.01, "{a} -> {b}");
+            }
+            for pair in 0..2 {
+                let width = pixel_width(&camera, &pulled, pair);
+                assert!((width - 2.0).abs() < 0.01, "{width} px");
+            }
+        }
+    }
+
+    #[test]
+    fn orthographic_views_face_by_direction() {
+        // A tube along X seen from far above, orthographically: the silhouette is where the
+        // normals turn horizontal, whatever the eye point would say.
+        let tube = tube(4, 16, &[Vec3::ZERO, Vec3::X], 0.1);
+        let t = &tube.topology;
+        let adjacency = EdgeAdjacency::from_triangles(&t.indices).unwrap();
+        let mut scratch = SilhouetteScratch::default();
+        let mut edges = Vec::new();
+        silhouette_edges(
+            &adjacency,
+            &t.indices,
+            &tube.positions,
+            Viewer::Direction(Vec3::Y),
+            &mut scratch,
+            &mut edges,
+        );
+        let long: Vec<_> = edges
+            .iter()
+            .filter(|e| (e[0] as usize) < 4 * 16 && (e[1] as usize) < 4 * 16)
+            .filter(|e| e[0] % 16 == e[1] % 16)
+            .collect();
+        assert_eq!(long.len(), 6, "{edges:?}");
+        for e in long {
+            let y = tube.positions[e[0] as usize][1];
+            assert!(y.abs() < 0.05, "silhouette at height {y}");
+        }
+    }
+
+    #[test]
     fn strips_are_counter_clockwise_faded_and_textured() {
         let camera = camera();
         let params = StrokeParams {
@@ -1710,7 +1802,9 @@ mod tests {
         let mut out = StrokeVertices::new();
         let points = [Vec3::ZERO, Vec3::X * 0.5, Vec3::new(1.0, 0.3, 0.0)];
         build_stroke_strip(&points, &[0.0, 0.5, 1.0], false, &camera, &params, &mut out);
-        assert_eq!(out.alphas, vec![1.0, 1.0, 0.5, 0.5, 0.0, 0.0]);
+        let alphas: Vec<f32> = out.colors.iter().map(|c| c[3]).collect();
+        assert_eq!(alphas, vec![1.0, 1.0, 0.5, 0.5, 0.0, 0.0]);
+        assert!(out.colors.iter().all(|c| c[..3] == [0.0; 3]));
         let (s0, _) = camera.project(points[0]);
         let (s1, _) = camera.project(points[1]);
         assert!((out.uvs[2][0] - s0.distance(s1) / 10.0).abs() < 1e-3);

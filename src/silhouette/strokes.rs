@@ -81,6 +81,7 @@ impl SilhouetteSettings {
             stroke_scale: f(self.stroke_scale, 1.0).clamp(0.0, 16.0),
             stroke_limit_px: f(self.stroke_limit_px, 6.0).clamp(0.0, 128.0),
             fade: [self.fade.a, self.fade.b, self.fade.c],
+            color: self.color.to_linear().to_f32_array(),
             ..default()
         }
     }
@@ -102,7 +103,8 @@ pub struct HairStrokesOf(pub Entity);
 pub struct HairStrokes(Vec<Entity>);
 
 /// Derived silhouette state of a hair: the edge map of its strand topology (built once per
-/// topology, shared by every strand) and the stroke mesh.
+/// topology, shared by every strand) and the stroke meshes (one per thread that builds strokes,
+/// so that each thread's output becomes a mesh without being copied).
 #[derive(Component)]
 pub struct ComputedSilhouettes {
     /// The silhouette-edge finder of the strands' tube topology.
@@ -111,10 +113,10 @@ pub struct ComputedSilhouettes {
     pub along: Vec<f32>,
     /// Topology this was built for: (rings, sides).
     pub built_for: (usize, usize),
-    /// The stroke mesh.
-    pub mesh: Handle<Mesh>,
-    /// The stroke entity.
-    pub entity: Entity,
+    /// The stroke meshes (world space).
+    pub meshes: Vec<Handle<Mesh>>,
+    /// The stroke entities, one per mesh.
+    pub entities: Vec<Entity>,
     /// Strokes (chains) drawn last frame.
     pub chains: usize,
 }
@@ -194,40 +196,30 @@ pub fn extract_silhouettes(
             Some(c) if c.built_for == key => c,
             other => {
                 let along = topology.uvs.iter().map(|uv| uv[1]).collect();
-                let (mesh, entity) = match &other {
-                    Some(c) => (c.mesh.clone(), c.entity),
-                    None => {
-                        let mesh = meshes.add(empty_stroke_mesh());
-                        let entity = commands
-                            .spawn((
-                                Name::new("hair strokes"),
-                                Mesh3d(mesh.clone()),
-                                Transform::IDENTITY,
-                                NoFrustumCulling,
-                                HairStrokesOf(hair),
-                            ))
-                            .id();
-                        (mesh, entity)
-                    }
+                let (meshes, entities) = match other {
+                    Some(c) => (c.meshes.clone(), c.entities.clone()),
+                    None => Default::default(),
                 };
                 commands.entity(hair).insert(ComputedSilhouettes {
                     tube: TubeEdges::new(topology),
                     along,
                     built_for: key,
-                    mesh,
-                    entity,
+                    meshes,
+                    entities,
                     chains: 0,
                 });
                 continue;
             }
         };
-        if let Ok(mut v) = visibility.get_mut(computed.entity) {
-            let want = if settings.enabled {
-                Visibility::Inherited
-            } else {
-                Visibility::Hidden
-            };
-            v.set_if_neq(want);
+        let want = if settings.enabled {
+            Visibility::Inherited
+        } else {
+            Visibility::Hidden
+        };
+        for &entity in &computed.entities {
+            if let Ok(mut v) = visibility.get_mut(entity) {
+                v.set_if_neq(want);
+            }
         }
         let Some((camera, camera_transform, _)) = camera else {
             continue;
@@ -265,8 +257,25 @@ pub fn extract_silhouettes(
             &stroke_camera,
             &params,
         );
-        if let Some(mut mesh) = meshes.get_mut(&computed.mesh) {
-            builder.write_mesh(pool, &mut mesh, settings.color);
+        // One stroke entity per thread's output; more appear if the thread count grows.
+        while computed.meshes.len() < builder.workers().len() {
+            let mesh = meshes.add(empty_stroke_mesh());
+            let entity = commands
+                .spawn((
+                    Name::new("hair strokes"),
+                    Mesh3d(mesh.clone()),
+                    Transform::IDENTITY,
+                    NoFrustumCulling,
+                    HairStrokesOf(hair),
+                ))
+                .id();
+            computed.meshes.push(mesh);
+            computed.entities.push(entity);
+        }
+        for (w, handle) in computed.meshes.iter().enumerate() {
+            if let Some(mut mesh) = meshes.get_mut(handle) {
+                builder.swap_into_mesh(w, &mut mesh);
+            }
         }
     }
 }
@@ -324,55 +333,18 @@ impl StrokeBuilder {
         &self.workers
     }
 
-    /// Replaces `mesh`'s positions, UVs, colours (`color` with each vertex's alpha) and indices
-    /// with the strokes last built (reusing the mesh's buffers), copying each thread's part on
-    /// its own thread.
-    pub fn write_mesh(&self, pool: &TaskPool, mesh: &mut Mesh, color: Color) {
-        let c = color.to_linear();
+    /// Moves worker `w`'s strokes into `mesh` (positions, UVs, colours, indices; normals face
+    /// +Z), taking the mesh's old buffers back for the next build: nothing is copied. A mesh
+    /// beyond the workers is emptied.
+    pub fn swap_into_mesh(&mut self, w: usize, mesh: &mut Mesh) {
         let mut b = StripBuffers::take(mesh);
-        let vertices: usize = self.workers.iter().map(|w| w.out.positions.len()).sum();
-        let indices: usize = self.workers.iter().map(|w| w.out.indices.len()).sum();
-        b.positions.resize(vertices, [0.0; 3]);
-        b.uvs.resize(vertices, [0.0; 2]);
-        b.colors.resize(vertices, [0.0; 4]);
-        b.indices.resize(indices, 0);
-        pool.scope(|scope| {
-            let (mut positions, mut uvs, mut colors, mut index_rest) = (
-                &mut b.positions[..],
-                &mut b.uvs[..],
-                &mut b.colors[..],
-                &mut b.indices[..],
-            );
-            let mut base = 0u32;
-            for (w, worker) in self.workers.iter().enumerate() {
-                let out = &worker.out;
-                let n = out.positions.len();
-                let (p, rest) = std::mem::take(&mut positions).split_at_mut(n);
-                positions = rest;
-                let (u, rest) = std::mem::take(&mut uvs).split_at_mut(n);
-                uvs = rest;
-                let (col, rest) = std::mem::take(&mut colors).split_at_mut(n);
-                colors = rest;
-                let (ind, rest) = std::mem::take(&mut index_rest).split_at_mut(out.indices.len());
-                index_rest = rest;
-                let work = async move {
-                    p.copy_from_slice(&out.positions);
-                    u.copy_from_slice(&out.uvs);
-                    for (col, a) in col.iter_mut().zip(&out.alphas) {
-                        *col = [c.red, c.green, c.blue, c.alpha * a];
-                    }
-                    for (i, &j) in ind.iter_mut().zip(&out.indices) {
-                        *i = j + base;
-                    }
-                };
-                base += n as u32;
-                if w == 0 {
-                    scope.spawn_on_scope(work);
-                } else {
-                    scope.spawn(work);
-                }
-            }
-        });
+        if let Some(worker) = self.workers.get_mut(w) {
+            std::mem::swap(&mut b.positions, &mut worker.out.positions);
+            std::mem::swap(&mut b.uvs, &mut worker.out.uvs);
+            std::mem::swap(&mut b.colors, &mut worker.out.colors);
+            std::mem::swap(&mut b.indices, &mut worker.out.indices);
+            worker.clear();
+        }
         b.put(mesh);
     }
 }

@@ -62,18 +62,21 @@ pub struct HairStageTimings {
     pub simulate: f32,
     /// [`HairSystems::BuildMesh`], ms.
     pub build_mesh: f32,
+    /// [`HairSystems::Silhouettes`] (object-space strokes), ms.
+    pub silhouettes: f32,
     /// Frames measured.
     pub frames: u64,
-    boundaries: [Option<Instant>; 4],
+    boundaries: [Option<Instant>; 5],
 }
 
 impl HairStageTimings {
-    /// The three stages as `(name, milliseconds)`.
-    pub fn stages(&self) -> [(&'static str, f32); 3] {
+    /// The four stages as `(name, milliseconds)`.
+    pub fn stages(&self) -> [(&'static str, f32); 4] {
         [
             ("Attach", self.attach),
             ("Simulate", self.simulate),
             ("Build mesh", self.build_mesh),
+            ("Silhouettes", self.silhouettes),
         ]
     }
 
@@ -92,10 +95,11 @@ impl HairStageTimings {
         let slot = match boundary {
             1 => &mut self.attach,
             2 => &mut self.simulate,
-            _ => &mut self.build_mesh,
+            3 => &mut self.build_mesh,
+            _ => &mut self.silhouettes,
         };
         *slot += (ms - *slot) * blend;
-        if boundary == 3 {
+        if boundary == 4 {
             self.frames += 1;
         }
     }
@@ -105,7 +109,7 @@ fn mark_stage_boundary<const B: usize>(mut timings: ResMut<HairStageTimings>) {
     timings.record(B);
 }
 
-/// Measures [`HairStageTimings`] with four small systems around the [`HairSystems`] sets. Part
+/// Measures [`HairStageTimings`] with five small systems around the [`HairSystems`] sets. Part
 /// of the tuning panel's plugin; add it alone to read timings without the panel.
 #[derive(Default)]
 pub struct HairStageTimingsPlugin;
@@ -128,9 +132,10 @@ impl Plugin for HairStageTimingsPlugin {
                     .after(HairSystems::Simulate)
                     .before(HairSystems::BuildMesh),
                 mark_stage_boundary::<3>
-                    // Closes the mesh stage, before silhouettes start.
+                    // Between the two stages it closes and opens.
                     .after(HairSystems::BuildMesh)
                     .before(HairSystems::Silhouettes),
+                mark_stage_boundary::<4>.after(HairSystems::Silhouettes),
             ),
         );
     }
@@ -301,7 +306,8 @@ mod tests {
         ))
         .add_systems(PostUpdate, sleep_ms(2).in_set(HairSystems::Attach))
         .add_systems(PostUpdate, sleep_ms(12).in_set(HairSystems::Simulate))
-        .add_systems(PostUpdate, sleep_ms(6).in_set(HairSystems::BuildMesh));
+        .add_systems(PostUpdate, sleep_ms(6).in_set(HairSystems::BuildMesh))
+        .add_systems(PostUpdate, sleep_ms(4).in_set(HairSystems::Silhouettes));
         let start = std::time::Instant::now();
         app.update();
         let frame_ms = start.elapsed().as_secs_f32() * 1000.0;
@@ -310,10 +316,11 @@ mod tests {
         assert!(t.attach >= 2.0, "{t:?}");
         assert!(t.simulate >= 12.0, "{t:?}");
         assert!(t.build_mesh >= 6.0, "{t:?}");
+        assert!(t.silhouettes >= 4.0, "{t:?}");
         // Each stage is measured on its own: the windows do not overlap, so together they fit in
         // the frame (an upper bound that holds however loaded the machine is).
         assert!(
-            t.attach + t.simulate + t.build_mesh <= frame_ms + 0.5,
+            t.attach + t.simulate + t.build_mesh + t.silhouettes <= frame_ms + 0.5,
             "{t:?} in {frame_ms} ms"
         );
     }

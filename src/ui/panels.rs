@@ -28,6 +28,7 @@ type HairQuery<'w, 's> = Query<
         &'static mut HairSimSettings,
         &'static mut HairMeshSettings,
         Option<&'static HairMaterial>,
+        Option<&'static mut SilhouetteSettings>,
     ),
     With<Hair>,
 >;
@@ -45,6 +46,7 @@ pub(super) fn properties_window(
     mut tuning: ResMut<HairTuningUi>,
     mut panel: ResMut<PanelState>,
     mut hairs: HairQuery,
+    mut outlines: Query<&mut ImageSpaceOutline>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
     ramps: Res<ToonRamps>,
 ) {
@@ -75,7 +77,7 @@ pub(super) fn properties_window(
                     tuning.hair = selected;
                 }
             }
-            let Some((hair, _, mut sim, mut mesh, material)) =
+            let Some((hair, _, mut sim, mut mesh, material, mut silhouettes)) =
                 tuning.hair.and_then(|e| hairs.get_mut(e).ok())
             else {
                 ui.label("No hair in the scene yet.");
@@ -107,7 +109,10 @@ pub(super) fn properties_window(
                             let m = material
                                 .and_then(|m| materials.get(&m.0))
                                 .unwrap_or(&fallback);
-                            match HairPreset::new(&sim, &mesh, m, Some(&ramps)).save(&path) {
+                            let preset = HairPreset::new(&sim, &mesh, m, Some(&ramps))
+                                .with_silhouettes(silhouettes.as_deref())
+                                .with_outline(outlines.iter().next());
+                            match preset.save(&path) {
                                 Ok(()) => panel.report(format!("saved {path}"), false),
                                 Err(e) => panel.report(e.to_string(), true),
                             }
@@ -121,6 +126,16 @@ pub(super) fn properties_window(
                                         material.and_then(|m| materials.get_mut(&m.0))
                                     {
                                         preset.material.apply(&mut m, &ramps);
+                                    }
+                                    if let (Some(want), Some(have)) =
+                                        (&preset.silhouettes, silhouettes.as_mut())
+                                    {
+                                        have.set_if_neq(want.clone());
+                                    }
+                                    if let Some(want) = &preset.outline {
+                                        for mut have in &mut outlines {
+                                            have.set_if_neq(want.clone());
+                                        }
                                     }
                                     panel.pending_mesh = None;
                                     panel.report(format!("loaded {path}"), false);
