@@ -7,8 +7,9 @@
 //! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
 //!   bevy_rapier ball bodies joined by spherical impulse joints, one 60 Hz step, in the same run.
 //! - `load_groom/100k_x_6`: parsing a 100,000-strand, 6-particle groom file.
-//! - `mesh/*`, `silhouettes/*`: tube rebuild and silhouette strokes for 1,000 strands at 16 x 8,
-//!   single-threaded.
+//! - `mesh/*`, `silhouettes/*`: tube rebuild and silhouette strokes for 1,000 strands at 16 x 8:
+//!   single-threaded, plus the strokes as the plugin builds them on this machine's two threads
+//!   (`silhouettes/plugin_2_threads_*`) and the general closed-mesh path beside the tube one.
 //! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
 //!   10 candidates).
 

@@ -6,8 +6,14 @@
 //! ever dropped, odd vertices split rather than lost), and screen-space stroke strips with the
 //! thesis's angle, depth and stroke scaling, stroke limit and E-curve fade.
 //!
+//! [`tube_edges`] finds the same silhouette edges faster on strand tubes: the two triangles of
+//! every quad are tested in one vectorised pass over coordinate rows, the results become bit
+//! masks per ring band, and each class of edge is the exclusive or of two masks. Tests check it
+//! against the general path edge for edge.
+//!
 //! [`strokes`] is the ECS side: [`SilhouetteSettings`] per hair, the [`extract_silhouettes`]
-//! system, and the stroke mesh entity (drawn by the render plugin with a textured, unlit,
+//! system (strands split over threads, each thread's strokes moved into a mesh of its own
+//! without a copy), and the stroke mesh entities (drawn by the render plugin with a textured, unlit,
 //! depth-tested material; the module docs explain how that handles self-overlapping strands).
 
 pub mod edges;

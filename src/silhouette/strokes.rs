@@ -2,8 +2,10 @@
 //! the stroke mesh it fills.
 //!
 //! # Visibility
-//! Strokes are ordinary geometry drawn with the depth test on. Each stroke vertex is pulled
-//! toward the camera by [`SilhouetteSettings::depth_bias`] times the strand radius, so the half of
+//! Strokes are ordinary geometry drawn with the depth test on. Each stroke point is pulled
+//! toward the camera by [`SilhouetteSettings::depth_bias`] times the strand radius, along its eye
+//! ray (or the view direction of an orthographic camera) before the strip is extruded, so the
+//! stroke covers the same pixels at its full width, and the half of
 //! the strip that lies over its own strand's surface (which curves away from the silhouette edge
 //! by up to one radius) stays in front of it, while anything nearer than that, other strands, the
 //! head, or the same strand passing in front of itself, hides the stroke. The thesis used an ID
@@ -280,6 +282,9 @@ pub fn extract_silhouettes(
     }
 }
 
+/// The most threads (and stroke meshes) a hair's strokes are split over.
+pub const MAX_STROKE_THREADS: usize = 8;
+
 /// Builds the strokes of a hair's strands on several threads and writes them into a mesh: the
 /// work of [`extract_silhouettes`] for one hair and camera, public so that it can be measured and
 /// reused. Keep one across frames: its buffers are reused.
@@ -291,8 +296,8 @@ pub struct StrokeBuilder {
 impl StrokeBuilder {
     /// Builds the strokes of every strand in `positions` (strand after strand, each
     /// [`TubeEdges::vertex_count`] vertices) with `along` as in [`StrokeWorker::add_strand`],
-    /// spread over `pool`'s threads and the calling thread (which would otherwise only wait).
-    /// Returns the number of chains.
+    /// spread over `pool`'s threads and the calling thread (which would otherwise only wait), at
+    /// most [`MAX_STROKE_THREADS`]. Returns the number of chains.
     pub fn build(
         &mut self,
         pool: &TaskPool,
@@ -304,7 +309,8 @@ impl StrokeBuilder {
     ) -> usize {
         let per = tube.vertex_count();
         let strands = positions.len() / per;
-        let threads = pool.thread_num().max(1) + 1;
+        // Each thread's strokes become a mesh (a draw call): at most eight.
+        let threads = (pool.thread_num().max(1) + 1).min(MAX_STROKE_THREADS);
         let chunk = strands.div_ceil(threads).max(1);
         self.workers
             .resize_with(strands.div_ceil(chunk).max(1), StrokeWorker::default);
