@@ -167,8 +167,9 @@ pub struct SilhouetteScratch {
     used: Vec<bool>,
     /// Sorted distinct vertex ids, when they are too sparse to index directly.
     ids: Vec<u32>,
-    /// Per compact vertex id: the edge leaving it (see [`chain_loops`]).
-    next: Vec<u32>,
+    /// Per compact vertex id: the far end of the edge leaving it, compact and as a vertex id
+    /// (see [`chain_loops`]).
+    next: Vec<[u32; 2]>,
 }
 
 /// An edge end at a vertex: the edge and its far end.
@@ -392,7 +393,7 @@ fn chain_edges_with(
     if degree.len() < vertex_count {
         degree.resize(vertex_count, 0);
         slots.resize(vertex_count, [Slot::default(); 2]);
-        next.resize(vertex_count, 0);
+        next.resize(vertex_count, [0; 2]);
     }
     if fast_loops && chain_loops(edges, ends, degree, next, out) {
         return;
@@ -453,15 +454,15 @@ fn chain_loops(
     edges: &[[u32; 2]],
     ends: &[[u32; 2]],
     degree: &mut [u32],
-    next: &mut [u32],
+    next: &mut [[u32; 2]],
     out: &mut SilhouetteChains,
 ) -> bool {
     // Leaving edges count in the low half of `degree`, arriving ones in the high half.
     const ONE_EACH: u32 = 0x1_0001;
-    for (e, &[a, b]) in ends.iter().enumerate() {
+    for (&[a, b], &[_, b_id]) in ends.iter().zip(edges) {
         degree[a as usize] += 1;
         degree[b as usize] += 1 << 16;
-        next[a as usize] = e as u32;
+        next[a as usize] = [b, b_id];
     }
     let loops = ends
         .iter()
@@ -475,17 +476,16 @@ fn chain_loops(
     }
     // `next` is a permutation of the vertices: following it from any vertex comes back. Visited
     // vertices get their degree reset to zero.
-    for &[start, _] in ends {
+    for (&[start, _], &[start_id, _]) in ends.iter().zip(edges) {
         if degree[start as usize] == 0 {
             continue;
         }
         let begin = out.vertices.len();
-        let mut v = start;
+        let (mut v, mut id) = (start, start_id);
         loop {
             degree[v as usize] = 0;
-            let e = next[v as usize] as usize;
-            out.vertices.push(edges[e][0]);
-            v = ends[e][1];
+            out.vertices.push(id);
+            [v, id] = next[v as usize];
             if v == start {
                 break;
             }
@@ -720,8 +720,12 @@ struct Run {
 }
 
 impl Run {
-    /// Makes every array `n` long (contents unspecified).
-    fn resize(&mut self, n: usize) {
+    /// Makes every array at least `n` long (contents unspecified): the passes use the first `n`
+    /// entries, so arrays never shrink and refill between strokes.
+    fn reserve_points(&mut self, n: usize) {
+        if self.x.len() >= n {
+            return;
+        }
         for v in [
             &mut self.x,
             &mut self.y,
@@ -883,17 +887,25 @@ fn build_strip(
         return;
     }
     let mut run = std::mem::take(&mut out.run);
-    run.resize(n);
-    for i in 0..n {
-        let (p, along) = point(i);
-        (run.x[i], run.y[i], run.z[i], run.alpha[i]) = (p.x, p.y, p.z, along);
+    run.reserve_points(n);
+    {
+        let (x, y, z, a) = (
+            &mut run.x[..n],
+            &mut run.y[..n],
+            &mut run.z[..n],
+            &mut run.alpha[..n],
+        );
+        for i in 0..n {
+            let (p, along) = point(i);
+            (x[i], y[i], z[i], a[i]) = (p.x, p.y, p.z, along);
+        }
     }
-    project(&mut run, camera, params);
+    project(&mut run, n, camera, params);
     // A closed polyline with a bad point is cut open just after its last bad point.
     let mut wrap = closed;
     if closed && let Some(bad) = (0..n).rposition(|i| !run.valid(i)) {
         for v in run.point_arrays() {
-            v.rotate_left(bad + 1);
+            v[..n].rotate_left(bad + 1);
         }
         wrap = false;
     }
@@ -931,7 +943,12 @@ fn merge_duplicates(run: &mut Run, start: usize, end: usize) -> usize {
     let close = |run: &Run, i: usize, j: usize| {
         run.screen_distance_squared(i, j) < MIN_SEGMENT_PX * MIN_SEGMENT_PX
     };
-    // Usually there are none: then nothing moves.
+    // Usually there are none: then nothing moves (tested without an early exit, which
+    // vectorises).
+    let any = (start + 1..end).fold(false, |any, i| any | close(run, i, i - 1));
+    if !any {
+        return end;
+    }
     let Some(first) = (start + 1..end).find(|&i| close(run, i, i - 1)) else {
         return end;
     };
@@ -965,26 +982,25 @@ fn eval_unit([a, b, c]: [f32; 3], x: f32) -> f32 {
 
 /// Moves the run's points toward the viewer by the depth bias, projects them, and turns their
 /// position along the strand into alpha.
-fn project(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
+fn project(run: &mut Run, n: usize, camera: &StrokeCamera, params: &StrokeParams) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU supports AVX2, checked just above.
-        unsafe { project_avx2(run, camera, params) };
+        unsafe { project_avx2(run, n, camera, params) };
         return;
     }
-    project_portable(run, camera, params);
+    project_portable(run, n, camera, params);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn project_avx2(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
-    project_portable(run, camera, params);
+unsafe fn project_avx2(run: &mut Run, n: usize, camera: &StrokeCamera, params: &StrokeParams) {
+    project_portable(run, n, camera, params);
 }
 
 /// The projection pass: straight-line arithmetic per point, so that it vectorises.
 #[inline(always)]
-fn project_portable(run: &mut Run, camera: &StrokeCamera, params: &StrokeParams) {
-    let n = run.x.len();
+fn project_portable(run: &mut Run, n: usize, camera: &StrokeCamera, params: &StrokeParams) {
     let bias = if params.depth_bias.is_finite() {
         params.depth_bias
     } else {
@@ -1292,12 +1308,17 @@ fn emit_run_portable(
     let colors = &mut out.colors[vertices.clone()];
     let [red, green, blue, opacity] = params.color;
     let uvs = &mut out.uvs[vertices];
-    for i in 0..m {
-        positions[2 * i] = [lx[i], ly[i], lz[i]];
-        positions[2 * i + 1] = [rx[i], ry[i], rz[i]];
+    let (lx, ly, lz, rx, ry, rz) = (&lx[..m], &ly[..m], &lz[..m], &rx[..m], &ry[..m], &rz[..m]);
+    let alpha = &alpha[..m];
+    for (i, (pair, colour)) in positions
+        .chunks_exact_mut(2)
+        .zip(colors.chunks_exact_mut(2))
+        .enumerate()
+        .take(m)
+    {
+        pair.copy_from_slice(&[[lx[i], ly[i], lz[i]], [rx[i], ry[i], rz[i]]]);
         let c = [red, green, blue, opacity * alpha[i]];
-        colors[2 * i] = c;
-        colors[2 * i + 1] = c;
+        colour.copy_from_slice(&[c, c]);
     }
     let inv_texture = if params.texture_length_px > 0.0 {
         params.texture_length_px.recip()

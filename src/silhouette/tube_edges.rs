@@ -121,7 +121,9 @@ impl TubeEdges {
             let band = r * row..r * row + sides;
             [bits(&first[band.clone()]), bits(&second[band])]
         }));
-        let at = |ring: usize, side: usize| (ring * sides + side % sides) as u32;
+        // `side` is at most `sides` here: wrap without a division.
+        let at =
+            |ring: usize, side: usize| (ring * sides + if side == sides { 0 } else { side }) as u32;
         let (root_cap, tip_cap) = (bits(&caps[..sides]), bits(&caps[sides..]));
         // Bit k of `rotate_down(m)` is bit k + 1 of `m`; of `rotate_up(m)`, bit k - 1 (cyclic).
         let rotate_down = |m: u64| (m >> 1) | ((m & 1) << (sides - 1));
