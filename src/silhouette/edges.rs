@@ -1619,6 +1619,21 @@ mod tests {
             chain_edges_with(&edges, &mut scratch, &mut general, false);
             assert_eq!(fast, general, "trial {trial}: {edges:?}");
             assert_chains_cover(&edges, &fast);
+            // Sparse vertex ids take the compacting path; the chains are the same.
+            let sparse: Vec<[u32; 2]> = edges.iter().map(|e| e.map(|v| v * 100_003)).collect();
+            let (mut sparse_fast, mut sparse_general) =
+                (SilhouetteChains::default(), SilhouetteChains::default());
+            chain_edges_with(&sparse, &mut scratch, &mut sparse_fast, true);
+            chain_edges_with(&sparse, &mut scratch, &mut sparse_general, false);
+            assert_eq!(sparse_fast, sparse_general, "trial {trial}, sparse");
+            assert_eq!(sparse_fast.spans, fast.spans);
+            assert!(
+                sparse_fast
+                    .vertices
+                    .iter()
+                    .zip(&fast.vertices)
+                    .all(|(s, d)| *s == d * 100_003)
+            );
             loops += usize::from(fast.spans.iter().all(|s| s.closed) && !fast.is_empty());
         }
         assert!(loops > 100, "only {loops} trials were pure loops");
