@@ -13,7 +13,7 @@
 //! strands (its Figure 4.18); a depth test has no such blind spot.
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::visibility::NoFrustumCulling;
+use bevy::camera::visibility::{NoFrustumCulling, RenderLayers};
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
@@ -89,10 +89,22 @@ impl SilhouetteSettings {
     }
 }
 
-/// The camera strokes are built for. Without it, the first active 3D camera is used.
+/// A camera strokes are built for. Without any, the first active 3D camera is used.
+///
+/// Strokes depend on the camera (which edges are silhouettes, and their width in pixels), so
+/// each marked camera gets strokes of its own. With more than one, each camera's strokes are put
+/// on a render layer of their own ([`FIRST_STROKE_LAYER`] onward, in the cameras' entity
+/// order) and that layer is added to the camera's [`RenderLayers`], so that every camera sees
+/// only its own outlines. Up to [`MAX_STROKE_CAMERAS`] cameras get strokes.
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Component, Default, Debug)]
 pub struct SilhouetteCamera;
+
+/// The render layer of the first [`SilhouetteCamera`]'s strokes when several cameras have them.
+pub const FIRST_STROKE_LAYER: usize = 24;
+
+/// The most cameras that get strokes of their own.
+pub const MAX_STROKE_CAMERAS: usize = 8;
 
 /// The stroke mesh entity of a hair (world space).
 #[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
@@ -115,12 +127,23 @@ pub struct ComputedSilhouettes {
     pub along: Vec<f32>,
     /// Topology this was built for: (rings, sides).
     pub built_for: (usize, usize),
-    /// The stroke meshes (world space).
+    /// The strokes of each camera they are built for.
+    pub views: Vec<StrokeView>,
+    /// Strokes (chains) drawn last frame.
+    pub chains: usize,
+}
+
+/// The strokes of one hair for one camera.
+#[derive(Clone, Debug)]
+pub struct StrokeView {
+    /// The camera.
+    pub camera: Entity,
+    /// The stroke meshes (world space), one per thread that built them.
     pub meshes: Vec<Handle<Mesh>>,
     /// The stroke entities, one per mesh.
     pub entities: Vec<Entity>,
-    /// Strokes (chains) drawn last frame.
-    pub chains: usize,
+    /// The render layer the entities are on (`None`: the default layers, with one camera).
+    pub layer: Option<usize>,
 }
 
 /// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread.
@@ -182,14 +205,40 @@ pub fn extract_silhouettes(
         ),
         With<Hair>,
     >,
-    cameras: Query<(&Camera, &GlobalTransform, Has<SilhouetteCamera>), With<Camera3d>>,
+    cameras: Query<
+        (
+            Entity,
+            &Camera,
+            &GlobalTransform,
+            Has<SilhouetteCamera>,
+            Option<&RenderLayers>,
+        ),
+        With<Camera3d>,
+    >,
     mut visibility: Query<&mut Visibility>,
     mut builder: Local<StrokeBuilder>,
 ) {
-    let camera = cameras
+    // The marked cameras (in entity order), or else the first active camera.
+    let mut views: Vec<_> = cameras
         .iter()
-        .filter(|(c, _, _)| c.is_active)
-        .max_by_key(|(_, _, marked)| *marked);
+        .filter(|(_, c, _, marked, _)| c.is_active && *marked)
+        .collect();
+    views.sort_by_key(|(e, ..)| *e);
+    views.truncate(MAX_STROKE_CAMERAS);
+    if views.is_empty() {
+        views.extend(cameras.iter().filter(|(_, c, ..)| c.is_active).take(1));
+    }
+    let layered = views.len() > 1;
+    let layer_of = |slot: usize| layered.then_some(FIRST_STROKE_LAYER + slot);
+    // Each camera sees its strokes' layer.
+    for (slot, (camera, _, _, _, layers)) in views.iter().enumerate() {
+        if let Some(layer) = layer_of(slot) {
+            let layers = layers.cloned().unwrap_or_default();
+            if !layers.intersects(&RenderLayers::layer(layer)) {
+                commands.entity(*camera).insert(layers.with(layer));
+            }
+        }
+    }
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (hair, settings, mesh_settings, hair_mesh, computed) in &mut hairs {
         let topology = &hair_mesh.topology;
@@ -198,85 +247,118 @@ pub fn extract_silhouettes(
             Some(c) if c.built_for == key => c,
             other => {
                 let along = topology.uvs.iter().map(|uv| uv[1]).collect();
-                let (meshes, entities) = match other {
-                    Some(c) => (c.meshes.clone(), c.entities.clone()),
-                    None => Default::default(),
-                };
                 commands.entity(hair).insert(ComputedSilhouettes {
                     tube: TubeEdges::new(topology),
                     along,
                     built_for: key,
-                    meshes,
-                    entities,
+                    views: other.map(|c| c.views.clone()).unwrap_or_default(),
                     chains: 0,
                 });
                 continue;
             }
         };
+        // Strokes of cameras that no longer get any go.
+        computed.views.retain(|view| {
+            let keep = views.iter().any(|(camera, ..)| *camera == view.camera);
+            if !keep {
+                for &entity in &view.entities {
+                    commands.entity(entity).try_despawn();
+                }
+            }
+            keep
+        });
         let want = if settings.enabled {
             Visibility::Inherited
         } else {
             Visibility::Hidden
         };
-        for &entity in &computed.entities {
+        for &entity in computed.views.iter().flat_map(|v| &v.entities) {
             if let Ok(mut v) = visibility.get_mut(entity) {
                 v.set_if_neq(want);
             }
         }
-        let Some((camera, camera_transform, _)) = camera else {
-            continue;
-        };
         if !settings.enabled {
             continue;
         }
-        let Some(viewport) = camera.physical_viewport_size() else {
-            continue;
-        };
-        let stroke_camera = StrokeCamera::from_view(
-            camera_transform.to_matrix(),
-            camera.clip_from_view(),
-            Vec2::new(viewport.x as f32, viewport.y as f32),
-        );
-        let Some(hair_mesh_asset) = meshes.get(&hair_mesh.mesh) else {
-            continue;
-        };
-        let Some(positions) = hair_mesh_asset
-            .attribute(Mesh::ATTRIBUTE_POSITION)
-            .and_then(|a| a.as_float3())
-        else {
-            continue;
-        };
         // Pull strokes toward the viewer (see the module docs on visibility).
         let params = StrokeParams {
             depth_bias: settings.depth_bias.max(0.0) * mesh_settings.radius.max(0.0),
             ..settings.stroke_params()
         };
-        computed.chains = builder.build(
-            pool,
-            positions,
-            &computed.tube,
-            &computed.along,
-            &stroke_camera,
-            &params,
-        );
-        // One stroke entity per thread's output; more appear if the thread count grows.
-        while computed.meshes.len() < builder.workers().len() {
-            let mesh = meshes.add(empty_stroke_mesh());
-            let entity = commands
-                .spawn((
+        computed.chains = 0;
+        for (slot, (camera_entity, camera, camera_transform, ..)) in views.iter().enumerate() {
+            let Some(viewport) = camera.physical_viewport_size() else {
+                continue;
+            };
+            let stroke_camera = StrokeCamera::from_view(
+                camera_transform.to_matrix(),
+                camera.clip_from_view(),
+                Vec2::new(viewport.x as f32, viewport.y as f32),
+            );
+            let Some(positions) = meshes
+                .get(&hair_mesh.mesh)
+                .and_then(|m| m.attribute(Mesh::ATTRIBUTE_POSITION))
+                .and_then(|a| a.as_float3())
+            else {
+                continue;
+            };
+            computed.chains += builder.build(
+                pool,
+                positions,
+                &computed.tube,
+                &computed.along,
+                &stroke_camera,
+                &params,
+            );
+            let computed = &mut *computed;
+            let index = match computed
+                .views
+                .iter()
+                .position(|v| v.camera == *camera_entity)
+            {
+                Some(i) => i,
+                None => {
+                    computed.views.push(StrokeView {
+                        camera: *camera_entity,
+                        meshes: Vec::new(),
+                        entities: Vec::new(),
+                        layer: None,
+                    });
+                    computed.views.len() - 1
+                }
+            };
+            let view = &mut computed.views[index];
+            // One stroke entity per thread's output; more appear if the thread count grows.
+            while view.meshes.len() < builder.workers().len() {
+                let mesh = meshes.add(empty_stroke_mesh());
+                let mut entity = commands.spawn((
                     Name::new("hair strokes"),
                     Mesh3d(mesh.clone()),
                     Transform::IDENTITY,
                     NoFrustumCulling,
                     HairStrokesOf(hair),
-                ))
-                .id();
-            computed.meshes.push(mesh);
-            computed.entities.push(entity);
-        }
-        for (w, handle) in computed.meshes.iter().enumerate() {
-            if let Some(mut mesh) = meshes.get_mut(handle) {
-                builder.swap_into_mesh(w, &mut mesh);
+                ));
+                if let Some(layer) = view.layer {
+                    entity.insert(RenderLayers::layer(layer));
+                }
+                view.meshes.push(mesh);
+                view.entities.push(entity.id());
+            }
+            let layer = layer_of(slot);
+            if view.layer != layer {
+                view.layer = layer;
+                for &entity in &view.entities {
+                    let mut entity = commands.entity(entity);
+                    match layer {
+                        Some(layer) => entity.insert(RenderLayers::layer(layer)),
+                        None => entity.remove::<RenderLayers>(),
+                    };
+                }
+            }
+            for (w, handle) in view.meshes.iter().enumerate() {
+                if let Some(mut mesh) = meshes.get_mut(handle) {
+                    builder.swap_into_mesh(w, &mut mesh);
+                }
             }
         }
     }

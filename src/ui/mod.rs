@@ -30,10 +30,37 @@ pub use debug::{HairDebugDraw, HairDebugGizmos, HairStageTimings, HairStageTimin
 pub use panels::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 
 use bevy::prelude::*;
-use bevy_egui::{EguiPlugin, EguiPrimaryContextPass, egui};
+use bevy_egui::{
+    EguiGlobalSettings, EguiPlugin, EguiPreUpdateSet, EguiPrimaryContextPass, PrimaryEguiContext,
+    egui,
+};
 
 use crate::HairSystems;
 use crate::sim::Hair;
+
+/// Gives the primary egui context (where the panel draws) to one camera while none has it: the
+/// first active camera that renders to a window, or else the first active camera.
+fn give_the_panel_a_camera(
+    mut commands: Commands,
+    primary: Query<(), With<PrimaryEguiContext>>,
+    cameras: Query<(Entity, &Camera, Option<&bevy::camera::RenderTarget>)>,
+) {
+    if !primary.is_empty() {
+        return;
+    }
+    let mut active: Vec<_> = cameras.iter().filter(|(_, c, _)| c.is_active).collect();
+    active.sort_by_key(|(e, ..)| *e);
+    let on_window = |target: Option<&bevy::camera::RenderTarget>| {
+        matches!(target, None | Some(bevy::camera::RenderTarget::Window(_)))
+    };
+    let chosen = active
+        .iter()
+        .find(|(_, _, target)| on_window(*target))
+        .or(active.first());
+    if let Some((camera, ..)) = chosen {
+        commands.entity(*camera).insert(PrimaryEguiContext);
+    }
+}
 
 /// Whether the tuning panel is shown, which hair it edits, and where presets go.
 #[derive(Resource, Reflect, Clone, Debug, PartialEq)]
@@ -117,7 +144,18 @@ pub struct HairTuningUiPlugin;
 impl Plugin for HairTuningUiPlugin {
     fn build(&self, app: &mut App) {
         if !app.is_plugin_added::<EguiPlugin>() {
-            app.add_plugins(EguiPlugin::default());
+            // bevy_egui's own choice of camera runs twice (startup and first frame) with separate
+            // memories, so with two cameras spawned at startup it can give each a primary
+            // context, and then panics. One system picks one camera here instead.
+            app.insert_resource(EguiGlobalSettings {
+                auto_create_primary_context: false,
+                ..default()
+            })
+            .add_plugins(EguiPlugin::default())
+            .add_systems(
+                PreUpdate,
+                give_the_panel_a_camera.before(EguiPreUpdateSet::InitContexts),
+            );
         }
         if !app.is_plugin_added::<HairStageTimingsPlugin>() {
             app.add_plugins(HairStageTimingsPlugin);

@@ -20,6 +20,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "strokes_switch_off_and_on_again",
         strokes_switch_off_and_on_again,
     ),
+    (
+        "each_camera_sees_its_own_strokes",
+        each_camera_sees_its_own_strokes,
+    ),
 ];
 
 fn scene() -> Result<HeadlessRenderer, Failed> {
@@ -208,6 +212,76 @@ fn strokes_switch_off_and_on_again() -> Result<(), Failed> {
             return Err(
                 format!("enabled={enabled}: {ink} ink pixels (sequence {counts:?})").into(),
             );
+        }
+    }
+    Ok(())
+}
+
+fn each_camera_sees_its_own_strokes() -> Result<(), Failed> {
+    use bevy::camera::visibility::RenderLayers;
+    use bevy_cartoon_hair::silhouette::ComputedSilhouettes;
+    use bevy_cartoon_hair::silhouette::strokes::FIRST_STROKE_LAYER;
+
+    let mut r = scene()?;
+    // A second camera looks down on the strand from above, into an image of its own. Its
+    // outlines (the strand's front and back edges) would cross the middle of the lit face the
+    // first camera sees, were they drawn for it.
+    let world = r.app.world_mut();
+    let mut image = Image::new_target_texture(
+        64,
+        64,
+        bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb,
+        None,
+    );
+    image.texture_descriptor.usage |= bevy::render::render_resource::TextureUsages::COPY_SRC;
+    let top = world.resource_mut::<Assets<Image>>().add(image);
+    world.spawn((
+        Camera3d::default(),
+        Camera {
+            order: 1,
+            ..default()
+        },
+        RenderTarget::Image(top.into()),
+        Transform::from_xyz(0.0, 3.0, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
+    ));
+    let mut marked = world.query_filtered::<Entity, With<Camera3d>>();
+    let cameras: Vec<Entity> = marked.iter(world).collect();
+    for camera in &cameras {
+        world.entity_mut(*camera).insert(SilhouetteCamera);
+    }
+    let points = (0..6)
+        .map(|i| Vec3::new(-1.0 + 0.4 * i as f32, 0.0, 0.0))
+        .collect();
+    let hair = spawn(&mut r, points, 0.35);
+    let frame = r.capture()?;
+    save(&frame, "strokes_two_cameras")?;
+    let (boundary, inside) = ink_near_and_inside(&frame, 4, 10);
+    println!("two cameras: {boundary} ink pixels on the boundary, {inside} inside");
+    if boundary < 700 || inside > 0 {
+        return Err(format!("{boundary} boundary ink pixels, {inside} inside the face").into());
+    }
+    // Each camera got strokes of its own, on its own layer, which it sees.
+    let world = r.app.world();
+    let computed = world
+        .get::<ComputedSilhouettes>(hair)
+        .ok_or("no silhouettes")?;
+    let mut layers: Vec<(Entity, Option<usize>)> =
+        computed.views.iter().map(|v| (v.camera, v.layer)).collect();
+    layers.sort();
+    let mut expected: Vec<(Entity, Option<usize>)> = cameras.iter().map(|c| (*c, None)).collect();
+    expected.sort();
+    for (slot, e) in expected.iter_mut().enumerate() {
+        e.1 = Some(FIRST_STROKE_LAYER + slot);
+    }
+    if layers != expected {
+        return Err(format!("stroke views {layers:?}, expected {expected:?}").into());
+    }
+    for (camera, layer) in &expected {
+        let seen = world
+            .get::<RenderLayers>(*camera)
+            .is_some_and(|l| l.intersects(&RenderLayers::layer(layer.unwrap_or(0))));
+        if !seen {
+            return Err(format!("camera {camera} does not see its stroke layer").into());
         }
     }
     Ok(())
