@@ -248,7 +248,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     });
     // What the plugin does per frame on this machine: the strands split between Bevy's compute
     // thread (one on two cores, by default) and the system's own thread, then the strokes
-    // copied into the stroke mesh.
+    // moved into the stroke meshes (one per block of strands).
     let pool = bevy::tasks::TaskPoolBuilder::new().num_threads(1).build();
     let mut builder = StrokeBuilder::default();
     let mut meshes = vec![
@@ -256,8 +256,15 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             bevy::mesh::PrimitiveTopology::TriangleList,
             bevy::asset::RenderAssetUsages::default(),
         );
-        2
+        bevy_cartoon_hair::silhouette::strokes::STROKE_BLOCKS
     ];
+    // Once first, to check that strokes come out.
+    builder.build(&pool, &positions, &tube, &along, &camera, &stroke);
+    for (w, mesh) in meshes.iter_mut().enumerate() {
+        builder.swap_into_mesh(w, mesh);
+    }
+    let drawn: usize = meshes.iter().map(Mesh::count_vertices).sum();
+    assert!(drawn > 10_000, "{drawn} stroke vertices");
     group.bench_function("plugin_2_threads_1000x16x8", |b| {
         b.iter(|| {
             builder.build(&pool, &positions, &tube, &along, &camera, &stroke);
@@ -266,8 +273,6 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             }
         })
     });
-    let drawn: usize = meshes.iter().map(Mesh::count_vertices).sum();
-    assert!(drawn > 10_000, "{drawn} stroke vertices");
     // The same strokes through the general closed-mesh path (any triangle list).
     let mut sil_scratch = SilhouetteScratch::default();
     let mut edges = Vec::new();

@@ -12,8 +12,8 @@
 //! against the general path edge for edge.
 //!
 //! [`strokes`] is the ECS side: [`SilhouetteSettings`] per hair, the [`extract_silhouettes`]
-//! system (strands split over threads, each thread's strokes moved into a mesh of its own
-//! without a copy), and the stroke mesh entities (drawn by the render plugin with a textured, unlit,
+//! system (blocks of strands shared out to threads, each block's strokes moved into a mesh of
+//! its own without a copy), and the stroke mesh entities (drawn by the render plugin with a textured, unlit,
 //! depth-tested material; the module docs explain how that handles self-overlapping strands).
 
 pub mod edges;

@@ -17,6 +17,8 @@ use bevy::camera::visibility::{NoFrustumCulling, RenderLayers};
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::edges::{
     SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams, StrokeVertices,
@@ -117,8 +119,8 @@ pub struct HairStrokesOf(pub Entity);
 pub struct HairStrokes(Vec<Entity>);
 
 /// Derived silhouette state of a hair: the edge map of its strand topology (built once per
-/// topology, shared by every strand) and the stroke meshes (one per thread that builds strokes,
-/// so that each thread's output becomes a mesh without being copied).
+/// topology, shared by every strand) and the stroke meshes (one per block of strands, see
+/// [`STROKE_BLOCKS`], so that each block's output becomes a mesh without being copied).
 #[derive(Component)]
 pub struct ComputedSilhouettes {
     /// The silhouette-edge finder of the strands' tube topology.
@@ -138,7 +140,7 @@ pub struct ComputedSilhouettes {
 pub struct StrokeView {
     /// The camera.
     pub camera: Entity,
-    /// The stroke meshes (world space), one per thread that built them.
+    /// The stroke meshes (world space), one per block of strands.
     pub meshes: Vec<Handle<Mesh>>,
     /// The stroke entities, one per mesh.
     pub entities: Vec<Entity>,
@@ -146,7 +148,8 @@ pub struct StrokeView {
     pub layer: Option<usize>,
 }
 
-/// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread.
+/// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread
+/// (or per block of strands).
 /// After warming up, nothing allocates.
 #[derive(Default)]
 pub struct StrokeWorker {
@@ -328,8 +331,8 @@ pub fn extract_silhouettes(
                 }
             };
             let view = &mut computed.views[index];
-            // One stroke entity per thread's output; more appear if the thread count grows.
-            while view.meshes.len() < builder.workers().len() {
+            // One stroke entity per block.
+            while view.meshes.len() < builder.blocks() {
                 let mesh = meshes.add(empty_stroke_mesh());
                 let mut entity = commands.spawn((
                     Name::new("hair strokes"),
@@ -364,22 +367,25 @@ pub fn extract_silhouettes(
     }
 }
 
-/// The most threads (and stroke meshes) a hair's strokes are split over.
-pub const MAX_STROKE_THREADS: usize = 8;
+/// How many blocks a hair's strands are split into for stroke building (fewer when there are
+/// fewer strands). Threads take blocks as they come free, so a thread that starts late does not
+/// hold the frame up; each block's strokes are a mesh (a draw call) of their own, the same
+/// whichever thread built them.
+pub const STROKE_BLOCKS: usize = 8;
 
-/// Builds the strokes of a hair's strands on several threads and writes them into a mesh: the
+/// Builds the strokes of a hair's strands on several threads and writes them into meshes: the
 /// work of [`extract_silhouettes`] for one hair and camera, public so that it can be measured and
 /// reused. Keep one across frames: its buffers are reused.
 #[derive(Default)]
 pub struct StrokeBuilder {
-    workers: Vec<StrokeWorker>,
+    blocks: Vec<Mutex<StrokeWorker>>,
 }
 
 impl StrokeBuilder {
     /// Builds the strokes of every strand in `positions` (strand after strand, each
-    /// [`TubeEdges::vertex_count`] vertices) with `along` as in [`StrokeWorker::add_strand`],
-    /// spread over `pool`'s threads and the calling thread (which would otherwise only wait), at
-    /// most [`MAX_STROKE_THREADS`]. Returns the number of chains.
+    /// [`TubeEdges::vertex_count`] vertices) with `along` as in [`StrokeWorker::add_strand`], in
+    /// [`STROKE_BLOCKS`] blocks of consecutive strands, taken in turn by `pool`'s threads and the
+    /// calling thread (which would otherwise only wait). Returns the number of chains.
     pub fn build(
         &mut self,
         pool: &TaskPool,
@@ -391,49 +397,61 @@ impl StrokeBuilder {
     ) -> usize {
         let per = tube.vertex_count();
         let strands = positions.len() / per;
-        // Each thread's strokes become a mesh (a draw call): at most eight.
-        let threads = (pool.thread_num().max(1) + 1).min(MAX_STROKE_THREADS);
-        let chunk = strands.div_ceil(threads).max(1);
-        self.workers
-            .resize_with(strands.div_ceil(chunk).max(1), StrokeWorker::default);
+        let blocks = strands.clamp(1, STROKE_BLOCKS);
+        let chunk = strands.div_ceil(blocks).max(1);
+        self.blocks.resize_with(blocks, Default::default);
+        let threads = (pool.thread_num() + 1).min(blocks);
+        let next = AtomicUsize::new(0);
+        let (next, workers) = (&next, &self.blocks);
         pool.scope(|scope| {
-            for (w, worker) in self.workers.iter_mut().enumerate() {
-                let strands = &positions[(w * chunk * per).min(strands * per)
-                    ..((w + 1) * chunk * per).min(strands * per)];
+            for t in 0..threads {
                 let work = async move {
-                    worker.clear();
-                    for strand in strands.chunks_exact(per) {
-                        worker.add_strand(tube, strand, along, camera, params);
+                    loop {
+                        let b = next.fetch_add(1, Ordering::Relaxed);
+                        let Some(block) = workers.get(b) else {
+                            break;
+                        };
+                        let range = (b * chunk * per).min(strands * per)
+                            ..((b + 1) * chunk * per).min(strands * per);
+                        // Each block is taken once: the lock is never contended.
+                        let mut worker = block.lock().unwrap_or_else(|e| e.into_inner());
+                        worker.clear();
+                        for strand in positions[range].chunks_exact(per) {
+                            worker.add_strand(tube, strand, along, camera, params);
+                        }
                     }
                 };
-                if w == 0 {
+                if t == 0 {
                     scope.spawn_on_scope(work);
                 } else {
                     scope.spawn(work);
                 }
             }
         });
-        self.workers.iter().map(|w| w.chain_count).sum()
+        self.blocks
+            .iter_mut()
+            .map(|w| w.get_mut().map_or(0, |w| w.chain_count))
+            .sum()
     }
 
-    /// The strokes built, per thread.
-    pub fn workers(&self) -> &[StrokeWorker] {
-        &self.workers
+    /// The number of blocks (and stroke meshes) of the last build.
+    pub fn blocks(&self) -> usize {
+        self.blocks.len()
     }
 
-    /// Moves worker `w`'s strokes into `mesh` (positions, UVs, colours, indices; normals face
+    /// Moves block `b`'s strokes into `mesh` (positions, UVs, colours, indices; normals face
     /// +Z), taking the mesh's old buffers back for the next build: nothing is copied. A mesh
-    /// beyond the workers is emptied.
-    pub fn swap_into_mesh(&mut self, w: usize, mesh: &mut Mesh) {
-        let mut b = StripBuffers::take(mesh);
-        if let Some(worker) = self.workers.get_mut(w) {
-            std::mem::swap(&mut b.positions, &mut worker.out.positions);
-            std::mem::swap(&mut b.uvs, &mut worker.out.uvs);
-            std::mem::swap(&mut b.colors, &mut worker.out.colors);
-            std::mem::swap(&mut b.indices, &mut worker.out.indices);
+    /// beyond the blocks is emptied.
+    pub fn swap_into_mesh(&mut self, b: usize, mesh: &mut Mesh) {
+        let mut buffers = StripBuffers::take(mesh);
+        if let Some(Ok(worker)) = self.blocks.get_mut(b).map(Mutex::get_mut) {
+            std::mem::swap(&mut buffers.positions, &mut worker.out.positions);
+            std::mem::swap(&mut buffers.uvs, &mut worker.out.uvs);
+            std::mem::swap(&mut buffers.colors, &mut worker.out.colors);
+            std::mem::swap(&mut buffers.indices, &mut worker.out.indices);
             worker.clear();
         }
-        b.put(mesh);
+        buffers.put(mesh);
     }
 }
 
