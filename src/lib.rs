@@ -131,6 +131,12 @@
 //! strands, can be textured and fade toward the roots; image-space edges (`render::ImageSpaceOutline`
 //! on the camera) outline everything on screen at a constant cost. Both can be switched off and
 //! on at any time.
+//!
+//! **Several cameras (split screen, picture in picture).** Strokes depend on the camera. Mark
+//! every camera that should show them with [`SilhouetteCamera`](silhouette::SilhouetteCamera):
+//! each gets strokes of its own on a render layer of its own (from
+//! [`FIRST_STROKE_LAYER`](silhouette::strokes::FIRST_STROKE_LAYER)), added to the camera's
+//! `RenderLayers`. Unmarked, the first active camera gets them.
 
 #![warn(missing_docs)]
 
