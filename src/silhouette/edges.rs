@@ -726,14 +726,10 @@ impl Run {
         if self.x.len() >= n {
             return;
         }
+        for v in self.point_arrays() {
+            v.resize(n, 0.0);
+        }
         for v in [
-            &mut self.x,
-            &mut self.y,
-            &mut self.z,
-            &mut self.sx,
-            &mut self.sy,
-            &mut self.w,
-            &mut self.alpha,
             &mut self.dx,
             &mut self.dy,
             &mut self.length,
