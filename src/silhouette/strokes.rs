@@ -102,6 +102,17 @@ impl SilhouetteSettings {
 #[reflect(Component, Default, Debug)]
 pub struct SilhouetteCamera;
 
+/// The stroke layer [`extract_silhouettes`] gave a camera (see [`SilhouetteCamera`]); when the
+/// camera stops getting strokes of its own, the layer is taken out of its [`RenderLayers`] again
+/// (unless the camera had it before).
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StrokeLayer {
+    /// The layer.
+    pub layer: usize,
+    /// Whether the layer was added to the camera's [`RenderLayers`] (it was not there before).
+    pub added: bool,
+}
+
 /// The render layer of the first [`SilhouetteCamera`]'s strokes when several cameras have them.
 pub const FIRST_STROKE_LAYER: usize = 24;
 
@@ -215,6 +226,7 @@ pub fn extract_silhouettes(
             &GlobalTransform,
             Has<SilhouetteCamera>,
             Option<&RenderLayers>,
+            Option<&StrokeLayer>,
         ),
         With<Camera3d>,
     >,
@@ -224,7 +236,7 @@ pub fn extract_silhouettes(
     // The marked cameras (in entity order), or else the first active camera.
     let mut views: Vec<_> = cameras
         .iter()
-        .filter(|(_, c, _, marked, _)| c.is_active && *marked)
+        .filter(|(_, c, _, marked, ..)| c.is_active && *marked)
         .collect();
     views.sort_by_key(|(e, ..)| *e);
     views.truncate(MAX_STROKE_CAMERAS);
@@ -233,12 +245,26 @@ pub fn extract_silhouettes(
     }
     let layered = views.len() > 1;
     let layer_of = |slot: usize| layered.then_some(FIRST_STROKE_LAYER + slot);
-    // Each camera sees its strokes' layer.
-    for (slot, (camera, _, _, _, layers)) in views.iter().enumerate() {
-        if let Some(layer) = layer_of(slot) {
-            let layers = layers.cloned().unwrap_or_default();
-            if !layers.intersects(&RenderLayers::layer(layer)) {
-                commands.entity(*camera).insert(layers.with(layer));
+    // Each camera sees its strokes' layer; a camera that no longer gets strokes of its own
+    // loses the layer it was given.
+    for (camera, _, _, _, layers, given) in &cameras {
+        let slot = views.iter().position(|(e, ..)| *e == camera);
+        let wanted = slot.and_then(layer_of);
+        if wanted == given.map(|g| g.layer) {
+            continue;
+        }
+        let mut layers = layers.cloned().unwrap_or_default();
+        if let Some(given) = given.filter(|g| g.added) {
+            layers = layers.without(given.layer);
+        }
+        let mut entity = commands.entity(camera);
+        match wanted {
+            Some(layer) => {
+                let added = !layers.intersects(&RenderLayers::layer(layer));
+                entity.insert((layers.with(layer), StrokeLayer { layer, added }));
+            }
+            None => {
+                entity.insert(layers).remove::<StrokeLayer>();
             }
         }
     }

@@ -235,15 +235,17 @@ fn each_camera_sees_its_own_strokes() -> Result<(), Failed> {
     );
     image.texture_descriptor.usage |= bevy::render::render_resource::TextureUsages::COPY_SRC;
     let top = world.resource_mut::<Assets<Image>>().add(image);
-    world.spawn((
-        Camera3d::default(),
-        Camera {
-            order: 1,
-            ..default()
-        },
-        RenderTarget::Image(top.into()),
-        Transform::from_xyz(0.0, 3.0, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
-    ));
+    let top = world
+        .spawn((
+            Camera3d::default(),
+            Camera {
+                order: 1,
+                ..default()
+            },
+            RenderTarget::Image(top.into()),
+            Transform::from_xyz(0.0, 3.0, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
+        ))
+        .id();
     let mut marked = world.query_filtered::<Entity, With<Camera3d>>();
     let cameras: Vec<Entity> = marked.iter(world).collect();
     for camera in &cameras {
@@ -283,6 +285,37 @@ fn each_camera_sees_its_own_strokes() -> Result<(), Failed> {
         if !seen {
             return Err(format!("camera {camera} does not see its stroke layer").into());
         }
+    }
+    // Back to one camera with strokes: its strokes and the camera leave the extra layers, and the
+    // outline still shows.
+    let front = *cameras
+        .iter()
+        .find(|c| **c != top)
+        .ok_or("no front camera")?;
+    r.app
+        .world_mut()
+        .entity_mut(top)
+        .remove::<SilhouetteCamera>();
+    let frame = r.capture()?;
+    let (boundary, inside) = ink_near_and_inside(&frame, 4, 10);
+    let world = r.app.world();
+    let views: Vec<(Entity, Option<usize>)> = world
+        .get::<ComputedSilhouettes>(hair)
+        .ok_or("no silhouettes")?
+        .views
+        .iter()
+        .map(|v| (v.camera, v.layer))
+        .collect();
+    let layers = world
+        .get::<RenderLayers>(front)
+        .cloned()
+        .unwrap_or_default();
+    println!("one camera again: {boundary} boundary ink pixels, {inside} inside; {views:?}");
+    if views.len() != 1 || views[0].1.is_some() || layers != RenderLayers::default() {
+        return Err(format!("views {views:?}, front camera layers {layers:?}").into());
+    }
+    if boundary < 700 || inside > 0 {
+        return Err(format!("{boundary} boundary ink pixels, {inside} inside the face").into());
     }
     Ok(())
 }
