@@ -138,8 +138,6 @@ pub struct ComputedSilhouettes {
     pub tube: TubeEdges,
     /// Position along the strand (0 root, 1 tip) of each tube vertex.
     pub along: Vec<f32>,
-    /// Topology this was built for: (rings, sides).
-    pub built_for: (usize, usize),
     /// The strokes of each camera they are built for.
     pub views: Vec<StrokeView>,
     /// Strokes (chains) drawn last frame.
@@ -271,15 +269,14 @@ pub fn extract_silhouettes(
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (hair, settings, mesh_settings, hair_mesh, computed) in &mut hairs {
         let topology = &hair_mesh.topology;
-        let key = (topology.rings(), topology.sides());
+        let tube = TubeEdges::new(topology);
         let mut computed = match computed {
-            Some(c) if c.built_for == key => c,
+            Some(c) if c.tube == tube => c,
             other => {
                 let along = topology.uvs.iter().map(|uv| uv[1]).collect();
                 commands.entity(hair).insert(ComputedSilhouettes {
-                    tube: TubeEdges::new(topology),
+                    tube,
                     along,
-                    built_for: key,
                     views: other.map(|c| c.views.clone()).unwrap_or_default(),
                     chains: 0,
                 });
