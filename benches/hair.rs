@@ -165,6 +165,23 @@ fn bench_load(c: &mut Criterion) {
     group.bench_function("100k_x_6", |b| {
         b.iter(|| parse_groom("bench.hair.xml", &text).unwrap())
     });
+    // Many short strands: 10 MB of text, the shape that was quadratic in attributes before.
+    let mut short = String::from("<groom version=\"1\">\n");
+    let mut i = 0u32;
+    while short.len() < 10_000_000 {
+        short.push_str(&format!("<strand a=\"{i}\">0 0 0 0 1 {}</strand>\n", i % 7));
+        i += 1;
+    }
+    short.push_str("</groom>\n");
+    group.bench_function("10mb_short_strands", |b| {
+        b.iter(|| parse_groom("short.hair.xml", &short).unwrap())
+    });
+    // A hostile header: 100,000 attributes on the root (38.6 s before; refused at the 33rd now).
+    let attrs: String = (0..100_000).map(|i| format!(" a{i}=\"{i}\"")).collect();
+    let hostile = format!("<groom version=\"1\"{attrs}><strand>0 0 0 0 1 0</strand></groom>");
+    group.bench_function("100k_attributes_refused", |b| {
+        b.iter(|| parse_groom("hostile.hair.xml", &hostile).unwrap_err())
+    });
     group.finish();
 }
 

@@ -4,15 +4,27 @@
 //! error naming the keyframe, the strand and both particle counts, and nothing else is affected.
 
 use bevy::asset::io::Reader;
-use bevy::asset::{AssetLoader, LoadContext};
+use bevy::asset::{AssetLoader, AssetPath, LoadContext};
 use bevy::math::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
 use bevy::prelude::*;
 
-use super::error::{HairAssetError, Locator, parse_document, read_text, whole_file};
-use super::groom::HairGroom;
+use super::error::{
+    BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text, whole_file,
+};
+use super::groom::{GroomLoaderSettings, HEADER_BYTES, HairGroom, MAX_PARTICLES};
+use super::xml::{Item, Xml};
 
 /// Most keyframes an animation may have.
 pub const MAX_KEYS: usize = 256;
+/// Most particles all keys of one animation may bring in together (keys x particles per key):
+/// the largest groom's worth, 24 MB of positions. Each key's groom is loaded with what is left
+/// of this budget, so the loader stops before storing more.
+pub const MAX_ANIMATION_PARTICLES: usize = MAX_PARTICLES;
+/// Largest animation file the loader reads: [`HEADER_BYTES`](super::HEADER_BYTES) plus 256
+/// bytes per key.
+pub const ANIMATION_BYTE_LIMIT: usize = HEADER_BYTES + MAX_KEYS * BYTES_PER_ELEMENT;
+/// Longest key path, in bytes.
+pub const MAX_KEY_PATH: usize = 200;
 
 /// One keyframe: a full groom pose at a time.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,69 +75,119 @@ pub struct AnimationDescription {
 
 /// Parses the text of a `*.hairanim.xml` file (without loading its grooms).
 pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, HairAssetError> {
-    let doc = parse_document(file, input)?;
-    let loc = Locator {
-        file,
-        doc: &doc,
-        input,
-    };
-    let root = doc.root_element();
-    if !root.has_tag_name("hairanim") {
-        return Err(loc.node(
-            root,
-            format!(
-                "expected a <hairanim> root element, found <{}>",
-                root.tag_name().name()
-            ),
+    let mut xml = Xml::new(file, input);
+    let root = xml.root()?;
+    if root.name != "hairanim" {
+        return Err(xml.error(
+            root.offset,
+            format!("expected a <hairanim> root element, found <{}>", root.name),
         ));
     }
-    if root.attribute("version") != Some("1") {
-        return Err(loc.node(root, "<hairanim> needs version=\"1\""));
-    }
-    let looping = match root.attribute("loop").unwrap_or("true") {
-        "true" | "1" => true,
-        "false" | "0" => false,
-        other => return Err(loc.node(root, format!("loop must be true or false, found {other:?}"))),
-    };
-    let mut keys: Vec<KeyReference> = Vec::new();
-    for node in root.children().filter(|n| n.has_tag_name("key")) {
-        if keys.len() >= MAX_KEYS {
-            return Err(loc.node(node, format!("more than {MAX_KEYS} keys")));
+    match xml.attr("version") {
+        Some(v) if v.value == "1" => {}
+        Some(v) => {
+            return Err(xml.error(
+                v.offset,
+                format!(
+                    "unsupported format version {:?} (this crate reads version 1)",
+                    v.value
+                ),
+            ));
         }
-        let time = loc.float_attr(node, "time")?;
+        None => return Err(xml.error(root.offset, "<hairanim> needs version=\"1\"")),
+    }
+    let looping = match xml.attr("loop") {
+        None => true,
+        Some(a) => match a.value.as_ref() {
+            "true" | "1" => true,
+            "false" | "0" => false,
+            other => {
+                return Err(xml.error(
+                    a.offset,
+                    format!("loop must be true or false, found {other:?}"),
+                ));
+            }
+        },
+    };
+    let duration_attr = float_attr_or(&xml, &root, "duration", f32::NAN)?;
+    let duration_at = xml.attr("duration").map_or(root.offset, |a| a.offset);
+    let mut keys: Vec<KeyReference> = Vec::new();
+    while !root.empty {
+        let node = match xml.next()? {
+            Item::End => break,
+            Item::Markup { .. } => continue,
+            Item::Text { text, offset } => {
+                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
+                    return Err(xml.error_at_slice(
+                        &text[k..],
+                        offset,
+                        "text inside <hairanim>; keys are <key .../> elements",
+                    ));
+                }
+                continue;
+            }
+            Item::Element(e) if e.name == "key" => e,
+            Item::Element(e) => {
+                xml.skip(&e)?;
+                continue;
+            }
+        };
+        if keys.len() >= MAX_KEYS {
+            return Err(xml.error(node.offset, format!("more than {MAX_KEYS} keys")));
+        }
+        let time = float_attr(&xml, &node, "time")?;
         if time < 0.0 {
-            return Err(loc.node(node, format!("key time must be >= 0, found {time}")));
+            return Err(xml.error(node.offset, format!("key time must be >= 0, found {time}")));
         }
         if let Some(prev) = keys.last()
             && time <= prev.time
         {
-            return Err(loc.node(
-                node,
+            return Err(xml.error(
+                node.offset,
                 format!("key times must increase: {time} follows {}", prev.time),
             ));
         }
-        let Some(groom) = node.attribute("groom").filter(|g| !g.trim().is_empty()) else {
-            return Err(loc.node(node, "<key> is missing the attribute `groom`"));
+        let groom = match xml.attr("groom") {
+            None => return Err(xml.error(node.offset, "<key> is missing the attribute `groom`")),
+            Some(g) if g.value.trim().is_empty() => {
+                return Err(xml.error(
+                    g.offset,
+                    "<key> attribute `groom` is blank; it names a .hair.xml file",
+                ));
+            }
+            Some(g) if g.value.len() > MAX_KEY_PATH => {
+                return Err(xml.error(
+                    g.offset,
+                    format!("<key> attribute `groom` is longer than {MAX_KEY_PATH} bytes"),
+                ));
+            }
+            Some(g) => g.value.to_string(),
         };
-        let pos = doc.text_pos_at(node.range().start);
+        let (line, column) = super::xml::line_column(input, node.offset);
+        xml.skip(&node)?;
         keys.push(KeyReference {
             time,
-            groom: groom.to_string(),
-            line: pos.row,
-            column: pos.col,
+            groom,
+            line,
+            column,
         });
     }
+    xml.finish()?;
     let Some(last) = keys.last() else {
-        return Err(loc.node(root, "the animation has no <key> elements"));
+        return Err(xml.error(root.offset, "the animation has no <key> elements"));
     };
     let default_duration = match keys.len() {
         1 => last.time + 1.0,
         n => last.time + (last.time - keys[n - 2].time),
     };
-    let duration = loc.float_attr_or(root, "duration", default_duration)?;
-    if duration <= last.time {
-        return Err(loc.node(
-            root,
+    let duration = if duration_attr.is_nan() {
+        default_duration
+    } else {
+        duration_attr
+    };
+    if !duration.is_finite() || duration <= last.time {
+        return Err(xml.error(
+            duration_at,
             format!(
                 "duration {duration} must be greater than the last key's time {}",
                 last.time
@@ -137,6 +199,52 @@ pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, 
         looping,
         duration,
     })
+}
+
+/// Checks a key's groom path and resolves it against the animation file: the result stays in
+/// the animation's asset source, inside its root (Bevy's approved-path rule, checked here
+/// because nested loads skip it), and names a `.hair.xml` file.
+pub fn resolve_key_path(
+    animation: &AssetPath<'_>,
+    key: &str,
+) -> Result<AssetPath<'static>, String> {
+    let refuse = |why: &str| Err(format!("groom path {key:?} {why}"));
+    if key.contains("://") {
+        return refuse("names an asset source; keys must be paths relative to the animation file");
+    }
+    if key.starts_with('/') || key.starts_with('\\') || key.contains(':') {
+        return refuse("is absolute; keys must be paths relative to the animation file");
+    }
+    if key.contains('\\') || key.contains('\0') || key.contains('#') {
+        return refuse("may not contain `\\`, `#` or NUL; use `/` between folders");
+    }
+    if !key.ends_with(".hair.xml") {
+        return refuse("does not name a .hair.xml groom");
+    }
+    let resolved = animation
+        .resolve_embed_str(key)
+        .map_err(|e| format!("groom path {key:?} is not a valid asset path: {e}"))?;
+    if resolved.is_unapproved() || animation.is_unapproved() {
+        return refuse("leads outside the asset folder; keys must stay inside it");
+    }
+    if resolved.source() != animation.source() {
+        return refuse("leads to another asset source");
+    }
+    // `resolve_embed` drops `..` components that climb above the root instead of failing: a
+    // key that climbs more folders than the animation sits in has escaped.
+    let depth = animation.path().components().count().saturating_sub(1);
+    let mut level: isize = depth as isize;
+    for part in std::path::Path::new(key).components() {
+        match part {
+            std::path::Component::ParentDir => level -= 1,
+            std::path::Component::Normal(_) => level += 1,
+            _ => {}
+        }
+        if level < 0 {
+            return refuse("leads outside the asset folder; keys must stay inside it");
+        }
+    }
+    Ok(resolved)
 }
 
 impl HairAnimation {
@@ -278,7 +386,7 @@ fn catmull_rom_basis() -> CubicCurve<Vec4> {
 fn topology_mismatch(base: &HairGroom, pose: &HairGroom) -> Option<String> {
     if base.strand_count() != pose.strand_count() {
         return Some(format!(
-            "has {} strands, the base groom has {}",
+            "it has {} strands, the base groom has {}",
             pose.strand_count(),
             base.strand_count()
         ));
@@ -306,9 +414,10 @@ impl AssetLoader for HairAnimationLoader {
         load_context: &mut LoadContext<'_>,
     ) -> Result<HairAnimation, HairAssetError> {
         let file = load_context.path().to_string();
-        let text = read_text(reader, &file).await?;
+        let text = read_text(reader, &file, ANIMATION_BYTE_LIMIT, "animation file").await?;
         let desc = parse_animation(&file, &text)?;
         let mut keys: Vec<HairKeyframe> = Vec::with_capacity(desc.keys.len());
+        let mut particles = 0usize;
         for (i, key) in desc.keys.iter().enumerate() {
             let at = |message: String| HairAssetError {
                 file: file.clone(),
@@ -316,21 +425,30 @@ impl AssetLoader for HairAnimationLoader {
                 column: key.column,
                 message,
             };
-            let path = load_context
-                .path()
-                .resolve_embed_str(&key.groom)
-                .map_err(|e| at(format!("key {i}: bad groom path {:?}: {e}", key.groom)))?;
+            let path = resolve_key_path(load_context.path(), &key.groom)
+                .map_err(|why| at(format!("key {i}: {why}")))?;
+            let left = MAX_ANIMATION_PARTICLES - particles;
             let loaded = load_context
                 .load_builder()
+                .with_settings(move |s: &mut GroomLoaderSettings| {
+                    s.max_particles = s.max_particles.min(left);
+                })
                 .load_value::<HairGroom>(path)
                 .await
-                .map_err(|e| at(format!("key {i}: could not load {:?}: {e}", key.groom)))?;
+                .map_err(|e| {
+                    at(format!(
+                        "key {i}: could not load {:?} (this animation may bring in {left} more \
+                         particles of its {MAX_ANIMATION_PARTICLES}): {e}",
+                        key.groom
+                    ))
+                })?;
             let pose = loaded.take();
+            particles += pose.points.len();
             if let Some(first) = keys.first()
                 && let Some(msg) = topology_mismatch(&first.pose, &pose)
             {
                 return Err(at(format!(
-                    "key {i} ({}) does not match the first key ({}): it {msg}",
+                    "key {i} ({}) does not match the first key ({}): {msg}",
                     key.groom, desc.keys[0].groom
                 )));
             }

@@ -4,10 +4,15 @@ use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};
 use bevy::prelude::*;
 
-use super::error::{HairAssetError, Locator, parse_document, read_header, read_text};
+use super::error::{BYTES_PER_ELEMENT, HairAssetError, length_attr, read_header, read_text};
+use super::groom::HEADER_BYTES;
+use super::xml::{Item, Xml};
 
 /// Most spheres a collision shape may have.
 pub const MAX_SPHERES: usize = 4096;
+/// Largest collision file the loader reads: [`HEADER_BYTES`](super::HEADER_BYTES) plus 256
+/// bytes per sphere (about 0.1 MB plus 1 MB).
+pub const COLLISION_BYTE_LIMIT: usize = HEADER_BYTES + MAX_SPHERES * BYTES_PER_ELEMENT;
 
 /// A sphere in bone space, in metres.
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
@@ -29,38 +34,54 @@ pub struct HeadCollision {
 
 /// Parses the text of a `*.collision.xml` file. `file` names it in errors.
 pub fn parse_collision(file: &str, input: &str) -> Result<HeadCollision, HairAssetError> {
-    let doc = parse_document(file, input)?;
-    let loc = Locator {
-        file,
-        doc: &doc,
-        input,
-    };
-    let root = doc.root_element();
-    let header = read_header(&loc, root, "collision")?;
+    let mut xml = Xml::new(file, input);
+    let root = xml.root()?;
+    let header = read_header(&xml, &root, "collision")?;
     let mut spheres = Vec::new();
-    for node in root.children().filter(|n| n.has_tag_name("sphere")) {
-        if spheres.len() >= MAX_SPHERES {
-            return Err(loc.node(node, format!("more than {MAX_SPHERES} spheres")));
+    while !root.empty {
+        let node = match xml.next()? {
+            Item::End => break,
+            Item::Markup { .. } => continue,
+            Item::Text { text, offset } => {
+                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
+                    return Err(xml.error_at_slice(
+                        &text[k..],
+                        offset,
+                        "text inside <collision>; shapes are <sphere .../> elements",
+                    ));
+                }
+                continue;
+            }
+            Item::Element(e) if e.name == "sphere" => e,
+            Item::Element(e) => {
+                xml.skip(&e)?;
+                continue;
+            }
+        };
+        let index = spheres.len();
+        if index >= MAX_SPHERES {
+            return Err(xml.error(node.offset, format!("more than {MAX_SPHERES} spheres")));
         }
+        let s = header.scale;
         let center = Vec3::new(
-            loc.float_attr(node, "x")?,
-            loc.float_attr(node, "y")?,
-            loc.float_attr(node, "z")?,
-        ) / header.scale;
-        let radius = loc.float_attr(node, "r")? / header.scale;
+            length_attr(&xml, &node, "x", s)?,
+            length_attr(&xml, &node, "y", s)?,
+            length_attr(&xml, &node, "z", s)?,
+        );
+        let radius = length_attr(&xml, &node, "r", s)?;
         if radius <= 0.0 {
-            return Err(loc.node(
-                node,
-                format!(
-                    "sphere {}: radius must be greater than 0, found {radius}",
-                    spheres.len()
-                ),
+            let at = xml.attr("r").map_or(node.offset, |a| a.offset);
+            return Err(xml.error(
+                at,
+                format!("sphere {index}: radius must be greater than 0, found {radius}"),
             ));
         }
+        xml.skip(&node)?;
         spheres.push(CollisionSphere { center, radius });
     }
+    xml.finish()?;
     if spheres.is_empty() {
-        return Err(loc.node(root, "the collision shape has no <sphere> elements"));
+        return Err(xml.error(root.offset, "the collision shape has no <sphere> elements"));
     }
     Ok(HeadCollision {
         bone: header.bone,
@@ -84,7 +105,7 @@ impl AssetLoader for HeadCollisionLoader {
         load_context: &mut LoadContext<'_>,
     ) -> Result<HeadCollision, HairAssetError> {
         let file = load_context.path().to_string();
-        let text = read_text(reader, &file).await?;
+        let text = read_text(reader, &file, COLLISION_BYTE_LIMIT, "collision file").await?;
         parse_collision(&file, &text)
     }
 

@@ -4,15 +4,51 @@ use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};
 use bevy::prelude::*;
 
-use super::error::{HairAssetError, Locator, parse_document, parse_finite, read_header, read_text};
+use serde::{Deserialize, Serialize};
 
-/// Most strands a groom may have. A file with more is refused (a hostile file cannot exhaust
-/// memory).
+use super::error::{HairAssetError, parse_finite, read_header, read_text, scaled};
+use super::xml::{Item, Xml};
+
+/// Most strands a groom may have. Counted while reading, before anything is kept for them.
 pub const MAX_STRANDS: usize = 1_000_000;
 /// Most particles one strand may have.
 pub const MAX_PARTICLES_PER_STRAND: usize = 256;
-/// Most particles a whole groom may have.
-pub const MAX_PARTICLES: usize = 8_000_000;
+/// Most particles a whole groom may have (24 MB of positions). Counted while reading, before
+/// anything is kept for them.
+pub const MAX_PARTICLES: usize = 2_000_000;
+/// Bytes a groom file may take per particle: three numbers of up to 20 bytes each with their
+/// separators (the add-on writes at most 49 per particle), so a file within [`MAX_PARTICLES`] fits.
+pub const GROOM_BYTES_PER_PARTICLE: usize = 60;
+/// Bytes a groom file may take per strand for its tags and indentation.
+pub const GROOM_BYTES_PER_STRAND: usize = 24;
+/// Bytes a hair file may take for its header, comments and closing tag.
+pub const HEADER_BYTES: usize = 64 * 1024;
+
+/// Largest groom file the loader reads when it may bring in at most `max_particles` particles:
+/// [`HEADER_BYTES`] + `max_particles` x [`GROOM_BYTES_PER_PARTICLE`] + one strand per two
+/// particles x [`GROOM_BYTES_PER_STRAND`] (144 MB at [`MAX_PARTICLES`]). Reading stops there.
+pub const fn groom_byte_limit(max_particles: usize) -> usize {
+    HEADER_BYTES
+        + max_particles * GROOM_BYTES_PER_PARTICLE
+        + max_particles.div_ceil(2) * GROOM_BYTES_PER_STRAND
+}
+
+/// Settings of [`HairGroomLoader`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct GroomLoaderSettings {
+    /// Most particles this load may bring in; at most [`MAX_PARTICLES`]. The animation loader
+    /// lowers it to what is left of its budget for each key.
+    /// Default: [`MAX_PARTICLES`].
+    pub max_particles: usize,
+}
+
+impl Default for GroomLoaderSettings {
+    fn default() -> Self {
+        Self {
+            max_particles: MAX_PARTICLES,
+        }
+    }
+}
 /// Shortest allowed segment between consecutive particles, in metres after scaling.
 pub const MIN_SEGMENT_LENGTH: f32 = 1e-6;
 
@@ -40,6 +76,12 @@ impl HairGroom {
         };
         for (i, strand) in strands.into_iter().enumerate() {
             check_strand(&strand, i).map_err(|m| super::error::whole_file("<code>", m))?;
+            if groom.points.len() + strand.len() > MAX_PARTICLES {
+                return Err(super::error::whole_file(
+                    "<code>",
+                    format!("more than {MAX_PARTICLES} particles in all"),
+                ));
+            }
             groom.points.extend(strand);
             groom.offsets.push(groom.points.len() as u32);
         }
@@ -87,12 +129,16 @@ fn check_strand(strand: &[Vec3], index: usize) -> Result<(), String> {
             strand.len()
         ));
     }
-    for (j, w) in strand.windows(2).enumerate() {
-        if !w[0].is_finite() || !w[1].is_finite() {
+    for (j, p) in strand.iter().enumerate() {
+        if !p.is_finite() || p.abs().max_element() > super::error::MAX_COORDINATE {
             return Err(format!(
-                "strand {index}, particle {j}: coordinate is not finite"
+                "strand {index}, particle {j}: coordinate {p} is not finite or farther than {} m \
+                 from the bone",
+                super::error::MAX_COORDINATE
             ));
         }
+    }
+    for (j, w) in strand.windows(2).enumerate() {
         let len = w[0].distance(w[1]);
         if len.is_nan() || len < MIN_SEGMENT_LENGTH {
             return Err(format!(
@@ -107,73 +153,142 @@ fn check_strand(strand: &[Vec3], index: usize) -> Result<(), String> {
 
 /// Parses the text of a `*.hair.xml` file. `file` names it in errors.
 pub fn parse_groom(file: &str, input: &str) -> Result<HairGroom, HairAssetError> {
-    let doc = parse_document(file, input)?;
-    let loc = Locator {
-        file,
-        doc: &doc,
-        input,
-    };
-    let root = doc.root_element();
-    let header = read_header(&loc, root, "groom")?;
-    let inv_scale = 1.0 / header.scale;
+    parse_groom_within(file, input, MAX_PARTICLES)
+}
+
+/// Parses a groom that may have at most `max_particles` particles (capped at [`MAX_PARTICLES`]).
+/// Counts are checked before anything is stored, so a refused file never costs more than the
+/// positions allowed.
+pub fn parse_groom_within(
+    file: &str,
+    input: &str,
+    max_particles: usize,
+) -> Result<HairGroom, HairAssetError> {
+    let max_particles = max_particles.min(MAX_PARTICLES);
+    let mut xml = Xml::new(file, input);
+    let root = xml.root()?;
+    let header = read_header(&xml, &root, "groom")?;
     let mut groom = HairGroom {
         bone: header.bone,
         points: Vec::new(),
         offsets: vec![0],
     };
-    let mut strand = Vec::with_capacity(16);
-    for node in root.children().filter(|n| n.has_tag_name("strand")) {
+    let mut strand: Vec<Vec3> = Vec::with_capacity(16);
+    // The number (or partial particle) being read, carried across text pieces of one strand.
+    let mut coord = [0.0f32; 3];
+    while !root.empty {
+        let element = match xml.next()? {
+            Item::End => break,
+            Item::Markup { .. } => continue,
+            Item::Text { text, offset } => {
+                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
+                    return Err(xml.error_at_slice(
+                        &text[k..],
+                        offset,
+                        "text outside <strand>; numbers belong inside a <strand> element",
+                    ));
+                }
+                continue;
+            }
+            Item::Element(e) if e.name == "strand" => e,
+            Item::Element(e) => {
+                xml.skip(&e)?;
+                continue;
+            }
+        };
         let index = groom.strand_count();
         if index >= MAX_STRANDS {
-            return Err(loc.node(node, format!("more than {MAX_STRANDS} strands")));
+            return Err(xml.error(element.offset, format!("more than {MAX_STRANDS} strands")));
         }
         strand.clear();
-        let text = node.text().unwrap_or("");
-        let mut numbers = text.split_ascii_whitespace();
-        while let Some(x) = numbers.next() {
-            let mut coord = [0.0f32; 3];
-            for (k, token) in [Some(x), numbers.next(), numbers.next()]
-                .into_iter()
-                .enumerate()
-            {
-                let Some(token) = token else {
-                    return Err(loc.node(
-                        node,
+        let mut k = 0;
+        while !element.empty {
+            let (text, offset) = match xml.next()? {
+                Item::End => break,
+                Item::Text { text, offset } => (text, offset),
+                Item::Markup { what, offset } => {
+                    return Err(xml.error(
+                        offset,
                         format!(
-                            "strand {index}: {} numbers is not a multiple of 3 (x y z per particle)",
-                            strand.len() * 3 + k
+                            "strand {index}: {what} inside <strand>; a strand holds only numbers"
                         ),
                     ));
-                };
-                coord[k] = parse_finite(token).map_err(|why| {
-                    loc.slice(
-                        token,
-                        node,
+                }
+                Item::Element(e) => {
+                    return Err(xml.error(
+                        e.offset,
                         format!(
-                            "strand {index}, particle {}: {token:?}: {why}",
-                            strand.len()
+                            "strand {index}: element <{}> inside <strand>; a strand holds only \
+                             numbers",
+                            e.name
                         ),
+                    ));
+                }
+            };
+            for token in text.split_ascii_whitespace() {
+                let particle = strand.len();
+                let raw = parse_finite(token).map_err(|why| {
+                    xml.error_at_slice(
+                        token,
+                        offset,
+                        format!("strand {index}, particle {particle}: {token:?}: {why}"),
                     )
                 })?;
+                coord[k] = raw;
+                k += 1;
+                if k < 3 {
+                    continue;
+                }
+                k = 0;
+                if particle == MAX_PARTICLES_PER_STRAND {
+                    return Err(xml.error(
+                        element.offset,
+                        format!(
+                            "strand {index} has more than {MAX_PARTICLES_PER_STRAND} particles"
+                        ),
+                    ));
+                }
+                if groom.points.len() + particle >= max_particles {
+                    return Err(xml.error(
+                        element.offset,
+                        format!("more than {max_particles} particles in all"),
+                    ));
+                }
+                let mut p = [0.0f32; 3];
+                for (axis, (out, raw)) in p.iter_mut().zip(coord).enumerate() {
+                    *out = scaled(
+                        &xml,
+                        xml.offset_of(token, offset),
+                        raw,
+                        header.scale,
+                        &format!(
+                            "strand {index}, particle {particle}, {}",
+                            ["x", "y", "z"][axis]
+                        ),
+                    )?;
+                }
+                strand.push(Vec3::from_array(p));
             }
-            if strand.len() == MAX_PARTICLES_PER_STRAND {
-                return Err(loc.node(
-                    node,
-                    format!("strand {index} has more than {MAX_PARTICLES_PER_STRAND} particles"),
-                ));
-            }
-            strand.push(Vec3::from_array(coord) * inv_scale);
         }
-        check_strand(&strand, index).map_err(|m| loc.node(node, m))?;
-        if groom.points.len() + strand.len() > MAX_PARTICLES {
-            return Err(loc.node(node, format!("more than {MAX_PARTICLES} particles in all")));
+        if k != 0 {
+            return Err(xml.error(
+                element.offset,
+                format!(
+                    "strand {index}: {} numbers is not a multiple of 3 (x y z per particle)",
+                    strand.len() * 3 + k
+                ),
+            ));
         }
+        check_strand(&strand, index).map_err(|m| xml.error(element.offset, m))?;
         groom.points.extend_from_slice(&strand);
         groom.offsets.push(groom.points.len() as u32);
     }
+    xml.finish()?;
     if groom.strand_count() == 0 {
-        return Err(loc.node(root, "the groom has no <strand> elements"));
+        return Err(xml.error(root.offset, "the groom has no <strand> elements"));
     }
+    groom.points.shrink_to_fit();
+    groom.offsets.shrink_to_fit();
     Ok(groom)
 }
 
@@ -183,18 +298,19 @@ pub struct HairGroomLoader;
 
 impl AssetLoader for HairGroomLoader {
     type Asset = HairGroom;
-    type Settings = ();
+    type Settings = GroomLoaderSettings;
     type Error = HairAssetError;
 
     async fn load(
         &self,
         reader: &mut dyn Reader,
-        _settings: &(),
+        settings: &GroomLoaderSettings,
         load_context: &mut LoadContext<'_>,
     ) -> Result<HairGroom, HairAssetError> {
         let file = load_context.path().to_string();
-        let text = read_text(reader, &file).await?;
-        parse_groom(&file, &text)
+        let max = settings.max_particles.min(MAX_PARTICLES);
+        let text = read_text(reader, &file, groom_byte_limit(max), "groom").await?;
+        parse_groom_within(&file, &text, max)
     }
 
     fn extensions(&self) -> &[&str] {

@@ -4,6 +4,11 @@
 //! [`HairAssetError`] naming the file, the line and column and what is wrong; none panics, and a
 //! failed load leaves every other asset untouched.
 //!
+//! Files are hostile input (players and modders replace them). The loaders read at most a byte
+//! limit derived from the count limits (e.g. [`groom_byte_limit`]), parse in one linear pass
+//! without building a tree, count strands, particles, spheres and keys before storing them, and
+//! resolve animation keys only inside the animation's own asset folder ([`resolve_key_path`]).
+//!
 //! | asset | file | loader |
 //! |-------|------|--------|
 //! | [`HairGroom`] | `*.hair.xml` | [`HairGroomLoader`] |
@@ -15,20 +20,27 @@ mod collision;
 mod error;
 mod groom;
 #[cfg(test)]
+mod hostile_tests;
+#[cfg(test)]
 mod tests;
+mod xml;
 
 pub use animation::{
-    AnimationDescription, HairAnimation, HairAnimationLoader, HairKeyframe, KeyReference, MAX_KEYS,
-    parse_animation,
+    ANIMATION_BYTE_LIMIT, AnimationDescription, HairAnimation, HairAnimationLoader, HairKeyframe,
+    KeyReference, MAX_ANIMATION_PARTICLES, MAX_KEY_PATH, MAX_KEYS, parse_animation,
+    resolve_key_path,
 };
 pub use collision::{
-    CollisionSphere, HeadCollision, HeadCollisionLoader, MAX_SPHERES, parse_collision,
+    COLLISION_BYTE_LIMIT, CollisionSphere, HeadCollision, HeadCollisionLoader, MAX_SPHERES,
+    parse_collision,
 };
-pub use error::HairAssetError;
+pub use error::{BYTES_PER_ELEMENT, HairAssetError, MAX_COORDINATE, SCALE_RANGE};
 pub use groom::{
-    HairGroom, HairGroomLoader, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS,
-    MIN_SEGMENT_LENGTH, parse_groom,
+    GROOM_BYTES_PER_PARTICLE, GROOM_BYTES_PER_STRAND, GroomLoaderSettings, HEADER_BYTES, HairGroom,
+    HairGroomLoader, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS, MIN_SEGMENT_LENGTH,
+    groom_byte_limit, parse_groom, parse_groom_within,
 };
+pub use xml::{MAX_ATTRIBUTES, MAX_DEPTH};
 
 use bevy::prelude::*;
 

@@ -38,7 +38,7 @@ fn malformed_xml_names_file_line_and_column() {
     assert_eq!(e.line, 2);
     assert!(e.column > 1, "{e}");
     assert!(e.to_string().starts_with("bad.hair.xml:2:"), "{e}");
-    assert!(e.message.contains("malformed XML"), "{e}");
+    assert!(e.message.contains("</grom> closes <strand>"), "{e}");
 }
 
 #[test]
@@ -86,7 +86,7 @@ fn missing_and_non_numeric_attributes_are_refused() {
         "s.hair.xml",
         "<groom version=\"1\" scale=\"0\"><strand>0 0 0 0 1 0</strand></groom>",
     ));
-    assert!(e.message.contains("greater than 0"), "{e}");
+    assert!(e.message.contains("scale must lie between"), "{e}");
     let e = err(parse_collision(
         "c.collision.xml",
         "<collision version=\"1\">\n<sphere x=\"0\" y=\"0\" r=\"1\"/></collision>",

@@ -20,6 +20,14 @@ pub const TESTS: &[(&str, crate::TestFn)] = &[
         "mismatched_keyframes_fail_cleanly_and_lose_nothing",
         mismatched_keyframes_fail_cleanly_and_lose_nothing,
     ),
+    (
+        "hostile_keys_and_devices_are_refused_through_the_asset_server",
+        hostile_keys_and_devices_are_refused_through_the_asset_server,
+    ),
+    (
+        "an_animation_shares_one_particle_budget_among_its_keys",
+        an_animation_shares_one_particle_budget_among_its_keys,
+    ),
 ];
 
 /// Tests that need Blender's `bpy` module.
@@ -116,7 +124,8 @@ fn mismatched_keyframes_fail_cleanly_and_lose_nothing() -> Result<(), Failed> {
     };
     let msg = err.to_string();
     if !(msg.contains("bad.hairanim.xml:3:")
-        && msg.contains("strand 1 has 3 particles, the base groom has 2"))
+        && msg.contains("strand 1 has 3 particles, the base groom has 2")
+        && !msg.contains("it strand"))
     {
         return Err(format!("unclear error: {msg}").into());
     }
@@ -196,4 +205,156 @@ pub fn blender_available() -> bool {
         .stderr(std::process::Stdio::null())
         .status()
         .is_ok_and(|s| s.success())
+}
+
+const OK_GROOM: &str = "<groom version=\"1\"><strand>0 0 0 0 1 0</strand></groom>";
+
+/// A fresh folder under the system's temp dir.
+fn scratch(name: &str) -> Result<PathBuf, Failed> {
+    let dir = std::env::temp_dir().join(format!("hair_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir)?;
+    Ok(dir)
+}
+
+fn animation_with_key(key: &str) -> String {
+    format!("<hairanim version=\"1\">\n  <key time=\"0\" groom=\"{key}\"/>\n</hairanim>\n")
+}
+
+/// Loads `path` and returns the error text of its failure, or an error if it did not fail.
+fn load_error<A: Asset>(app: &mut App, path: &str) -> Result<String, Failed> {
+    let handle: Handle<A> = app.world().resource::<AssetServer>().load(path.to_string());
+    match wait(app, handle.id()) {
+        LoadState::Failed(e) => Ok(e.to_string()),
+        other => Err(format!("{path} did not fail: {other:?}").into()),
+    }
+}
+
+/// The attacks of issue 14 through Bevy's own asset server: keys that leave the asset folder are
+/// refused before anything is opened (the file outside exists and is a valid groom), and a device
+/// behind a link inside the folder is cut off at the groom's byte limit.
+fn hostile_keys_and_devices_are_refused_through_the_asset_server() -> Result<(), Failed> {
+    let root = scratch("hostile")?;
+    let assets = root.join("assets");
+    std::fs::create_dir_all(assets.join("pack"))?;
+    std::fs::create_dir_all(assets.join("shared"))?;
+    std::fs::create_dir_all(root.join("outside"))?;
+    std::fs::write(root.join("outside/ok.hair.xml"), OK_GROOM)?;
+    std::fs::write(assets.join("shared/base.hair.xml"), OK_GROOM)?;
+    let cases = [
+        (
+            "escape",
+            "../../outside/ok.hair.xml",
+            "leads outside the asset folder",
+        ),
+        (
+            "zero",
+            "../../../../../../../../dev/zero",
+            "does not name a .hair.xml",
+        ),
+        (
+            "zero2",
+            "../../../../../../../../dev/zero.hair.xml",
+            "outside the asset folder",
+        ),
+        ("passwd", "/etc/passwd.hair.xml", "is absolute"),
+        ("source", "embedded://x.hair.xml", "names an asset source"),
+    ];
+    for (name, key, _) in &cases {
+        std::fs::write(
+            assets.join(format!("pack/{name}.hairanim.xml")),
+            animation_with_key(key),
+        )?;
+    }
+    std::fs::write(
+        assets.join("pack/fine.hairanim.xml"),
+        animation_with_key("../shared/base.hair.xml"),
+    )?;
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink("/dev/zero", assets.join("pack/zero.hair.xml"))?;
+        std::fs::write(
+            assets.join("pack/device.hairanim.xml"),
+            animation_with_key("zero.hair.xml"),
+        )?;
+    }
+    let mut app = asset_app(&assets);
+    for (name, key, says) in &cases {
+        let msg = load_error::<HairAnimation>(&mut app, &format!("pack/{name}.hairanim.xml"))?;
+        let at = format!("pack/{name}.hairanim.xml:2:3: key 0: groom path {key:?}");
+        if !msg.contains(&at) || !msg.contains(says) {
+            return Err(format!("key {key:?}: unclear error: {msg}").into());
+        }
+    }
+    #[cfg(unix)]
+    for (path, is_anim) in [
+        ("pack/zero.hair.xml", false),
+        ("pack/device.hairanim.xml", true),
+    ] {
+        let msg = if is_anim {
+            load_error::<HairAnimation>(&mut app, path)?
+        } else {
+            load_error::<HairGroom>(&mut app, path)?
+        };
+        let limit =
+            bevy_cartoon_hair::asset::groom_byte_limit(bevy_cartoon_hair::asset::MAX_PARTICLES);
+        if !msg.contains("zero.hair.xml") || !msg.contains(&format!("larger than {limit} bytes")) {
+            return Err(format!("{path}: the device was not cut off clearly: {msg}").into());
+        }
+    }
+    // A key that climbs only inside the folder loads.
+    let fine: Handle<HairAnimation> = app
+        .world()
+        .resource::<AssetServer>()
+        .load("pack/fine.hairanim.xml");
+    let state = wait(&mut app, fine.id());
+    if !matches!(state, LoadState::Loaded) {
+        return Err(format!("a key inside the folder failed: {state:?}").into());
+    }
+    let _ = std::fs::remove_dir_all(&root);
+    Ok(())
+}
+
+/// Two keys of a 1.2 million particle groom exceed the animation's 2 million particle budget: the
+/// second key is loaded with only what is left and refused while it is read.
+fn an_animation_shares_one_particle_budget_among_its_keys() -> Result<(), Failed> {
+    use bevy_cartoon_hair::asset::MAX_ANIMATION_PARTICLES;
+    let dir = scratch("budget")?;
+    let strands = 600_000;
+    let mut text = String::with_capacity(strands * 30 + 64);
+    text.push_str("<groom version=\"1\">\n");
+    for _ in 0..strands {
+        text.push_str("<strand>0 0 0 0 1 0</strand>\n");
+    }
+    text.push_str("</groom>\n");
+    std::fs::write(dir.join("big.hair.xml"), &text)?;
+    std::fs::write(
+        dir.join("two.hairanim.xml"),
+        "<hairanim version=\"1\">\n<key time=\"0\" groom=\"big.hair.xml\"/>\n\
+         <key time=\"1\" groom=\"big.hair.xml\"/>\n</hairanim>",
+    )?;
+    std::fs::write(
+        dir.join("one.hairanim.xml"),
+        animation_with_key("big.hair.xml"),
+    )?;
+    let mut app = asset_app(&dir);
+    let left = MAX_ANIMATION_PARTICLES - 2 * strands;
+    let msg = load_error::<HairAnimation>(&mut app, "two.hairanim.xml")?;
+    if !(msg.contains("two.hairanim.xml:3:1: key 1")
+        && msg.contains(&format!("may bring in {left} more particles"))
+        && msg.contains(&format!("more than {left} particles in all")))
+    {
+        return Err(format!("unclear budget error: {msg}").into());
+    }
+    // One key of the same groom is within the budget.
+    let one: Handle<HairAnimation> = app
+        .world()
+        .resource::<AssetServer>()
+        .load("one.hairanim.xml");
+    let state = wait(&mut app, one.id());
+    if !matches!(state, LoadState::Loaded) {
+        return Err(format!("one key within the budget failed: {state:?}").into());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
 }
