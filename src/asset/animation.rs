@@ -112,8 +112,8 @@ pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, 
     let duration_attr = float_attr_or(&xml, &root, "duration", f32::NAN)?;
     let duration_at = xml.attr("duration").map_or(root.offset, |a| a.offset);
     let mut keys: Vec<KeyReference> = Vec::new();
-    while !root.empty {
-        let node = match xml.next()? {
+    loop {
+        let node = match xml.next_in(&root)? {
             Item::End => break,
             Item::Markup { .. } => continue,
             Item::Text { text, offset } => {

@@ -38,8 +38,8 @@ pub fn parse_collision(file: &str, input: &str) -> Result<HeadCollision, HairAss
     let root = xml.root()?;
     let header = read_header(&xml, &root, "collision")?;
     let mut spheres = Vec::new();
-    while !root.empty {
-        let node = match xml.next()? {
+    loop {
+        let node = match xml.next_in(&root)? {
             Item::End => break,
             Item::Markup { .. } => continue,
             Item::Text { text, offset } => {

@@ -176,8 +176,8 @@ pub fn parse_groom_within(
     let mut strand: Vec<Vec3> = Vec::with_capacity(16);
     // The number (or partial particle) being read, carried across text pieces of one strand.
     let mut coord = [0.0f32; 3];
-    while !root.empty {
-        let element = match xml.next()? {
+    loop {
+        let element = match xml.next_in(&root)? {
             Item::End => break,
             Item::Markup { .. } => continue,
             Item::Text { text, offset } => {
@@ -202,8 +202,8 @@ pub fn parse_groom_within(
         }
         strand.clear();
         let mut k = 0;
-        while !element.empty {
-            let (text, offset) = match xml.next()? {
+        loop {
+            let (text, offset) = match xml.next_in(&element)? {
                 Item::End => break,
                 Item::Text { text, offset } => (text, offset),
                 Item::Markup { what, offset } => {

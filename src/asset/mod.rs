@@ -8,6 +8,8 @@
 //! limit derived from the count limits (e.g. [`groom_byte_limit`]), parse in one linear pass
 //! without building a tree, count strands, particles, spheres and keys before storing them, and
 //! resolve animation keys only inside the animation's own asset folder ([`resolve_key_path`]).
+//! A game whose asset folder players can write to registers [`regular_file_source`], which
+//! refuses FIFOs and devices before Bevy opens them.
 //!
 //! | asset | file | loader |
 //! |-------|------|--------|
@@ -21,6 +23,8 @@ mod error;
 mod groom;
 #[cfg(test)]
 mod hostile_tests;
+#[cfg(not(target_arch = "wasm32"))]
+mod source;
 #[cfg(test)]
 mod tests;
 mod xml;
@@ -40,6 +44,8 @@ pub use groom::{
     HairGroomLoader, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS, MIN_SEGMENT_LENGTH,
     groom_byte_limit, parse_groom, parse_groom_within,
 };
+#[cfg(not(target_arch = "wasm32"))]
+pub use source::{RegularFileReader, regular_file_source};
 pub use xml::{MAX_ATTRIBUTES, MAX_DEPTH};
 
 use bevy::prelude::*;

@@ -160,6 +160,15 @@ impl<'a> Xml<'a> {
         }
     }
 
+    /// The next item inside `element` (just returned by [`Xml::root`] or [`Xml::next`]):
+    /// [`Item::End`] at once for an empty element (`<name/>`).
+    pub fn next_in(&mut self, element: &Element<'a>) -> Result<Item<'a>, HairAssetError> {
+        if element.empty {
+            return Ok(Item::End);
+        }
+        self.next()
+    }
+
     /// Skips the content of `element` (just returned by [`Xml::next`]) up to its end tag.
     pub fn skip(&mut self, element: &Element<'a>) -> Result<(), HairAssetError> {
         if element.empty {
@@ -217,8 +226,8 @@ impl<'a> Xml<'a> {
     fn markup(&mut self) -> Result<Option<Item<'a>>, HairAssetError> {
         let start = self.pos;
         let rest = self.rest();
-        if rest.starts_with("<!--") {
-            let Some(end) = rest[4..].find("-->") else {
+        if let Some(body) = rest.strip_prefix("<!--") {
+            let Some(end) = body.find("-->") else {
                 return Err(self.unterminated(start, "comment", "-->"));
             };
             self.pos += 4 + end + 3;
@@ -227,16 +236,16 @@ impl<'a> Xml<'a> {
                 offset: start,
             }));
         }
-        if rest.starts_with("<![CDATA[") {
+        if let Some(body) = rest.strip_prefix("<![CDATA[") {
             if self.open.is_empty() {
                 return Err(self.error(start, "CDATA outside the root element"));
             }
-            let Some(end) = rest[9..].find("]]>") else {
+            let Some(end) = body.find("]]>") else {
                 return Err(self.unterminated(start, "CDATA section", "]]>"));
             };
             self.pos += 9 + end + 3;
             return Ok(Some(Item::Text {
-                text: Cow::Borrowed(&rest[9..9 + end]),
+                text: Cow::Borrowed(&body[..end]),
                 offset: start + 9,
             }));
         }
@@ -247,8 +256,8 @@ impl<'a> Xml<'a> {
                  (entities could expand without bound)",
             ));
         }
-        if rest.starts_with("<?") {
-            let Some(end) = rest[2..].find("?>") else {
+        if let Some(body) = rest.strip_prefix("<?") {
+            let Some(end) = body.find("?>") else {
                 return Err(self.unterminated(start, "processing instruction", "?>"));
             };
             self.pos += 2 + end + 2;

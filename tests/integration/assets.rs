@@ -28,6 +28,11 @@ pub const TESTS: &[(&str, crate::TestFn)] = &[
         "an_animation_shares_one_particle_budget_among_its_keys",
         an_animation_shares_one_particle_budget_among_its_keys,
     ),
+    #[cfg(unix)]
+    (
+        "the_regular_file_source_refuses_fifos_and_devices",
+        the_regular_file_source_refuses_fifos_and_devices,
+    ),
 ];
 
 /// Tests that need Blender's `bpy` module.
@@ -354,6 +359,56 @@ fn an_animation_shares_one_particle_budget_among_its_keys() -> Result<(), Failed
     let state = wait(&mut app, one.id());
     if !matches!(state, LoadState::Loaded) {
         return Err(format!("one key within the budget failed: {state:?}").into());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    Ok(())
+}
+
+/// With [`regular_file_source`] as the default source, a FIFO (which blocks Bevy's own file
+/// reader for ever) and a link to a device fail at once with an error naming what they are.
+#[cfg(unix)]
+fn the_regular_file_source_refuses_fifos_and_devices() -> Result<(), Failed> {
+    use bevy::asset::io::AssetSourceId;
+    use bevy_cartoon_hair::asset::regular_file_source;
+    let dir = scratch("special")?;
+    std::fs::write(dir.join("ok.hair.xml"), OK_GROOM)?;
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.hair.xml"))?;
+    let status = std::process::Command::new("mkfifo")
+        .arg(dir.join("pipe.hair.xml"))
+        .status()?;
+    if !status.success() {
+        return Err("mkfifo failed".into());
+    }
+    std::fs::write(
+        dir.join("pipe.hairanim.xml"),
+        animation_with_key("pipe.hair.xml"),
+    )?;
+    let mut app = App::new();
+    app.register_asset_source(
+        AssetSourceId::Default,
+        regular_file_source(&dir.display().to_string()),
+    );
+    app.add_plugins((MinimalPlugins, AssetPlugin::default(), HairAssetPlugin));
+    for (path, says) in [
+        (
+            "pipe.hair.xml",
+            "is a FIFO (named pipe), not a regular file",
+        ),
+        ("zero.hair.xml", "is a device, not a regular file"),
+    ] {
+        let msg = load_error::<HairGroom>(&mut app, path)?;
+        if !msg.contains(path) || !msg.contains(says) {
+            return Err(format!("{path}: unclear error: {msg}").into());
+        }
+    }
+    let msg = load_error::<HairAnimation>(&mut app, "pipe.hairanim.xml")?;
+    if !msg.contains("pipe.hairanim.xml:2:3: key 0") || !msg.contains("FIFO") {
+        return Err(format!("a FIFO key: unclear error: {msg}").into());
+    }
+    let ok: Handle<HairGroom> = app.world().resource::<AssetServer>().load("ok.hair.xml");
+    let state = wait(&mut app, ok.id());
+    if !matches!(state, LoadState::Loaded) {
+        return Err(format!("a regular file failed to load: {state:?}").into());
     }
     let _ = std::fs::remove_dir_all(&dir);
     Ok(())
