@@ -20,8 +20,10 @@ fn setup(mut commands: Commands, assets: Res<AssetServer>) {
         animation: None,
         collision: Some(assets.load("ninja/ninja.collision.xml")),
     };
-    // Finds the bone named "head" once the scene has spawned and hangs the hair on it.
-    commands.spawn((WorldAssetRoot(scene), AttachHair::new("head", hair)));
+    let ninja = commands.spawn(WorldAssetRoot(scene)).id();
+    // The hair is our own entity: once the scene has spawned, the plugin finds the bone named
+    // "head" and makes this entity its child. A wrong name is an error that lists the bones.
+    commands.spawn((hair, AttachToBone::named(ninja, "head")));
     commands.spawn((
         DirectionalLight::default(),
         Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),

@@ -31,7 +31,7 @@ use crate::headless::{CaptureSettings, HeadlessError, HeadlessRenderer};
 use crate::mesh::ComputedHairMesh;
 use crate::preset::HairPreset;
 use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps};
-use crate::sim::{AttachHair, ComputedHair, Hair, HairSimSettings};
+use crate::sim::{AttachToBone, ComputedHair, Hair, HairSimSettings};
 
 /// The demo hair's colour (orange).
 pub const HAIR_COLOR: Color = Color::srgb(0.98, 0.62, 0.12);
@@ -111,8 +111,7 @@ impl Plugin for NinjaScenePlugin {
                 ..default()
             })
             .add_systems(Startup, (spawn_ninja_scene, spawn_ninja_stage))
-            .add_systems(Update, place_orbit_cameras)
-            .add_observer(give_hair_its_tuning);
+            .add_systems(Update, place_orbit_cameras);
     }
 }
 
@@ -148,7 +147,7 @@ fn spawn_ninja_scene(
         settings = preset.simulation.clone();
     }
     let scene = assets.load(GltfAssetLabel::Scene(0).from_asset("ninja/ninja.glb"));
-    commands
+    let ninja = commands
         .spawn((
             Name::new("ninja"),
             WorldAssetRoot(scene.clone()),
@@ -156,16 +155,27 @@ fn spawn_ninja_scene(
                 graph: graphs.add(graph),
                 node,
             },
-            AttachHair {
-                bone: "head".into(),
-                hair,
-                settings,
-            },
         ))
-        .observe(play_idle_when_ready);
+        .observe(play_idle_when_ready)
+        .id();
+    let hair_material = hair_materials.add(material);
+    // The hair is built with everything on it; the plugin hangs it on the ninja's head bone.
+    let mut hair_entity = commands.spawn((
+        Name::new("ninja hair"),
+        hair,
+        settings,
+        HairMaterial(hair_material.clone()),
+        AttachToBone::named(ninja, "head"),
+    ));
+    if let Some(preset) = &config.preset {
+        hair_entity.insert(preset.mesh.clone());
+        if let Some(silhouettes) = &preset.silhouettes {
+            hair_entity.insert(silhouettes.clone());
+        }
+    }
     commands.insert_resource(NinjaScene {
         scene,
-        hair_material: hair_materials.add(material),
+        hair_material,
     });
 }
 
@@ -222,27 +232,6 @@ fn play_idle_when_ready(
             commands
                 .entity(child)
                 .insert(AnimationGraphHandle(idle.graph.clone()));
-        }
-    }
-}
-
-/// Hair appears once the scene is in: give it the demo's material (and the preset's mesh) the
-/// moment it is added, before the default material would be.
-fn give_hair_its_tuning(
-    add: On<Add, Hair>,
-    mut commands: Commands,
-    scene: Option<Res<NinjaScene>>,
-    config: Res<NinjaSceneConfig>,
-) {
-    let Some(scene) = scene else {
-        return;
-    };
-    let mut entity = commands.entity(add.entity);
-    entity.insert(HairMaterial(scene.hair_material.clone()));
-    if let Some(preset) = &config.0.preset {
-        entity.insert(preset.mesh.clone());
-        if let Some(silhouettes) = &preset.silhouettes {
-            entity.insert(silhouettes.clone());
         }
     }
 }

@@ -14,8 +14,10 @@
 //!
 //! ## Getting started
 //!
-//! Add the plugin group next to `DefaultPlugins`, spawn your character, and attach hair to one of
-//! its bones by name ([`sim::AttachHair`] waits for the glTF scene to spawn and finds the bone):
+//! Add the plugin group next to `DefaultPlugins`, spawn your character, and spawn the hair as your
+//! own entity hung on one of its bones ([`sim::AttachToBone`] waits for the glTF scene to spawn,
+//! finds the bone by name, and reports a missing one as an error and a [`sim::BoneNotFound`]
+//! event):
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -34,12 +36,12 @@
 //!         animation: Some(assets.load("ninja/ninja.hairanim.xml")),
 //!         collision: Some(assets.load("ninja/ninja.collision.xml")),
 //!     };
-//!     commands.spawn((
-//!         bevy::world_serialization::WorldAssetRoot(
+//!     let ninja = commands
+//!         .spawn(bevy::world_serialization::WorldAssetRoot(
 //!             assets.load(GltfAssetLabel::Scene(0).from_asset("ninja/ninja.glb")),
-//!         ),
-//!         AttachHair::new("head", hair),
-//!     ));
+//!         ))
+//!         .id();
+//!     commands.spawn((hair, AttachToBone::named(ninja, "head")));
 //!     commands.spawn((
 //!         Camera3d::default(),
 //!         Transform::from_xyz(0.0, 1.7, 1.2).looking_at(Vec3::new(0.0, 1.7, 0.0), Vec3::Y),
@@ -199,7 +201,7 @@ pub mod prelude {
     };
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
     pub use crate::sim::{
-        AttachHair, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
+        AttachToBone, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
         StrandParticles,
     };
     #[cfg(feature = "ui")]

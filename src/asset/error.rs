@@ -140,6 +140,8 @@ pub(crate) struct Header {
     pub scale: f32,
     /// The bone the positions are relative to (may be empty).
     pub bone: String,
+    /// Metres one unit of the bone's frame was where the file was made (`bone_scale`).
+    pub bone_scale: Option<f32>,
 }
 
 /// Checks the root element's name and `version`, reads `scale` (within [`SCALE_RANGE`]) and
@@ -174,19 +176,33 @@ pub(crate) fn read_header(
         }
     }
     if let Some(units) = xml.attr("units")
-        && !matches!(units.value.as_ref(), "meters" | "metres")
+        && !matches!(units.value.as_ref(), "meters" | "metres" | "bone")
     {
         return Err(xml.error(
             units.offset,
             format!(
-                "units = {:?}: hair files are in metres (`units=\"meters\"`); write other units \
-                 with a scale, e.g. centimetres as scale=\"100\"",
+                "units = {:?}: hair files are in metres (`units=\"meters\"`) or in the bone's \
+                 own units (`units=\"bone\"`, with `bone_scale`); write other units with a \
+                 scale, e.g. centimetres as scale=\"100\"",
                 units.value
             ),
         ));
     }
-    let scale = float_attr_or(xml, root, "scale", 1.0)?;
     let (lo, hi) = SCALE_RANGE;
+    let bone_scale = match xml.attr("bone_scale") {
+        None => None,
+        Some(a) => {
+            let v = float_attr(xml, root, "bone_scale")?;
+            if !(lo..=hi).contains(&v) {
+                return Err(xml.error(
+                    a.offset,
+                    format!("bone_scale must lie between {lo:e} and {hi:e}, found {v:e}"),
+                ));
+            }
+            Some(v)
+        }
+    };
+    let scale = float_attr_or(xml, root, "scale", 1.0)?;
     if !(lo..=hi).contains(&scale) {
         let at = xml.attr("scale").map_or(root.offset, |a| a.offset);
         return Err(xml.error(
@@ -200,6 +216,7 @@ pub(crate) fn read_header(
             .attr("bone")
             .map(|b| b.value.to_string())
             .unwrap_or_default(),
+        bone_scale,
     })
 }
 

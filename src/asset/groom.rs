@@ -57,6 +57,10 @@ pub const MIN_SEGMENT_LENGTH: f32 = 1e-6;
 pub struct HairGroom {
     /// The bone the positions are relative to (empty: the entity the hair is attached to).
     pub bone: String,
+    /// Metres one unit of the bone's frame was in the file's source (`bone_scale`; the add-on
+    /// writes it for scaled rigs, e.g. `0.01` for Mixamo). The plugin warns when the bone it
+    /// hangs on has another scale: the hair would come out larger or smaller than authored.
+    pub bone_scale: Option<f32>,
     /// Every strand's particles, strand after strand.
     pub points: Vec<Vec3>,
     /// Strand `i` is `points[offsets[i]..offsets[i + 1]]`; one more entry than strands.
@@ -71,6 +75,7 @@ impl HairGroom {
     ) -> Result<Self, HairAssetError> {
         let mut groom = Self {
             bone: bone.into(),
+            bone_scale: None,
             points: Vec::new(),
             offsets: vec![0],
         };
@@ -170,6 +175,7 @@ pub fn parse_groom_within(
     let header = read_header(&xml, &root, "groom")?;
     let mut groom = HairGroom {
         bone: header.bone,
+        bone_scale: header.bone_scale,
         points: Vec::new(),
         offsets: vec![0],
     };

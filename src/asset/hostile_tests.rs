@@ -333,6 +333,19 @@ fn scaled_values_are_checked_and_the_scale_is_blamed() {
     assert_says(&e, &["\"0x1\": not a number"]);
     let e = groom_err("<groom version=\"1\" units=\"centimeters\"><strand/></groom>");
     assert_says(&e, &["units = \"centimeters\"", "scale=\"100\""]);
+    let e = groom_err("<groom version=\"1\" units=\"bone\" bone_scale=\"0\"><strand/></groom>");
+    assert_says(&e, &["bone_scale must lie between"]);
+    let g = parse_groom(
+        "b.hair.xml",
+        "<groom version=\"1\" units=\"bone\" bone_scale=\"0.01\"><strand>0 0 0 0 10 0</strand></groom>",
+    )
+    .unwrap();
+    assert_eq!(g.bone_scale, Some(0.01));
+    assert_eq!(
+        g.strand(0)[1],
+        Vec3::new(0.0, 10.0, 0.0),
+        "bone units are kept as they are"
+    );
 
     let coll = |body: &str, scale: &str| {
         err(parse_collision(

@@ -147,23 +147,23 @@ fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
 pub fn rebuild_strand_meshes(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut hairs: Query<
-        (
-            Entity,
-            &Hair,
-            &HairMeshSettings,
-            &GlobalTransform,
-            &HairStrands,
-            Option<&mut ComputedHairMesh>,
-        ),
-        With<ComputedHair>,
-    >,
+    mut hairs: Query<(
+        Entity,
+        &Hair,
+        &HairMeshSettings,
+        &GlobalTransform,
+        &HairStrands,
+        Option<&mut ComputedHairMesh>,
+        &ComputedHair,
+    )>,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for (hair, hair_assets, settings, global, strand_list, computed) in &mut hairs {
+    for (hair, hair_assets, settings, global, strand_list, computed, sim) in &mut hairs {
+        // A character scaled at run time keeps its tubes in proportion.
+        let radius = settings.radius * sim.size();
         let (rings, sides) = settings_topology(settings);
         let count = strand_list.len();
         let rebuild = computed.as_ref().is_none_or(|c| {
@@ -243,7 +243,7 @@ pub fn rebuild_strand_meshes(
                 .copied()
                 .unwrap_or((Vec3::NEG_Y, Vec3::Z));
             TubeParams {
-                radius: settings.radius,
+                radius,
                 taper: [settings.taper.a, settings.taper.b, settings.taper.c],
                 reference: FrameReference {
                     direction: rotation * direction,

@@ -4,20 +4,31 @@ use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::Collider;
 
+use bevy::asset::UntypedAssetId;
+use bevy::transform::helper::TransformHelper;
+
+use super::bone::BoneSearch;
+use super::events::{
+    BoneMismatch, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady, HairRebuilt,
+    RebuildReason,
+};
 use super::settings::HairSimSettings;
 use super::solver::{Batch, LANES, build_chain};
 use crate::asset::{HairAnimation, HairGroom, HeadCollision};
 
-/// Hair on this entity. Put it on a child of a bone (or use [`AttachHair`] to find the bone by
-/// name): positions in the groom are relative to this entity, so with an identity [`Transform`]
-/// they are in bone space, as exported.
+/// Hair on this entity. Hang the entity on a bone with [`AttachToBone`](super::AttachToBone)
+/// (or make it a child of the bone yourself): positions in the groom are relative to this
+/// entity, so with an identity [`Transform`] they are in bone space, as exported.
 ///
-/// Once the groom (and animation, if any) are loaded, the plugin spawns one entity per guide
-/// strand with [`StrandOf`], [`Strand`] and [`StrandParticles`]; despawning this entity despawns
-/// them, and removing this component detaches (despawns) them too.
+/// Once every asset given here has loaded (in any order; a failed animation or collision file
+/// is reported and left out, a failed groom is reported and builds nothing), the plugin spawns one
+/// entity per guide strand with [`StrandOf`], [`Strand`] and [`StrandParticles`], in the styled
+/// pose on the bone, and triggers [`HairReady`](super::HairReady). Reloading any of the files
+/// rebuilds the hair. Despawning this entity despawns the strands; removing this component
+/// detaches (despawns) them.
 #[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
 #[reflect(Component, Default, Debug)]
-#[require(Transform, Visibility, HairSimSettings)]
+#[require(Transform, Visibility, HairSimSettings, HairStatus)]
 pub struct Hair {
     /// The guide strands.
     pub groom: Handle<HairGroom>,
@@ -26,29 +37,6 @@ pub struct Hair {
     /// Spheres to collide with; they become a compound rapier [`Collider`] on this entity's
     /// child, so other rapier users see the head too.
     pub collision: Option<Handle<HeadCollision>>,
-}
-
-/// Finds the bone named [`AttachHair::bone`] among this entity's descendants (a glTF scene
-/// spawns asynchronously) and attaches the hair to it, then removes itself.
-#[derive(Component, Clone, Debug)]
-pub struct AttachHair {
-    /// Name of the bone entity (glTF node name), e.g. `"head"`.
-    pub bone: String,
-    /// The hair to attach.
-    pub hair: Hair,
-    /// Its settings.
-    pub settings: HairSimSettings,
-}
-
-impl AttachHair {
-    /// Attach `hair` with default settings to the descendant named `bone`.
-    pub fn new(bone: impl Into<String>, hair: Hair) -> Self {
-        Self {
-            bone: bone.into(),
-            hair,
-            settings: HairSimSettings::default(),
-        }
-    }
 }
 
 /// A guide strand's hair entity.
@@ -94,8 +82,16 @@ pub struct ComputedHair {
     pub(crate) lane_of: Vec<(u32, u8)>,
     pub(crate) groom: AssetId<HairGroom>,
     pub(crate) animation: Option<AssetId<HairAnimation>>,
+    pub(crate) collision: Option<AssetId<HeadCollision>>,
     pub(crate) offset: f32,
     pub(crate) margin_key: (u64, u32, u32),
+    /// The bone's scale the groom was built at (see [`split_bone`]).
+    pub(crate) scale: Vec3,
+    /// The bone's scale over its scale at the first build: margins, gravity, teleport distance
+    /// and tube radius are multiplied by it, so a character scaled at run time keeps its hair
+    /// in proportion.
+    pub(crate) size: f32,
+    /// Last frame's bone pose without its scale.
     pub(crate) last_bone: Option<Affine3A>,
     pub(crate) accumulator: f32,
     pub(crate) animation_time: f32,
@@ -117,6 +113,13 @@ pub struct HairStepStats {
 }
 
 impl ComputedHair {
+    /// How much larger the character is than when the hair was first built (1 until it is
+    /// scaled at run time). Sizes in the settings (margins, gravity, teleport distance, tube
+    /// radius) are multiplied by it.
+    pub fn size(&self) -> f32 {
+        self.size
+    }
+
     /// Number of strands.
     pub fn strand_count(&self) -> usize {
         self.lane_of.len()
@@ -132,7 +135,7 @@ impl ComputedHair {
     /// transform `bone`, at rest, as when the strands were built. The clip recorder does this
     /// before its first frame so a clip never depends on when assets finished loading.
     pub fn reset(&mut self, bone: &GlobalTransform) {
-        let bone = bone.affine();
+        let (bone, _) = split_bone(&bone.affine());
         for b in &mut self.batches {
             b.reset(&bone);
         }
@@ -153,6 +156,28 @@ impl ComputedHair {
     }
 }
 
+/// Splits a bone's world transform into its rigid part (rotation and translation) and its scale.
+///
+/// The groom is in the bone's own space, so on a scaled rig (Mixamo's armature carries 0.01) its
+/// numbers are not metres. The solver works in world metres: the groom is multiplied by the
+/// bone's scale once, when the strands are built (so rest lengths, anchors and keyframes are in
+/// metres), and moved every frame by the rigid part only. Margins, radii and gravity are world
+/// metres whatever the scale. A mirrored bone gives a negative scale on one axis, which mirrors
+/// the groom. Shear, which no rig exports, is dropped.
+pub(crate) fn split_bone(bone: &Affine3A) -> (Affine3A, Vec3) {
+    let (scale, rotation, translation) = bone.to_scale_rotation_translation();
+    (
+        Affine3A::from_rotation_translation(rotation, translation),
+        scale,
+    )
+}
+
+/// Whether the bone's scale moved far enough from `built` (relative 1e-3) to rebuild the hair.
+pub(crate) fn scale_changed(built: Vec3, now: Vec3) -> bool {
+    let tolerance = 1e-3 * built.abs().max_element().max(1e-12);
+    (built - now).abs().max_element() > tolerance
+}
+
 /// A strand's margin: a hash of (seed, strand) mapped into `[min, max]`.
 pub(crate) fn draw_margin(seed: u64, strand: u32, min: f32, max: f32) -> f32 {
     let mut z = seed ^ (u64::from(strand).wrapping_mul(0x9E37_79B9_7F4A_7C15));
@@ -165,18 +190,23 @@ pub(crate) fn draw_margin(seed: u64, strand: u32, min: f32, max: f32) -> f32 {
 
 /// Builds solver batches for a groom (and its keyframes): strands grouped by particle count,
 /// [`LANES`] to a batch.
+/// The groom and keyframes are multiplied by `scale` (the bone's, see [`split_bone`]) first.
 pub(crate) fn build_batches(
     groom: &HairGroom,
     animation: Option<&HairAnimation>,
     offset: f32,
     margins: &[f32],
+    scale: Vec3,
 ) -> (Vec<Batch>, Vec<(u32, u8)>) {
     let n = groom.strand_count();
     let mut chains: Vec<Vec<Vec3>> = Vec::with_capacity(n);
     let mut frames = Vec::with_capacity(n);
+    let scale_strand =
+        |strand: &[Vec3]| -> Vec<Vec3> { strand.iter().map(|p| *p * scale).collect() };
     for s in 0..n {
         let mut chain = Vec::new();
-        frames.push(build_chain(groom.strand(s), offset, None, &mut chain));
+        let points = scale_strand(groom.strand(s));
+        frames.push(build_chain(&points, offset, None, &mut chain));
         chains.push(chain);
     }
     // Keyframe chains, with the structural particles on the same side as the base's.
@@ -188,7 +218,8 @@ pub(crate) fn build_batches(
                     (0..n)
                         .map(|s| {
                             let mut c = Vec::new();
-                            build_chain(k.pose.strand(s), offset, Some(frames[s]), &mut c);
+                            let points = scale_strand(k.pose.strand(s));
+                            build_chain(&points, offset, Some(frames[s]), &mut c);
                             c
                         })
                         .collect()
@@ -220,26 +251,33 @@ pub(crate) fn build_batches(
     (batches, lane_of)
 }
 
-/// Attaches [`AttachHair`] requests once their bone exists.
-pub(crate) fn attach_hair_to_named_bones(
-    mut commands: Commands,
-    requests: Query<(Entity, &AttachHair)>,
-    children: Query<&Children>,
-    names: Query<&Name>,
-) {
-    for (root, request) in &requests {
-        let bone = children
-            .iter_descendants(root)
-            .find(|e| names.get(*e).is_ok_and(|n| n.as_str() == request.bone));
-        if let Some(bone) = bone {
-            commands.entity(root).remove::<AttachHair>();
-            commands.spawn((
-                Name::new(format!("hair on {}", request.bone)),
-                request.hair.clone(),
-                request.settings.clone(),
-                ChildOf(bone),
-            ));
+/// Per hair: what has been reported and whether a reload is pending. Derived; inserted by the
+/// plugin.
+#[derive(Component, Debug, Default)]
+pub struct HairStatus {
+    /// Failures already reported: `(what, asset)`, so each is logged and triggered once.
+    reported: Vec<(u8, UntypedAssetId)>,
+    /// A file of this hair was reloaded: rebuild.
+    pub(crate) reloaded: bool,
+    /// How many times the strands were built.
+    pub builds: u32,
+    /// The bone's (mean) scale at the first build: the size the hair was made for.
+    pub(crate) first_scale: Option<f32>,
+}
+
+impl HairStatus {
+    /// Records `(what, id)`; `true` the first time.
+    fn first_report(&mut self, what: u8, id: UntypedAssetId) -> bool {
+        if self.reported.contains(&(what, id)) {
+            return false;
         }
+        self.reported.push((what, id));
+        true
+    }
+
+    /// Forgets failures of `id` (it was reloaded).
+    pub(crate) fn forget(&mut self, id: UntypedAssetId) {
+        self.reported.retain(|(_, r)| *r != id);
     }
 }
 
@@ -251,62 +289,253 @@ type HairBuildQuery<'w, 's> = Query<
         Entity,
         &'static Hair,
         &'static HairSimSettings,
-        &'static GlobalTransform,
+        &'static mut GlobalTransform,
         Option<&'static mut ComputedHair>,
         Option<&'static HairStrands>,
+        &'static mut HairStatus,
+        Option<&'static BoneSearch>,
     ),
 >;
 
-/// Spawns strand entities and solver state once a hair's assets are loaded, and rebuilds them
-/// when the groom, the animation or the structure offset changes.
-#[allow(clippy::too_many_arguments)]
+/// The assets a hair build reads.
+#[derive(bevy::ecs::system::SystemParam)]
+pub(crate) struct HairAssets<'w> {
+    grooms: Res<'w, Assets<HairGroom>>,
+    animations: Res<'w, Assets<HairAnimation>>,
+    collisions: Res<'w, Assets<HeadCollision>>,
+    server: Res<'w, AssetServer>,
+}
+
+impl HairAssets<'_> {
+    /// The load error of `id`, if its load failed.
+    fn failure(&self, id: impl Into<UntypedAssetId>) -> Option<String> {
+        match self.server.load_state(id.into()) {
+            bevy::asset::LoadState::Failed(e) => Some(e.to_string()),
+            _ => None,
+        }
+    }
+
+    fn path(&self, id: impl Into<UntypedAssetId>) -> String {
+        self.server
+            .get_path(id.into())
+            .map(|p| p.to_string())
+            .unwrap_or_default()
+    }
+}
+
+/// Reports a failed asset of `hair` once: an error log line and a [`HairAssetFailed`] event.
+fn report_failure(
+    commands: &mut Commands,
+    status: &mut HairStatus,
+    assets: &HairAssets,
+    hair: Entity,
+    kind: HairAssetKind,
+    id: UntypedAssetId,
+    error: String,
+) {
+    if !status.first_report(kind as u8, id) {
+        return;
+    }
+    let path = assets.path(id);
+    let consequence = match kind {
+        HairAssetKind::Groom => "no hair is built",
+        HairAssetKind::Animation => "the hair anchors to the groom's own style",
+        HairAssetKind::Collision => "the hair is built without a head collider",
+    };
+    error!("hair {hair}: {kind:?} {path:?} failed to load ({consequence}): {error}");
+    commands.trigger(HairAssetFailed {
+        entity: hair,
+        asset: kind,
+        path,
+        error,
+    });
+}
+
+/// Spawns strand entities and solver state once a hair's assets are ready, and rebuilds them
+/// when a handle, a file (hot reload), the bone's scale or the structure offset changes. Failed
+/// assets and bone mismatches are reported once each.
 pub(crate) fn build_hair_strands(
     mut commands: Commands,
     mut hairs: HairBuildQuery,
-    grooms: Res<Assets<HairGroom>>,
-    animations: Res<Assets<HairAnimation>>,
-    collisions: Res<Assets<HeadCollision>>,
+    assets: HairAssets,
+    names: Query<&Name>,
+    helper: TransformHelper,
     head_colliders: Query<(Entity, &HeadColliderOf)>,
 ) {
-    for (entity, hair, settings, global, computed, strands) in &mut hairs {
+    for (entity, hair, settings, mut global, computed, strands, mut status, search) in &mut hairs {
+        let status = &mut *status;
         let anim_id = hair.animation.as_ref().map(|h| h.id());
+        let collision_id = hair.collision.as_ref().map(|h| h.id());
         let offset = settings.structure_offset();
-        if let Some(c) = &computed
-            && c.groom == hair.groom.id()
-            && c.animation == anim_id
-            && c.offset == offset
-        {
+        // The hair may have been parented to its bone this frame, after transform propagation:
+        // compute its pose from the hierarchy so it appears on the bone, not at the origin.
+        let full = match &computed {
+            // Built before: its pose was propagated like any other entity's.
+            Some(_) => global.affine(),
+            None => helper
+                .compute_global_transform(entity)
+                .unwrap_or(*global)
+                .affine(),
+        };
+        let bone_ok = full.is_finite() && full.matrix3.determinant().abs() > 1e-12;
+        let (bone, scale) = if bone_ok {
+            split_bone(&full)
+        } else {
+            (Affine3A::IDENTITY, Vec3::ONE)
+        };
+        let reason = match &computed {
+            None => None,
+            Some(c) => Some(if status.reloaded {
+                RebuildReason::Reloaded
+            } else if c.groom != hair.groom.id()
+                || c.animation != anim_id
+                || c.collision != collision_id
+            {
+                RebuildReason::Assets
+            } else if c.offset != offset {
+                RebuildReason::Settings
+            } else if bone_ok && scale_changed(c.scale, scale) {
+                RebuildReason::Scale
+            } else {
+                continue;
+            }),
+        };
+        if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
             continue;
         }
-        let Some(groom) = grooms.get(&hair.groom) else {
+        let Some(groom) = assets.grooms.get(&hair.groom) else {
+            if let Some(error) = assets.failure(&hair.groom) {
+                let id = hair.groom.id().untyped();
+                report_failure(
+                    &mut commands,
+                    status,
+                    &assets,
+                    entity,
+                    HairAssetKind::Groom,
+                    id,
+                    error,
+                );
+            }
             continue;
         };
         let animation = match &hair.animation {
-            Some(h) => match animations.get(h) {
+            None => None,
+            Some(h) => match assets.animations.get(h) {
                 Some(a) if a.base().same_topology(groom) => Some(a),
-                Some(_) => {
+                Some(a) => {
                     // Refuse rather than crash (the thesis crashed here): anchor to the groom.
-                    warn_once!(
-                        "hair animation does not match the groom's strands; anchors follow the \
-                         groom's own style instead"
-                    );
+                    if status.first_report(10, h.id().untyped()) {
+                        let message = format!(
+                            "the animation {:?} has keyframes of {} strands ({} particles), the \
+                             groom {:?} has {} strands ({} particles)",
+                            assets.path(h),
+                            a.base().strand_count(),
+                            a.base().points.len(),
+                            assets.path(&hair.groom),
+                            groom.strand_count(),
+                            groom.points.len()
+                        );
+                        error!(
+                            "hair {entity}: {message}; the hair anchors to the groom's own style"
+                        );
+                        commands.trigger(HairAnimationMismatch { entity, message });
+                    }
                     None
                 }
-                None => continue,
+                None => match assets.failure(h) {
+                    Some(error) => {
+                        let id = h.id().untyped();
+                        report_failure(
+                            &mut commands,
+                            status,
+                            &assets,
+                            entity,
+                            HairAssetKind::Animation,
+                            id,
+                            error,
+                        );
+                        None
+                    }
+                    None => continue,
+                },
             },
-            None => None,
         };
+        let collision = match &hair.collision {
+            None => None,
+            Some(h) => match assets.collisions.get(h) {
+                Some(c) => Some(c),
+                None => match assets.failure(h) {
+                    Some(error) => {
+                        let id = h.id().untyped();
+                        report_failure(
+                            &mut commands,
+                            status,
+                            &assets,
+                            entity,
+                            HairAssetKind::Collision,
+                            id,
+                            error,
+                        );
+                        None
+                    }
+                    None => continue,
+                },
+            },
+        };
+        // Hung by name: the files must have been exported for that bone.
+        if let Some(BoneSearch::Found(bone_entity)) = search
+            && let Ok(bone_name) = names.get(*bone_entity)
+        {
+            let exported = [Some(&groom.bone), collision.map(|c| &c.bone)];
+            if let Some(file_bone) = exported
+                .into_iter()
+                .flatten()
+                .find(|b| !b.is_empty() && b.as_str() != bone_name.as_str())
+            {
+                if status.first_report(11, hair.groom.id().untyped()) {
+                    error!(
+                        "hair {entity}: it hangs on the bone {:?} but its files were exported \
+                         for {file_bone:?}; attach it to {file_bone:?} or export the hair for \
+                         {:?} (bone=\"\" in the file skips this check)",
+                        bone_name.as_str(),
+                        bone_name.as_str()
+                    );
+                    commands.trigger(BoneMismatch {
+                        entity,
+                        attached: bone_name.as_str().to_string(),
+                        exported: file_bone.clone(),
+                    });
+                }
+                continue;
+            }
+        }
+        let mean_scale = (scale.abs().element_sum() / 3.0).max(1e-12);
+        let size = mean_scale / *status.first_scale.get_or_insert(mean_scale);
+        if let Some(authored) = groom.bone_scale
+            && !(0.99..=1.01).contains(&(mean_scale / authored))
+            && status.first_report(12, hair.groom.id().untyped())
+        {
+            warn!(
+                "hair {entity}: the groom {:?} was made on a bone of {authored} m per unit, this \
+                 bone is {mean_scale} m per unit: the hair is {:.3}x its authored size. Export \
+                 the character and its hair from the same .blend (and apply or keep the \
+                 armature's scale in both)",
+                assets.path(&hair.groom),
+                mean_scale / authored
+            );
+        }
         let (lo, hi) = settings.margins();
         let margins: Vec<f32> = (0..groom.strand_count() as u32)
-            .map(|s| draw_margin(settings.margin_seed, s, lo, hi))
+            .map(|s| draw_margin(settings.margin_seed, s, lo * size, hi * size))
             .collect();
-        let (mut batches, lane_of) = build_batches(groom, animation, offset, &margins);
-        let bone = global.affine();
-        let bone_ok = bone.is_finite() && bone.matrix3.determinant().abs() > 1e-12;
+        let (mut batches, lane_of) = build_batches(groom, animation, offset, &margins, scale);
         if bone_ok {
             for b in &mut batches {
                 b.reset(&bone);
             }
+            // This frame's step and the head collider below read the pose; propagation would
+            // only write it next frame.
+            global.set_if_neq(GlobalTransform::from(full));
         }
         if let Some(strands) = strands {
             for e in strands.iter() {
@@ -336,7 +565,7 @@ pub(crate) fn build_hair_strands(
                 commands.entity(e).despawn();
             }
         }
-        if let Some(shape) = hair.collision.as_ref().and_then(|h| collisions.get(h)) {
+        if let Some(shape) = collision {
             let balls = shape
                 .spheres
                 .iter()
@@ -347,19 +576,72 @@ pub(crate) fn build_hair_strands(
                 Collider::compound(balls),
                 HeadColliderOf(entity),
                 Transform::default(),
+                // Its parent's pose, so the spheres are in place on their first frame.
+                GlobalTransform::from(full),
                 ChildOf(entity),
             ));
         }
+        let strand_count = groom.strand_count();
         commands.entity(entity).insert(ComputedHair {
             batches,
             lane_of,
             groom: hair.groom.id(),
             animation: anim_id,
+            collision: collision_id,
             offset,
             margin_key: margin_key(settings),
+            scale,
+            size,
             last_bone: bone_ok.then_some(bone),
             ..default()
         });
+        status.reloaded = false;
+        status.builds += 1;
+        match reason {
+            None => commands.trigger(HairReady {
+                entity,
+                strands: strand_count,
+            }),
+            Some(reason) => commands.trigger(HairRebuilt { entity, reason }),
+        }
+    }
+}
+
+/// Marks hairs whose groom, animation or collision file was reloaded, so they rebuild.
+pub(crate) fn mark_reloaded_hairs(
+    mut grooms: MessageReader<AssetEvent<HairGroom>>,
+    mut animations: MessageReader<AssetEvent<HairAnimation>>,
+    mut collisions: MessageReader<AssetEvent<HeadCollision>>,
+    mut hairs: Query<(&Hair, &mut HairStatus)>,
+) {
+    let mut reloaded: Vec<UntypedAssetId> = Vec::new();
+    reloaded.extend(grooms.read().filter_map(|e| match e {
+        AssetEvent::Modified { id } => Some(id.untyped()),
+        _ => None,
+    }));
+    reloaded.extend(animations.read().filter_map(|e| match e {
+        AssetEvent::Modified { id } => Some(id.untyped()),
+        _ => None,
+    }));
+    reloaded.extend(collisions.read().filter_map(|e| match e {
+        AssetEvent::Modified { id } => Some(id.untyped()),
+        _ => None,
+    }));
+    if reloaded.is_empty() {
+        return;
+    }
+    for (hair, mut status) in &mut hairs {
+        let ids = [
+            Some(hair.groom.id().untyped()),
+            hair.animation.as_ref().map(|h| h.id().untyped()),
+            hair.collision.as_ref().map(|h| h.id().untyped()),
+        ];
+        for id in ids.into_iter().flatten() {
+            if reloaded.contains(&id) {
+                status.reloaded = true;
+                status.forget(id);
+            }
+        }
     }
 }
 

@@ -1,7 +1,12 @@
 //! Strand simulation: hair attached to a bone, simulated with structural springs, keyframed
 //! anchors and collisions (thesis 4.2).
 //!
-//! - [`Hair`] on a child of a bone (or [`AttachHair`] on a scene root to find the bone by name).
+//! - [`Hair`] on the user's entity, hung on a bone with [`AttachToBone`] (by name, predicate or
+//!   entity; a missing bone is a [`BoneNotFound`] error) or made a child of the bone directly.
+//! - Events on the hair entity: [`HairReady`], [`HairRebuilt`], [`HairAssetFailed`],
+//!   [`BoneNotFound`], [`BoneMismatch`], [`HairAnimationMismatch`].
+//! - Any rig scale: the groom is in the bone's space and is scaled by the bone's scale when the
+//!   strands are built; the solver, margins, radii and gravity work in world metres.
 //! - One entity per guide strand ([`StrandOf`], [`Strand`], [`StrandParticles`]).
 //! - [`HairSimSettings`] per hair: stiffnesses, anchors (S curve), gravity, damping, substeps,
 //!   margins, teleport thresholds.
@@ -20,6 +25,8 @@
 //! written is finite.
 
 mod attach;
+mod bone;
+mod events;
 mod settings;
 pub mod solver;
 mod step;
@@ -27,8 +34,13 @@ mod step;
 mod tests;
 
 pub use attach::{
-    AttachHair, ComputedHair, Hair, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
+    ComputedHair, Hair, HairStatus, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
     StrandParticles,
+};
+pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
+pub use events::{
+    BoneMismatch, BoneNotFound, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady,
+    HairRebuilt, RebuildReason,
 };
 pub use settings::{HairSimSettings, compliance_factor};
 pub use step::HairCollisionGroups;
@@ -75,12 +87,15 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<Hair>()
             .register_type::<HairSimSettings>()
             .register_type::<HairSimControl>()
+            .register_type::<AttachToBone>()
             .add_observer(attach::detach_hair)
+            .add_observer(bone::mark_spawned_characters)
             .add_systems(
                 PostUpdate,
                 (
-                    attach::attach_hair_to_named_bones,
-                    // Strands are built from the bone pose found this frame.
+                    bone::attach_to_bones,
+                    attach::mark_reloaded_hairs,
+                    // Strands are built on the bone found this frame.
                     ApplyDeferred,
                     attach::build_hair_strands,
                     ApplyDeferred,

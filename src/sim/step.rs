@@ -108,16 +108,20 @@ pub(crate) fn step_hair_strands(
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (hair, global, settings, mut computed, groups) in &mut hairs {
         let computed = &mut *computed;
-        let bone = global.affine();
-        if !usable(&bone) {
+        let full = global.affine();
+        if !usable(&full) {
             computed.stats.invalid_bone_frames += 1;
             computed.stats.substeps = 0;
             continue;
         }
+        // The groom was scaled when it was built (a new scale rebuilds it first, in
+        // `HairSystems::Attach`): the solver moves it by the rigid part only.
+        let (bone, _) = super::attach::split_bone(&full);
         // Margins follow the settings (Alter margins = a new seed).
         let key = margin_key(settings);
         if key != computed.margin_key {
             let (lo, hi) = settings.margins();
+            let (lo, hi) = (lo * computed.size, hi * computed.size);
             for b in &mut computed.batches {
                 for l in 0..b.count {
                     b.margin[l] = draw_margin(settings.margin_seed, b.strands[l], lo, hi);
@@ -132,7 +136,7 @@ pub(crate) fn step_hair_strands(
         let moved = last_pos.distance(pos);
         let turned = last_rot.angle_between(rot);
         let from = if computed.last_bone.is_none()
-            || moved > settings.teleport_distance.max(0.0)
+            || moved > settings.teleport_distance.max(0.0) * computed.size
             || turned > settings.teleport_angle.max(0.0)
         {
             if computed.last_bone.is_some() {
@@ -164,7 +168,7 @@ pub(crate) fn step_hair_strands(
 
         let mut input = StepInput {
             h,
-            gravity_h2: settings.gravity() * h * h,
+            gravity_h2: settings.gravity() * computed.size * h * h,
             damping: settings.damping_factor(),
             alpha: [
                 settings.edge_stiffness,
@@ -184,7 +188,7 @@ pub(crate) fn step_hair_strands(
         }
         // Colliders this hair sees, per substep.
         let hair_groups = groups.map(|g| g.0).unwrap_or_default();
-        let max_margin = settings.margins().1;
+        let max_margin = settings.margins().1 * computed.size;
         let mut sphere_templates: Vec<(usize, Vec3A, f32)> = Vec::new();
         for (v, view) in views.iter().enumerate() {
             if !groups_match(&hair_groups, &view.groups) {

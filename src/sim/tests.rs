@@ -494,7 +494,7 @@ fn teleports_long_frames_and_bad_bones_never_produce_nan() {
 #[test]
 fn non_finite_strands_are_reset_not_propagated() {
     let groom = spiky_groom(10, 6);
-    let (mut batches, _) = super::attach::build_batches(&groom, None, 0.5, &[0.01; 10]);
+    let (mut batches, _) = super::attach::build_batches(&groom, None, 0.5, &[0.01; 10], Vec3::ONE);
     let bone = bevy::math::Affine3A::IDENTITY;
     let b: &mut Batch = &mut batches[0];
     b.reset(&bone);
@@ -568,8 +568,9 @@ fn hair_attaches_detaches_and_despawns_without_leaks() {
     assert_eq!(count(&mut h), 0);
 }
 
-#[test]
-fn attach_hair_finds_a_named_bone() {
+/// An app with the simulation, the asset server on the repository's `assets/`, and a log of
+/// every hair event.
+fn event_app() -> App {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -578,40 +579,536 @@ fn attach_hair_finds_a_named_bone() {
         HairAssetPlugin,
         HairSchedulePlugin,
         HairSimulationPlugin,
-    ));
+    ))
+    .init_resource::<Seen>()
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )))
+    .add_observer(|e: On<HairReady>, mut seen: ResMut<Seen>| {
+        seen.0.push(format!("ready {}", e.strands));
+    })
+    .add_observer(|e: On<HairRebuilt>, mut seen: ResMut<Seen>| {
+        seen.0.push(format!("rebuilt {:?}", e.reason));
+    })
+    .add_observer(|e: On<HairAssetFailed>, mut seen: ResMut<Seen>| {
+        seen.0
+            .push(format!("failed {:?} {} | {}", e.asset, e.path, e.error));
+    })
+    .add_observer(|e: On<BoneNotFound>, mut seen: ResMut<Seen>| {
+        seen.0
+            .push(format!("no bone {} among {:?}", e.bone, e.available));
+    })
+    .add_observer(|e: On<BoneMismatch>, mut seen: ResMut<Seen>| {
+        seen.0
+            .push(format!("mismatch {} {}", e.attached, e.exported));
+    })
+    .add_observer(|e: On<HairAnimationMismatch>, mut seen: ResMut<Seen>| {
+        seen.0.push(format!("animation mismatch {}", e.message));
+    });
+    app
+}
+
+/// Hair events seen, in order.
+#[derive(Resource, Default)]
+struct Seen(Vec<String>);
+
+fn seen(app: &App) -> Vec<String> {
+    app.world().resource::<Seen>().0.clone()
+}
+
+/// A character root with `neck` and `head` bones; the head at `head_at` (world).
+fn character(app: &mut App, root: Transform, head_at: Vec3) -> (Entity, Entity) {
+    let world = app.world_mut();
+    let root = world.spawn((Name::new("character"), root)).id();
+    let neck = world
+        .spawn((Name::new("neck"), Transform::default(), ChildOf(root)))
+        .id();
+    let head = world
+        .spawn((
+            Name::new("head"),
+            Transform::from_translation(head_at),
+            ChildOf(neck),
+        ))
+        .id();
+    (root, head)
+}
+
+fn strand_count(app: &mut App) -> usize {
+    app.world_mut()
+        .query::<&StrandOf>()
+        .iter(app.world())
+        .count()
+}
+
+/// Marks the user's own component, to check the plugin keeps it.
+#[derive(Component)]
+struct MyTag;
+
+#[test]
+fn attach_to_bone_keeps_the_users_entity_and_finds_its_bone() {
+    let mut app = event_app();
     let groom = app
         .world_mut()
         .resource_mut::<Assets<HairGroom>>()
         .add(spiky_groom(5, 4));
-    let root = app
+    let root = app.world_mut().spawn(Transform::default()).id();
+    let hair = app
         .world_mut()
         .spawn((
-            Transform::default(),
-            AttachHair::new("head", Hair { groom, ..default() }),
+            Hair { groom, ..default() },
+            MyTag,
+            AttachToBone::named(root, "head"),
         ))
         .id();
     app.update();
-    // The "scene" arrives later.
+    // A root without a glTF scene decides at once: the bone is not there yet, an error.
+    assert_eq!(strand_count(&mut app), 0);
+    assert_eq!(
+        app.world().get::<BoneSearch>(hair),
+        Some(&BoneSearch::NotFound)
+    );
     let neck = app
         .world_mut()
         .spawn((Name::new("neck"), Transform::default(), ChildOf(root)))
         .id();
     let head = app
         .world_mut()
-        .spawn((Name::new("head"), Transform::default(), ChildOf(neck)))
+        .spawn((
+            Name::new("head"),
+            Transform::from_xyz(0.0, 1.6, 0.0),
+            ChildOf(neck),
+        ))
+        .id();
+    // Inserting `AttachToBone` again searches again.
+    app.world_mut()
+        .entity_mut(hair)
+        .insert(AttachToBone::named(root, "head"));
+    app.update();
+    let e = app.world().entity(hair);
+    assert!(e.contains::<MyTag>(), "the user's component was dropped");
+    assert_eq!(e.get::<ChildOf>().map(ChildOf::parent), Some(head));
+    assert_eq!(e.get::<BoneSearch>(), Some(&BoneSearch::Found(head)));
+    assert_eq!(strand_count(&mut app), 5);
+    assert!(
+        seen(&app).contains(&"ready 5".to_string()),
+        "{:?}",
+        seen(&app)
+    );
+    // By predicate and by entity.
+    for attach in [
+        AttachToBone::matching(root, |n| n.ends_with("ead")),
+        AttachToBone::entity(head),
+    ] {
+        let groom = app
+            .world_mut()
+            .resource_mut::<Assets<HairGroom>>()
+            .add(spiky_groom(3, 4));
+        let other = app
+            .world_mut()
+            .spawn((Hair { groom, ..default() }, attach))
+            .id();
+        app.update();
+        assert_eq!(
+            app.world().get::<ChildOf>(other).map(ChildOf::parent),
+            Some(head)
+        );
+    }
+}
+
+#[test]
+fn a_missing_bone_is_reported_once_with_the_bones_there_are() {
+    let mut app = event_app();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(spiky_groom(5, 4));
+    // A glTF root whose scene has not spawned: the search waits, no error yet.
+    let root = app
+        .world_mut()
+        .spawn((
+            Transform::default(),
+            bevy::world_serialization::WorldAssetRoot(Handle::default()),
+        ))
+        .id();
+    app.world_mut()
+        .spawn((Name::new("neck"), Transform::default(), ChildOf(root)));
+    let hair = app
+        .world_mut()
+        .spawn((
+            Hair { groom, ..default() },
+            AttachToBone::named(root, "mixamorig:Head"),
+        ))
+        .id();
+    for _ in 0..5 {
+        app.update();
+    }
+    assert_eq!(
+        app.world().get::<BoneSearch>(hair),
+        Some(&BoneSearch::Waiting)
+    );
+    assert!(seen(&app).is_empty(), "{:?}", seen(&app));
+    // The scene spawns (what `WorldInstanceReady` marks): now the bone is missing.
+    app.world_mut().entity_mut(root).insert(CharacterSpawned);
+    for _ in 0..10 {
+        app.update();
+    }
+    let events = seen(&app);
+    assert_eq!(events.len(), 1, "reported once, no spin: {events:?}");
+    assert!(
+        events[0].contains("no bone bone named \"mixamorig:Head\"")
+            && events[0].contains("\"neck\""),
+        "{events:?}"
+    );
+    assert_eq!(
+        app.world().get::<BoneSearch>(hair),
+        Some(&BoneSearch::NotFound)
+    );
+    assert_eq!(strand_count(&mut app), 0);
+    assert!(app.world().get::<ChildOf>(hair).is_none());
+}
+
+#[test]
+fn a_bone_other_than_the_exported_one_is_an_error() {
+    let mut app = event_app();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(spiky_groom(5, 4)); // exported for "head"
+    let (root, _) = character(&mut app, Transform::default(), Vec3::Y);
+    app.world_mut().spawn((
+        Hair { groom, ..default() },
+        AttachToBone::named(root, "neck"),
+    ));
+    for _ in 0..3 {
+        app.update();
+    }
+    assert_eq!(seen(&app), vec!["mismatch neck head".to_string()]);
+    assert_eq!(strand_count(&mut app), 0);
+}
+
+/// Every strand's particles, in strand order.
+fn particles(app: &mut App) -> Vec<Vec<Vec3>> {
+    let mut q = app.world_mut().query::<(&Strand, &StrandParticles)>();
+    let mut v: Vec<_> = q
+        .iter(app.world())
+        .map(|(s, p)| (s.index, p.positions.clone()))
+        .collect();
+    v.sort_by_key(|(i, _)| *i);
+    v.into_iter().map(|(_, p)| p).collect()
+}
+
+/// The same hair on a unit rig and on a Mixamo-style rig (armature scale 0.01, groom in the
+/// bone's centimetre units, as the add-on exports it) moves identically in world metres.
+#[test]
+fn hair_on_a_scaled_rig_moves_exactly_as_on_a_unit_rig() {
+    let run = |rig_scale: f32| {
+        let mut app = event_app();
+        let groom = spiky_groom(20, 6);
+        let in_bone_units = HairGroom::from_strands(
+            "head",
+            groom
+                .strands()
+                .map(|s| s.iter().map(|p| *p / rig_scale).collect()),
+        )
+        .unwrap();
+        let head_collision = HeadCollision {
+            bone: "head".into(),
+            spheres: vec![CollisionSphere {
+                center: Vec3::ZERO,
+                radius: HEAD_RADIUS / rig_scale,
+            }],
+        };
+        let world = app.world_mut();
+        let groom = world.resource_mut::<Assets<HairGroom>>().add(in_bone_units);
+        let collision = world
+            .resource_mut::<Assets<HeadCollision>>()
+            .add(head_collision);
+        let (root, _) = character(
+            &mut app,
+            Transform::from_scale(Vec3::splat(rig_scale)),
+            Vec3::new(0.0, 1.6 / rig_scale, 0.0),
+        );
+        app.world_mut().spawn((
+            Hair {
+                groom,
+                animation: None,
+                collision: Some(collision),
+            },
+            AttachToBone::named(root, "head"),
+        ));
+        let mut frames = Vec::new();
+        for f in 0..90 {
+            let t = f as f32 / 60.0;
+            app.world_mut().get_mut::<Transform>(root).unwrap().rotation =
+                Quat::from_rotation_y(1.5 * (4.0 * t).sin());
+            app.update();
+            frames.push(particles(&mut app));
+        }
+        frames
+    };
+    let unit = run(1.0);
+    let mixamo = run(0.01);
+    let mut worst: f32 = 0.0;
+    for (a, b) in unit.iter().zip(&mixamo) {
+        assert_eq!(a.len(), 20);
+        worst = worst.max(max_deviation(a, b));
+    }
+    println!("unit rig vs 0.01 rig: largest difference {worst:e} m over 90 frames");
+    assert!(worst < 1e-3, "the scaled rig's hair differs by {worst} m");
+    // And the strands keep their lengths in metres (not 100 times longer).
+    let last = mixamo.last().unwrap();
+    let len: f32 = last[0].windows(2).map(|w| w[0].distance(w[1])).sum();
+    assert!((0.1..0.2).contains(&len), "strand 0 is {len} m long");
+}
+
+#[test]
+fn a_character_scaled_at_run_time_keeps_its_hair_in_proportion() {
+    let mut app = event_app();
+    let groom_asset = spiky_groom(10, 5);
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(groom_asset.clone());
+    let (root, _) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+    app.world_mut().spawn((
+        Hair { groom, ..default() },
+        AttachToBone::named(root, "head"),
+    ));
+    app.update();
+    let rest_len: f32 = groom_asset
+        .strand(0)
+        .windows(2)
+        .map(|w| w[0].distance(w[1]))
+        .sum();
+    for scale in [3.0f32, 0.01] {
+        app.world_mut().get_mut::<Transform>(root).unwrap().scale = Vec3::splat(scale);
+        for _ in 0..30 {
+            app.update();
+        }
+        let p = particles(&mut app);
+        let len: f32 = p[0].windows(2).map(|w| w[0].distance(w[1])).sum();
+        println!(
+            "scale {scale}: strand 0 is {len} m, styled {} m",
+            rest_len * scale
+        );
+        assert!(
+            (len / (rest_len * scale) - 1.0).abs() < 0.15,
+            "scale {scale}: strand is {len} m, expected {} m",
+            rest_len * scale
+        );
+    }
+    let events = seen(&app);
+    assert_eq!(
+        events,
+        vec!["ready 10", "rebuilt Scale", "rebuilt Scale"],
+        "{events:?}"
+    );
+}
+
+#[test]
+fn hair_appears_on_its_bone_in_its_styled_pose_on_the_first_frame() {
+    let mut app = event_app();
+    let groom_asset = spiky_groom(12, 6);
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(groom_asset.clone());
+    let (root, head) = character(
+        &mut app,
+        Transform::from_xyz(2.0, 0.0, -1.0).with_rotation(Quat::from_rotation_y(0.7)),
+        Vec3::new(0.0, 1.6, 0.0),
+    );
+    let hair = app
+        .world_mut()
+        .spawn((
+            Hair { groom, ..default() },
+            AttachToBone::named(root, "head"),
+        ))
         .id();
     app.update();
+    // Built this frame, after the bone was found: on the bone, not at the origin.
+    let bone = app.world().get::<GlobalTransform>(head).unwrap().affine();
+    let rest = groom_rest_world(&groom_asset, &bone);
+    let first = particles(&mut app);
+    let dev = max_deviation(&first, &rest);
+    // One frame of gravity sags the tips a little; built at the origin it would be 1.7 m off.
+    assert!(dev < 3e-3, "first frame is {dev} m off the styled pose");
     app.update();
-    assert!(app.world().get::<AttachHair>(root).is_none());
-    let hair = app
-        .world()
-        .get::<Children>(head)
-        .expect("hair attached")
-        .to_vec();
-    assert_eq!(hair.len(), 1);
+    let second = particles(&mut app);
+    let moved = max_deviation(&first, &second);
     assert!(
-        app.world()
-            .get::<HairStrands>(hair[0])
-            .is_some_and(|s| s.len() == 5)
+        moved < 0.01,
+        "the hair whipped {moved} m in its second frame"
     );
+    assert_eq!(
+        app.world()
+            .get::<ComputedHair>(hair)
+            .unwrap()
+            .stats
+            .teleports,
+        0
+    );
+}
+
+/// A handle whose asset is not there yet: inserting it later is a late load.
+fn reserve<A: Asset>(app: &mut App) -> Handle<A> {
+    app.world().resource::<Assets<A>>().reserve_handle()
+}
+
+#[test]
+fn every_load_order_builds_the_hair_with_its_collider() {
+    let orders: [[usize; 3]; 6] = [
+        [0, 1, 2],
+        [0, 2, 1],
+        [1, 0, 2],
+        [1, 2, 0],
+        [2, 0, 1],
+        [2, 1, 0],
+    ];
+    for order in orders {
+        let mut app = event_app();
+        let groom_handle = reserve::<HairGroom>(&mut app);
+        let anim_handle = reserve::<HairAnimation>(&mut app);
+        let collision_handle = reserve::<HeadCollision>(&mut app);
+        let (root, _) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+        let hair = app
+            .world_mut()
+            .spawn((
+                Hair {
+                    groom: groom_handle.clone(),
+                    animation: Some(anim_handle.clone()),
+                    collision: Some(collision_handle.clone()),
+                },
+                AttachToBone::named(root, "head"),
+            ))
+            .id();
+        app.update();
+        let groom = spiky_groom(8, 5);
+        for (n, which) in order.into_iter().enumerate() {
+            assert_eq!(
+                strand_count(&mut app),
+                0,
+                "{order:?}: built before all loaded"
+            );
+            let world = app.world_mut();
+            match which {
+                0 => world
+                    .resource_mut::<Assets<HairGroom>>()
+                    .insert(&groom_handle, groom.clone())
+                    .unwrap(),
+                1 => world
+                    .resource_mut::<Assets<HairAnimation>>()
+                    .insert(&anim_handle, two_key_animation(&groom))
+                    .unwrap(),
+                _ => world
+                    .resource_mut::<Assets<HeadCollision>>()
+                    .insert(&collision_handle, head())
+                    .unwrap(),
+            }
+            app.update();
+            if n < 2 {
+                app.update();
+            }
+        }
+        assert_eq!(strand_count(&mut app), 8, "{order:?}");
+        let colliders = app
+            .world_mut()
+            .query::<&HeadColliderOf>()
+            .iter(app.world())
+            .filter(|c| c.0 == hair)
+            .count();
+        assert_eq!(colliders, 1, "{order:?}: head collider missing");
+        assert!(
+            app.world()
+                .get::<ComputedHair>(hair)
+                .unwrap()
+                .animation
+                .is_some()
+        );
+        assert_eq!(seen(&app), vec!["ready 8"], "{order:?}");
+    }
+}
+
+#[test]
+fn failed_files_are_events_and_the_hair_still_appears_without_them() {
+    let mut app = event_app();
+    let server = app.world().resource::<AssetServer>().clone();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(spiky_groom(6, 4));
+    let (root, _) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+    app.world_mut().spawn((
+        Hair {
+            groom,
+            animation: Some(server.load("missing/none.hairanim.xml")),
+            collision: Some(server.load("missing/none.collision.xml")),
+        },
+        AttachToBone::named(root, "head"),
+    ));
+    // A groom that fails: no hair, one event naming the file.
+    app.world_mut().spawn((
+        Hair {
+            groom: server.load("missing/none.hair.xml"),
+            ..default()
+        },
+        AttachToBone::named(root, "head"),
+    ));
+    for _ in 0..400 {
+        app.update();
+        if seen(&app).iter().any(|e| e.starts_with("ready")) && seen(&app).len() >= 4 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    let events = seen(&app);
+    let has = |start: &str, path: &str| {
+        events
+            .iter()
+            .any(|e| e.starts_with(start) && e.contains(path))
+    };
+    assert!(
+        has("failed Animation", "missing/none.hairanim.xml"),
+        "{events:?}"
+    );
+    assert!(
+        has("failed Collision", "missing/none.collision.xml"),
+        "{events:?}"
+    );
+    assert!(has("failed Groom", "missing/none.hair.xml"), "{events:?}");
+    assert!(
+        has("ready 6", ""),
+        "the hair must appear without its animation: {events:?}"
+    );
+    assert_eq!(events.len(), 4, "each failure once: {events:?}");
+    assert_eq!(strand_count(&mut app), 6);
+}
+
+#[test]
+fn replacing_a_groom_rebuilds_the_hair() {
+    let mut app = event_app();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(spiky_groom(6, 4));
+    let (root, _) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+    app.world_mut().spawn((
+        Hair {
+            groom: groom.clone(),
+            ..default()
+        },
+        AttachToBone::named(root, "head"),
+    ));
+    app.update();
+    assert_eq!(strand_count(&mut app), 6);
+    // What Bevy's file watcher does on a re-export: the same asset, new contents.
+    app.world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .insert(&groom, spiky_groom(9, 5))
+        .unwrap();
+    app.update();
+    app.update();
+    assert_eq!(strand_count(&mut app), 9);
+    assert_eq!(seen(&app), vec!["ready 6", "rebuilt Reloaded"]);
+    assert_eq!(particles(&mut app)[0].len(), 5);
 }

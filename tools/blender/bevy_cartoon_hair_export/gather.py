@@ -160,10 +160,22 @@ def _reference(objs, context):
     return active if active in objs else objs[0]
 
 
+def frame_scale(armature=None, bone="head", reference=None, context=None):
+    """Metres one unit of the file's frame is in Blender (the bone's uniform world scale in the
+    rest pose): 0.01 on a Mixamo rig, whose armature object carries that scale."""
+    with rest_pose(context) as dg:
+        return writer.uniform_scale(
+            frame_matrix(armature, bone, reference=reference, depsgraph=dg)
+        )
+
+
 def export_hair(filepath, objects, armature=None, bone="head", scale=1.0, context=None):
     """Write ``objects``' strands to a ``*.hair.xml``.  Returns the number of strands."""
     positions, counts, bone_name = groom_data(objects, armature, bone, scale, context)
-    writer.write_text(filepath, writer.groom_xml(positions, counts, scale, bone_name))
+    units = frame_scale(armature, bone, _reference(hair_objects(objects), context), context)
+    writer.write_text(
+        filepath, writer.groom_xml(positions, counts, scale, bone_name, bone_scale=units)
+    )
     return len(counts)
 
 
@@ -173,6 +185,34 @@ def export_hair(filepath, objects, armature=None, bone="head", scale=1.0, contex
 
 def is_sphere_object(obj):
     return obj.type == "MESH" or (obj.type == "EMPTY" and obj.empty_display_type == "SPHERE")
+
+
+def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
+    """Raise :class:`ExportError` unless mesh ``obj`` is (close to) a sphere in world space: its
+    vertices all lie within ``tolerance`` (relative) of one radius around the box centre.  A body,
+    a cube or a stretched ellipsoid is refused, not silently turned into its bounding sphere."""
+    ob = obj.evaluated_get(depsgraph)
+    world = _np_matrix(ob.matrix_world)
+    mesh = ob.to_mesh()
+    try:
+        co = np.zeros(len(mesh.vertices) * 3, dtype=np.float64)
+        mesh.vertices.foreach_get("co", co)
+    finally:
+        ob.to_mesh_clear()
+    if len(co) < 12:
+        raise ExportError(f"'{obj.name}' has {len(co) // 3} vertices; a collision sphere needs a "
+                          "sphere mesh (UV or ico sphere) or an empty shown as a sphere")
+    pts = writer.transform_points(world, co.reshape(-1, 3))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    dist = np.linalg.norm(pts - (lo + hi) / 2.0, axis=1)
+    r = float(dist.max())
+    if r <= 0.0 or float(dist.min()) < (1.0 - tolerance) * r:
+        ext = hi - lo
+        raise ExportError(
+            f"'{obj.name}' is not a sphere (world size {ext[0]:.3g} x {ext[1]:.3g} x "
+            f"{ext[2]:.3g} m, vertices {dist.min():.3g} to {r:.3g} m from its centre); collision "
+            "files hold spheres: select sphere meshes or empties shown as spheres only"
+        )
 
 
 def object_sphere(obj, depsgraph):
@@ -200,6 +240,9 @@ def collision_data(objects, armature=None, bone="head", scale=1.0, context=None)
         ref = _reference(objs, context)
         frame = frame_matrix(armature, bone, reference=ref, depsgraph=dg)
         to_frame = writer.blender_to_frame(frame)
+        for o in objs:
+            if o.type == "MESH":
+                check_sphere_mesh(o, dg)
         spheres = [object_sphere(o, dg) for o in objs]
     centres = writer.transform_points(to_frame, np.array([c for c, _ in spheres]))
     # A radius in the frame: world radius over the frame's (uniform) scale.
@@ -211,7 +254,11 @@ def collision_data(objects, armature=None, bone="head", scale=1.0, context=None)
 def export_collision(filepath, objects, armature=None, bone="head", scale=1.0, context=None):
     """Write sphere ``objects`` to a ``*.collision.xml``.  Returns the number of spheres."""
     centres, radii, bone_name = collision_data(objects, armature, bone, scale, context)
-    writer.write_text(filepath, writer.collision_xml(centres, radii, scale, bone_name))
+    objs = sorted((o for o in objects if is_sphere_object(o)), key=lambda o: o.name)
+    units = frame_scale(armature, bone, _reference(objs, context), context)
+    writer.write_text(
+        filepath, writer.collision_xml(centres, radii, scale, bone_name, bone_scale=units)
+    )
     return len(radii)
 
 
@@ -266,7 +313,8 @@ def export_hairanim(
         )
         data.append((o.name, positions, counts))
     writer.check_same_topology([(name, counts) for name, _, counts in data])
-    texts = [writer.groom_xml(p, c, scale, bone_name) for _, p, c in data]
+    units = frame_scale(armature, bone, styles[0], context)
+    texts = [writer.groom_xml(p, c, scale, bone_name, bone_scale=units) for _, p, c in data]
     directory = os.path.dirname(os.path.abspath(filepath))
     names = style_file_names(styles)
     keys = [(i * seconds_per_key, n) for i, n in enumerate(names)]

@@ -195,15 +195,28 @@ def fmt_float(x):
     return "0" if s == "-0" else s
 
 
-def _header(root, scale, bone):
+def units_attributes(bone_scale=1.0):
+    """``units``: ``meters`` when one unit of the bone's frame is a metre in Blender; on a scaled
+    rig (Mixamo's armature carries 0.01) the numbers are in the bone's own units, so the file says
+    ``units="bone"`` and ``bone_scale``, the metres one unit was in Blender.  The game scales the
+    hair by the bone's world scale, so either way it comes out as it looked in Blender."""
+    bone_scale = float(bone_scale)
+    if not (np.isfinite(bone_scale) and bone_scale > 0.0):
+        raise ExportError(f"the bone's frame has scale {bone_scale}; it must be finite and > 0")
+    if abs(bone_scale - 1.0) <= 1e-6:
+        return 'units="meters"'
+    return f'units="bone" bone_scale="{fmt_float(bone_scale)}"'
+
+
+def _header(root, scale, bone, bone_scale=1.0):
     return (
         '<?xml version="1.0" encoding="utf-8"?>\n'
-        f'<{root} version="{FORMAT_VERSION}" units="meters" scale="{fmt_float(scale)}"'
-        f' bone="{_attr(bone)}">\n'
+        f'<{root} version="{FORMAT_VERSION}" {units_attributes(bone_scale)}'
+        f' scale="{fmt_float(scale)}" bone="{_attr(bone)}">\n'
     )
 
 
-def groom_xml(positions, counts, scale=1.0, bone="", check=True):
+def groom_xml(positions, counts, scale=1.0, bone="", check=True, bone_scale=1.0):
     """The text of a ``*.hair.xml`` file.
 
     ``positions`` are the file's numbers, already multiplied by ``scale``.  Formatting is
@@ -215,7 +228,7 @@ def groom_xml(positions, counts, scale=1.0, bone="", check=True):
         check_groom(positions, counts, scale)
     flat = (positions.ravel() + 0.0).tolist()  # + 0.0: a copy, and -0.0 becomes 0.0
     formats = {}
-    parts = [_header("groom", scale, bone)]
+    parts = [_header("groom", scale, bone, bone_scale)]
     append = parts.append
     off = 0
     for c in counts.tolist():
@@ -229,7 +242,7 @@ def groom_xml(positions, counts, scale=1.0, bone="", check=True):
     return "".join(parts)
 
 
-def collision_xml(centers, radii, scale=1.0, bone=""):
+def collision_xml(centers, radii, scale=1.0, bone="", bone_scale=1.0):
     """The text of a ``*.collision.xml`` file; ``centers``/``radii`` already multiplied by
     ``scale``."""
     _check_scale(scale)
@@ -246,7 +259,7 @@ def collision_xml(centers, radii, scale=1.0, bone=""):
     if (radii <= 0.0).any():
         i = int(np.flatnonzero(radii <= 0.0)[0])
         raise ExportError(f"sphere {i} has radius {radii[i]}; radii must be > 0")
-    parts = [_header("collision", scale, bone)]
+    parts = [_header("collision", scale, bone, bone_scale)]
     for (x, y, z), r in zip(centers.tolist(), radii.tolist()):
         parts.append(
             f'  <sphere x="{fmt_float(x)}" y="{fmt_float(y)}" z="{fmt_float(z)}"'
