@@ -107,6 +107,8 @@ fn main() {
             // Hair work spreads over the compute pool; give it every core.
             .set(bevy_cartoon_hair::compute_on_every_core()),
         CartoonHairPlugins,
+        // The tuning panel is a development tool, not part of the plugin group.
+        HairTuningUiPlugin,
         NinjaScenePlugin {
             target: None,
             preset,

@@ -31,7 +31,7 @@ use crate::headless::{CaptureSettings, HeadlessError, HeadlessRenderer};
 use crate::mesh::ComputedHairMesh;
 use crate::preset::HairPreset;
 use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps};
-use crate::sim::{AttachToBone, ComputedHair, Hair, HairSimSettings};
+use crate::sim::{AttachToBone, ComputedHair, Hair, HairAssetFailed, HairSimSettings};
 
 /// The demo hair's colour (orange).
 pub const HAIR_COLOR: Color = Color::srgb(0.98, 0.62, 0.12);
@@ -110,9 +110,34 @@ impl Plugin for NinjaScenePlugin {
                 brightness: 600.0,
                 ..default()
             })
-            .add_systems(Startup, (spawn_ninja_scene, spawn_ninja_stage))
+            .add_systems(
+                Startup,
+                (stop_without_assets, spawn_ninja_scene, spawn_ninja_stage).chain(),
+            )
+            .add_observer(stop_on_failed_hair_asset)
             .add_systems(Update, place_orbit_cameras);
     }
+}
+
+/// Without the scene's files, say which one is missing and exit with an error (code 3).
+fn stop_without_assets(mut exit: MessageWriter<AppExit>) {
+    if let Err(path) = check_ninja_assets() {
+        error!(
+            "{} is missing: run the example from the repository (or set BEVY_ASSET_ROOT to the \
+             folder that holds assets/)",
+            path.display()
+        );
+        exit.write(AppExit::from_code(3));
+    }
+}
+
+/// A hair file of the demo that fails to load ends the demo with the loader's error (code 4).
+fn stop_on_failed_hair_asset(failed: On<HairAssetFailed>, mut exit: MessageWriter<AppExit>) {
+    error!(
+        "the demo cannot run: {:?} {} failed: {}",
+        failed.asset, failed.path, failed.error
+    );
+    exit.write(AppExit::from_code(4));
 }
 
 fn spawn_ninja_scene(
@@ -276,9 +301,43 @@ impl Default for ClipSettings {
     }
 }
 
+/// The files the ninja scene loads, relative to the asset folder.
+pub const NINJA_ASSETS: [&str; 4] = [
+    "ninja/ninja.glb",
+    "ninja/ninja.hair.xml",
+    "ninja/ninja.hairanim.xml",
+    "ninja/ninja.collision.xml",
+];
+
+/// Checks that the ninja scene's files are in the asset folder Bevy will read (`assets/` next to
+/// the executable, or under `BEVY_ASSET_ROOT` / `CARGO_MANIFEST_DIR` when set). Returns the first
+/// missing path, so the example and the recorder stop at once with it instead of waiting for
+/// files that will never load.
+pub fn check_ninja_assets() -> Result<(), PathBuf> {
+    check_ninja_assets_in(&bevy::asset::io::file::FileAssetReader::get_base_path().join("assets"))
+}
+
+/// [`check_ninja_assets`] for the asset folder `root`.
+pub fn check_ninja_assets_in(root: &std::path::Path) -> Result<(), PathBuf> {
+    for file in NINJA_ASSETS {
+        let path = root.join(file);
+        if !path.is_file() {
+            return Err(path);
+        }
+    }
+    Ok(())
+}
+
 /// Why a clip could not be recorded.
 #[derive(Debug, thiserror::Error)]
 pub enum ClipError {
+    /// A file of the scene is not in the asset folder.
+    #[error(
+        "{} is missing: run from the repository (or set BEVY_ASSET_ROOT to the folder that \
+         holds assets/)",
+        .0.display()
+    )]
+    MissingAsset(PathBuf),
     /// The headless renderer failed (no adapter, a pipeline error, a timeout).
     #[error(transparent)]
     Headless(#[from] HeadlessError),
@@ -323,9 +382,12 @@ pub fn ninja_scene_ready(world: &mut World) -> bool {
 ///
 /// # Errors
 ///
+/// [`ClipError::MissingAsset`] when a file of the scene is not in the asset folder (checked
+/// first, so a misplaced binary fails within a second);
 /// [`ClipError::Headless`] without an adapter, on a pipeline error or a timeout;
 /// [`ClipError::Write`] if the folder or a frame cannot be written.
 pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
+    check_ninja_assets().map_err(ClipError::MissingAsset)?;
     std::fs::create_dir_all(&settings.out).map_err(|e| ClipError::Write {
         path: settings.out.clone(),
         message: e.to_string(),
@@ -344,10 +406,13 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
         },
     ));
     #[cfg(feature = "ui")]
-    renderer.app.insert_resource(crate::ui::HairTuningUi {
-        visible: settings.show_ui,
-        ..default()
-    });
+    if settings.show_ui {
+        renderer.app.add_plugins(crate::ui::HairTuningUiPlugin);
+        renderer.app.insert_resource(crate::ui::HairTuningUi {
+            visible: true,
+            ..default()
+        });
+    }
     // Nothing moves until the scene is ready: the clip starts from the same state every time.
     renderer
         .app

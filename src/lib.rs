@@ -221,7 +221,9 @@ pub mod prelude {
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 /// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
-/// | `ui::HairTuningUiPlugin` | the egui tuning panel, hidden until `HairTuningUi::visible` (feature `ui`) |
+///
+/// The egui tuning panel (`ui::HairTuningUiPlugin`, feature `ui`) is not in the group: a shipped
+/// game does not carry a debug panel. Add it yourself during development.
 pub struct CartoonHairPlugins;
 
 impl PluginGroup for CartoonHairPlugins {
@@ -237,8 +239,6 @@ impl PluginGroup for CartoonHairPlugins {
             .add(render::HairShaderLibraryPlugin)
             .add(render::ToonHairMaterialPlugin)
             .add(render::ImageSpaceOutlinePlugin);
-        #[cfg(feature = "ui")]
-        let group = group.add(ui::HairTuningUiPlugin);
         group
     }
 }

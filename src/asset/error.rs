@@ -85,13 +85,9 @@ pub(crate) fn length_attr(
 ) -> Result<f32, HairAssetError> {
     let raw = float_attr(xml, element, name)?;
     let offset = xml.attr(name).map_or(element.offset, |a| a.offset);
-    scaled(
-        xml,
-        offset,
-        raw,
-        scale,
-        &format!("<{}> `{name}`", element.name),
-    )
+    scaled(xml, offset, raw, scale, || {
+        format!("<{}> `{name}`", element.name)
+    })
 }
 
 /// `raw / scale`, checked to be finite and within [`MAX_COORDINATE`].
@@ -100,12 +96,13 @@ pub(crate) fn scaled(
     offset: usize,
     raw: f32,
     scale: f32,
-    what: &str,
+    what: impl FnOnce() -> String,
 ) -> Result<f32, HairAssetError> {
     let v = raw / scale;
     if v.is_finite() && v.abs() <= MAX_COORDINATE {
         return Ok(v);
     }
+    let what = what();
     let blame = if raw.abs() <= MAX_COORDINATE {
         format!(" (the file's scale {scale:e} makes it that large; check `scale`)")
     } else {

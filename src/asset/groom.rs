@@ -6,7 +6,7 @@ use bevy::prelude::*;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{HairAssetError, parse_finite, read_header, read_text, scaled};
+use super::error::{HairAssetError, MAX_COORDINATE, parse_finite, read_header, read_text, scaled};
 use super::xml::{Item, Xml};
 
 /// Most strands a groom may have. Counted while reading, before anything is kept for them.
@@ -260,20 +260,25 @@ pub fn parse_groom_within(
                         format!("more than {max_particles} particles in all"),
                     ));
                 }
-                let mut p = [0.0f32; 3];
-                for (axis, (out, raw)) in p.iter_mut().zip(coord).enumerate() {
-                    *out = scaled(
-                        &xml,
-                        xml.offset_of(token, offset),
-                        raw,
-                        header.scale,
-                        &format!(
-                            "strand {index}, particle {particle}, {}",
-                            ["x", "y", "z"][axis]
-                        ),
-                    )?;
+                let p = Vec3::from_array(coord) / header.scale;
+                if !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE) {
+                    // Name the coordinate that broke the rule (only now build the message).
+                    for (axis, raw) in coord.into_iter().enumerate() {
+                        scaled(
+                            &xml,
+                            xml.offset_of(token, offset),
+                            raw,
+                            header.scale,
+                            || {
+                                format!(
+                                    "strand {index}, particle {particle}, {}",
+                                    ["x", "y", "z"][axis]
+                                )
+                            },
+                        )?;
+                    }
                 }
-                strand.push(Vec3::from_array(p));
+                strand.push(p);
             }
         }
         if k != 0 {

@@ -11,6 +11,7 @@ mod outline;
 mod ramps;
 #[cfg(test)]
 mod shader_validation;
+mod tonal_maps;
 mod toon;
 
 pub use outline::{
@@ -20,6 +21,7 @@ pub use outline::{
 pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
 };
+pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use toon::{HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform};
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
@@ -90,6 +92,8 @@ impl Plugin for ToonHairMaterialPlugin {
         app.insert_resource(ramps)
             .insert_resource(stroke)
             .insert_resource(highlight)
+            .init_resource::<HatchingMapSettings>()
+            .init_resource::<TonalArtMapCache>()
             .add_systems(
                 PostUpdate,
                 (
@@ -99,13 +103,16 @@ impl Plugin for ToonHairMaterialPlugin {
                 )
                     // Mesh and stroke entities exist once BuildMesh and Silhouettes have run.
                     .after(crate::HairSystems::Silhouettes),
-            );
+            )
+            // Hatching works without the panel: materials that ask for it get a map.
+            .add_systems(PostUpdate, assign_tonal_art_maps);
     }
 }
 
 /// The material a hair is drawn with. Inserted with a shared default (three-tone ramp) when
 /// missing; change it (or the material asset) any time.
-#[derive(Component, Clone, Debug, Default, PartialEq)]
+#[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Component, Debug, Default, PartialEq)]
 pub struct HairMaterial(pub Handle<ToonHairMaterial>);
 
 /// The material silhouette strokes are drawn with: the stroke texture, unlit, alpha-blended,

@@ -40,12 +40,14 @@ pub struct Hair {
 }
 
 /// A guide strand's hair entity.
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Component, Reflect, Debug, Clone, Copy, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 #[relationship(relationship_target = HairStrands)]
 pub struct StrandOf(pub Entity);
 
 /// The strand entities of a hair; despawning the hair despawns them.
-#[derive(Component, Debug, Default)]
+#[derive(Component, Reflect, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 #[relationship_target(relationship = StrandOf, linked_spawn)]
 pub struct HairStrands(Vec<Entity>);
 
@@ -60,7 +62,8 @@ pub struct Strand {
 }
 
 /// Simulated particle positions of a strand, world space, root first; written every frame.
-#[derive(Component, Debug, Clone, Default, PartialEq)]
+#[derive(Component, Reflect, Debug, Clone, Default, PartialEq)]
+#[reflect(Component, Debug, Default, PartialEq)]
 pub struct StrandParticles {
     /// The guide strand's particles (as many as the groom has).
     pub positions: Vec<Vec3>,
@@ -70,7 +73,8 @@ pub struct StrandParticles {
 }
 
 /// The child entity holding a hair's head collider.
-#[derive(Component, Debug, Clone, Copy)]
+#[derive(Component, Reflect, Debug, Clone, Copy)]
+#[reflect(Component, Debug)]
 pub struct HeadColliderOf(pub Entity);
 
 /// Solver state of a hair, derived from [`Hair`] and [`HairSimSettings`]; rebuilt when the groom,

@@ -111,7 +111,8 @@ impl AttachToBone {
 
 /// Where a hair's bone search stands. Derived from [`AttachToBone`]; changing that component
 /// searches again.
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 pub enum BoneSearch {
     /// The character's scene has not spawned yet.
     Waiting,
@@ -122,7 +123,8 @@ pub enum BoneSearch {
 }
 
 /// Marks a character root whose glTF world instance has spawned.
-#[derive(Component, Clone, Copy, Debug, Default)]
+#[derive(Component, Reflect, Clone, Copy, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 pub struct CharacterSpawned;
 
 /// Marks a root whose scene instance became ready, so bone searches under it can decide.

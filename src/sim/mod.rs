@@ -88,6 +88,8 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairSimSettings>()
             .register_type::<HairSimControl>()
             .register_type::<AttachToBone>()
+            .register_type::<StrandParticles>()
+            .register_type::<BoneSearch>()
             .add_observer(attach::detach_hair)
             .add_observer(bone::mark_spawned_characters)
             .add_systems(

@@ -25,9 +25,9 @@ mod debug;
 mod outlines;
 mod panels;
 
+pub use crate::render::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use bevy_egui;
 pub use debug::{HairDebugDraw, HairDebugGizmos, HairStageTimings, HairStageTimingsPlugin};
-pub use panels::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 
 use bevy::prelude::*;
 use bevy_egui::{
@@ -136,8 +136,9 @@ impl PanelState {
     }
 }
 
-/// The tuning panel. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins) with the `ui`
-/// feature; adds bevy_egui's [`EguiPlugin`] unless the app already has it.
+/// The tuning panel (feature `ui`). Not part of [`CartoonHairPlugins`](crate::CartoonHairPlugins):
+/// add it next to them during development. Adds bevy_egui's [`EguiPlugin`] unless the app
+/// already has it.
 #[derive(Default)]
 pub struct HairTuningUiPlugin;
 
@@ -162,8 +163,6 @@ impl Plugin for HairTuningUiPlugin {
         }
         app.init_resource::<HairTuningUi>()
             .init_resource::<HairDebugDraw>()
-            .init_resource::<HatchingMapSettings>()
-            .init_resource::<TonalArtMapCache>()
             .init_resource::<PanelState>()
             .register_type::<HairTuningUi>()
             .register_type::<HairDebugDraw>()
@@ -172,13 +171,10 @@ impl Plugin for HairTuningUiPlugin {
             .add_systems(Update, select_hair)
             .add_systems(
                 PostUpdate,
-                (
-                    debug::draw_hair_debug
-                        // Draw the particles this frame's step wrote.
-                        .after(HairSystems::Simulate)
-                        .run_if(|d: Res<HairDebugDraw>| d.any()),
-                    assign_tonal_art_maps,
-                ),
+                (debug::draw_hair_debug
+                    // Draw the particles this frame's step wrote.
+                    .after(HairSystems::Simulate)
+                    .run_if(|d: Res<HairDebugDraw>| d.any()),),
             )
             .add_systems(
                 EguiPrimaryContextPass,

@@ -12,6 +12,12 @@ use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::ui::HairDebugDraw;
 use libtest_mimic::Failed;
 
+/// Tests of the demo that need no GPU.
+pub const TESTS: &[(&str, crate::TestFn)] = &[(
+    "the_demo_names_a_missing_asset_folder_at_once",
+    the_demo_names_a_missing_asset_folder_at_once,
+)];
+
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "clip_recorder_writes_consecutive_deterministic_frames_with_hair",
@@ -132,6 +138,7 @@ fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
     })?;
     r.app.add_plugins((
         CartoonHairPlugins,
+        HairTuningUiPlugin,
         NinjaScenePlugin {
             target: Some(r.target()),
             preset: None,
@@ -163,6 +170,36 @@ fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
     let particles = frame.count(|[r, g, b, _]| r > 200 && g < 90 && (110..200).contains(&b));
     if particles < 50 {
         return Err(format!("only {particles} magenta particle pixels").into());
+    }
+    Ok(())
+}
+
+/// The example and the recorder check their files first: without them they name the missing
+/// path instead of waiting for assets that never load.
+fn the_demo_names_a_missing_asset_folder_at_once() -> Result<(), Failed> {
+    use bevy_cartoon_hair::demo::{check_ninja_assets, check_ninja_assets_in};
+    let empty = temp_dir("no_assets");
+    std::fs::create_dir_all(&empty)?;
+    match check_ninja_assets_in(&empty) {
+        Err(path) if path == empty.join("ninja/ninja.glb") => {}
+        other => return Err(format!("an empty asset folder gave {other:?}").into()),
+    }
+    std::fs::create_dir_all(empty.join("ninja"))?;
+    std::fs::write(empty.join("ninja/ninja.glb"), b"")?;
+    match check_ninja_assets_in(&empty) {
+        Err(path) if path == empty.join("ninja/ninja.hair.xml") => {}
+        other => return Err(format!("a folder without the groom gave {other:?}").into()),
+    }
+    let _ = std::fs::remove_dir_all(&empty);
+    // The repository's own folder (what `cargo test` and `cargo run` use) has everything.
+    check_ninja_assets().map_err(|p| format!("{} is missing from the repository", p.display()))?;
+    let message =
+        bevy_cartoon_hair::demo::ClipError::MissingAsset("x/assets/ninja/ninja.glb".into())
+            .to_string();
+    if !message.contains("x/assets/ninja/ninja.glb is missing")
+        || !message.contains("BEVY_ASSET_ROOT")
+    {
+        return Err(format!("unclear error: {message}").into());
     }
     Ok(())
 }

@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod character_render;
 mod clip;
 mod outline_render;
 mod render_smoke;
@@ -42,6 +43,7 @@ fn main() {
         .chain(silhouette_render::RENDER_TESTS)
         .chain(outline_render::RENDER_TESTS)
         .chain(clip::RENDER_TESTS)
+        .chain(character_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
@@ -54,6 +56,9 @@ fn main() {
     }
     for (name, test) in assets::TESTS {
         trials.push(Trial::test(format!("assets::{name}"), *test));
+    }
+    for (name, test) in clip::TESTS {
+        trials.push(Trial::test(format!("demo::{name}"), *test));
     }
     // Blender (`bpy` from PyPI, installed by tools/test.sh): like render tests, ignored when
     // missing outside CI, failing in CI.

@@ -189,7 +189,8 @@ def is_sphere_object(obj):
 
 def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
     """Raise :class:`ExportError` unless mesh ``obj`` is (close to) a sphere in world space: its
-    vertices all lie within ``tolerance`` (relative) of one radius around the box centre.  A body,
+    vertices all lie within ``tolerance`` (relative) of one radius around the box centre, and the
+    box is as wide as that sphere on every axis.  A body,
     a cube or a stretched ellipsoid is refused, not silently turned into its bounding sphere."""
     ob = obj.evaluated_get(depsgraph)
     world = _np_matrix(ob.matrix_world)
@@ -206,8 +207,10 @@ def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     dist = np.linalg.norm(pts - (lo + hi) / 2.0, axis=1)
     r = float(dist.max())
-    if r <= 0.0 or float(dist.min()) < (1.0 - tolerance) * r:
-        ext = hi - lo
+    ext = hi - lo
+    # On a sphere every vertex is one radius from the centre AND the box is the sphere's: a
+    # cube's corners are equidistant too, but its box is narrower than twice their distance.
+    if r <= 0.0 or float(dist.min()) < (1.0 - tolerance) * r or ext.min() < 2.0 * r * (1.0 - tolerance):
         raise ExportError(
             f"'{obj.name}' is not a sphere (world size {ext[0]:.3g} x {ext[1]:.3g} x "
             f"{ext[2]:.3g} m, vertices {dist.min():.3g} to {r:.3g} m from its centre); collision "

@@ -193,6 +193,26 @@ class CollisionExport(ExportTestCase):
         centres = np.array([(0.1, 0.05, 1.65), (0.0, -0.08, 1.55), (0.0, 0.0, 1.45)])
         np.testing.assert_allclose(xyz, writer.transform_points(to_bone, centres), atol=1e-5)
 
+    def test_non_sphere_mesh_refused(self):
+        # A body or a box selected by mistake must not become its bounding sphere silently.
+        arm = make_armature()
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1, location=(0.1, 0.05, 1.65))
+        sphere = bpy.context.object
+        bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.0, 0.0, 1.0))
+        cube = bpy.context.object
+        cube.name = "Body"
+        select_only([sphere, cube])
+        out = self.path("bad.collision.xml")
+        with self.assertRaisesRegex(RuntimeError, "'Body' is not a sphere"):
+            bpy.ops.export_scene.cartoon_hair_collision(filepath=out, armature=arm.name)
+        self.assertFalse(os.path.exists(out))
+        # A stretched sphere is not a sphere either.
+        sphere.scale = (1.0, 1.0, 2.0)
+        bpy.context.view_layer.update()
+        select_only([sphere])
+        with self.assertRaisesRegex(RuntimeError, "is not a sphere"):
+            bpy.ops.export_scene.cartoon_hair_collision(filepath=out, armature=arm.name)
+
     def test_no_spheres_refused(self):
         arm = make_armature()
         select_only([arm])
@@ -299,6 +319,14 @@ class BoneFrame(ExportTestCase):
         out = self.path("h.hair.xml")
         bpy.ops.export_scene.cartoon_hair(filepath=out, armature=arm.name, bone="head", scale=4.0)
         pos, _, scale, _ = writer.read_groom(out)
+        root = ET.parse(out).getroot()
+        frame_scale = writer.uniform_scale(nodes["head"])
+        if abs(frame_scale - 1.0) < 1e-6:
+            self.assertEqual((root.get("units"), root.get("bone_scale")), ("meters", None))
+        else:
+            # A scaled rig: the numbers are the bone's own units, and the file says so.
+            self.assertEqual(root.get("units"), "bone")
+            self.assertAlmostEqual(float(root.get("bone_scale")), frame_scale, places=6)
         game = writer.transform_points(nodes["head"], pos / scale)
         gltf_points = helpers.mesh_world_positions(gltf, binary, "probe")
         self.assertEqual(len(gltf_points), len(game))
@@ -318,6 +346,10 @@ class BoneFrame(ExportTestCase):
     def test_scaled_armature_sideways_bone(self):
         self.check(location=(-1.0, 2.0, 0.0), rotation=(1.2, -0.4, 2.5), scale=(1.3, 1.3, 1.3),
                    head_roll=-2.0)
+
+    def test_mixamo_scaled_armature(self):
+        # Mixamo's rigs carry a 0.01 scale on the armature object (bones in centimetres).
+        self.check(scale=(0.01, 0.01, 0.01))
 
     def test_upright_bone_keeps_gltf_axes(self):
         # An upright bone with no roll: its node has glTF's axes (hair authored in the Y-up
