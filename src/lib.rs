@@ -66,15 +66,17 @@
 //! | [`silhouette`] | object-space silhouette strokes (edge map, chains, screen-space strips) |
 //! | `render` | toon material, ramps, image-space outlines, the WGSL library (feature `render`) |
 //! | [`hatching`] | the tonal art map generator and its texture |
-//! | `headless` | rendering without a window into an image, reading pixels back (feature `render`) |
+//! | `headless` | rendering without a window into an image, reading pixels back (feature `demo`) |
 //! | [`curve`] | the quadratic curves (H, S, E) shared by all stages |
+//! | [`debug`] | debug drawing (gizmos) and stage timings in Bevy's `DiagnosticsStore`, no egui needed |
 //!
 //! ## Feature flags
 //!
 //! | feature  | default | what it adds |
 //! |----------|---------|--------------|
-//! | `render` | yes     | Headless capture helpers, toon materials and other GPU-side parts, presets (`ron`), the demo scene and clip recorder. |
-//! | `ui`     | yes     | The live egui tuning panel (pulls in `bevy_egui`; implies `render`). |
+//! | `render` | yes     | Toon materials and other GPU-side parts, presets (`ron`). |
+//! | `demo`   | no      | The ninja demo scene, its clip recorder and the headless capture harness (pulls in `wgpu`; implies `render`). |
+//! | `ui`     | no      | The live egui tuning panel, a development tool not in [`CartoonHairPlugins`] (pulls in `bevy_egui`; implies `render`). |
 //!
 //! ## Plugins
 //!
@@ -144,10 +146,11 @@
 
 pub mod asset;
 pub mod curve;
-#[cfg(feature = "render")]
+pub mod debug;
+#[cfg(feature = "demo")]
 pub mod demo;
 pub mod hatching;
-#[cfg(feature = "render")]
+#[cfg(feature = "demo")]
 pub mod headless;
 pub mod mesh;
 #[cfg(feature = "render")]

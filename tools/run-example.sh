@@ -6,7 +6,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 if [ -z "${DISPLAY:-}" ] && [ -z "${WAYLAND_DISPLAY:-}" ]; then
   tools/system-deps.sh mesa-vulkan-drivers libvulkan1 xvfb
-  exec xvfb-run -a -s "-screen 0 1280x720x24" cargo run --features ui --example ninja_head -- "$@"
+  exec xvfb-run -a -s "-screen 0 1280x720x24" cargo run --features ui,demo --example ninja_head -- "$@"
 fi
 tools/system-deps.sh mesa-vulkan-drivers libvulkan1
-exec cargo run --features ui --example ninja_head -- "$@"
+exec cargo run --features ui,demo --example ninja_head -- "$@"

@@ -25,9 +25,11 @@ mod debug;
 mod outlines;
 mod panels;
 
+pub use crate::debug::{
+    HairDebugDraw, HairDebugGizmos, HairDebugPlugin, HairStageTimings, HairStageTimingsPlugin,
+};
 pub use crate::render::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use bevy_egui;
-pub use debug::{HairDebugDraw, HairDebugGizmos, HairStageTimings, HairStageTimingsPlugin};
 
 use bevy::prelude::*;
 use bevy_egui::{
@@ -35,7 +37,6 @@ use bevy_egui::{
     egui,
 };
 
-use crate::HairSystems;
 use crate::sim::Hair;
 
 /// Gives the primary egui context (where the panel draws) to one camera while none has it: the
@@ -161,21 +162,13 @@ impl Plugin for HairTuningUiPlugin {
         if !app.is_plugin_added::<HairStageTimingsPlugin>() {
             app.add_plugins(HairStageTimingsPlugin);
         }
+        if !app.is_plugin_added::<HairDebugPlugin>() {
+            app.add_plugins(HairDebugPlugin);
+        }
         app.init_resource::<HairTuningUi>()
-            .init_resource::<HairDebugDraw>()
             .init_resource::<PanelState>()
             .register_type::<HairTuningUi>()
-            .register_type::<HairDebugDraw>()
-            .init_gizmo_group::<HairDebugGizmos>()
-            .add_systems(Startup, debug::configure_debug_gizmos)
             .add_systems(Update, select_hair)
-            .add_systems(
-                PostUpdate,
-                (debug::draw_hair_debug
-                    // Draw the particles this frame's step wrote.
-                    .after(HairSystems::Simulate)
-                    .run_if(|d: Res<HairDebugDraw>| d.any()),),
-            )
             .add_systems(
                 EguiPrimaryContextPass,
                 (
