@@ -6,14 +6,12 @@
 //!   [`HairStageTimings`] and in Bevy's `DiagnosticsStore` (paths in [`paths`]), with the hair's
 //!   counters (strands, substeps, resets, teleports).
 
+use crate::HairSystems;
+use crate::sim::{ComputedHair, HairCollider, HairStrands, Strand, StrandParticles};
 use bevy::diagnostic::{Diagnostic, Diagnostics, RegisterDiagnostic};
 use bevy::platform::time::Instant;
 use bevy::prelude::*;
 use bevy::transform::TransformSystems;
-use bevy_rapier3d::prelude::Collider;
-
-use crate::HairSystems;
-use crate::sim::{ComputedHair, HairStrands, HeadColliderOf, Strand, StrandParticles};
 
 /// Draws [`HairDebugDraw`]'s choices with gizmos. Not in
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins); the tuning panel adds it.
@@ -240,7 +238,7 @@ fn draw_hair_debug(
     mut gizmos: Gizmos<HairDebugGizmos>,
     hairs: Query<(&ComputedHair, &HairStrands)>,
     strands: Query<(&Strand, &StrandParticles)>,
-    colliders: Query<(&Collider, &GlobalTransform), With<HeadColliderOf>>,
+    colliders: Query<(&HairCollider, &GlobalTransform)>,
 ) {
     let particle = Color::srgb(1.0, 0.1, 0.6);
     let strand_line = Color::srgb(1.0, 0.95, 0.2);
@@ -277,20 +275,14 @@ fn draw_hair_debug(
     if draw.colliders {
         for (collider, global) in &colliders {
             let scale = global.scale().x.abs();
-            let mut ball = |centre: Vec3, radius: f32| {
-                let centre = global.transform_point(centre);
+            for sphere in &collider.spheres {
                 gizmos
-                    .sphere(centre, radius * scale, Color::srgb(1.0, 0.5, 0.1))
+                    .sphere(
+                        global.transform_point(sphere.center),
+                        sphere.radius * scale,
+                        Color::srgb(1.0, 0.5, 0.1),
+                    )
                     .resolution(16);
-            };
-            if let Some(b) = collider.raw.as_ball() {
-                ball(Vec3::ZERO, b.radius);
-            } else if let Some(compound) = collider.raw.as_compound() {
-                for (pose, shape) in compound.shapes() {
-                    if let Some(b) = shape.as_ball() {
-                        ball(pose.translation, b.radius);
-                    }
-                }
             }
         }
     }

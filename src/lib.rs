@@ -68,13 +68,14 @@
 //! | [`hatching`] | the tonal art map generator and its texture |
 //! | `headless` | rendering without a window into an image, reading pixels back (feature `demo`) |
 //! | [`curve`] | the quadratic curves (H, S, E) shared by all stages |
-//! | [`debug`] | debug drawing (gizmos) and stage timings in Bevy's `DiagnosticsStore`, no egui needed |
+//! | [`debug`](mod@debug) | debug drawing (gizmos) and stage timings in Bevy's `DiagnosticsStore`, no egui needed |
 //!
 //! ## Feature flags
 //!
 //! | feature  | default | what it adds |
 //! |----------|---------|--------------|
 //! | `render` | yes     | Toon materials and other GPU-side parts, presets (`ron`). |
+//! | `rapier` | yes     | The head collider is also a rapier collider other rapier users see; hairs with `HairCollisionGroups` collide with the world's rapier colliders. Without it, hair collides with [`sim::HairCollider`]s only. |
 //! | `demo`   | no      | The ninja demo scene, its clip recorder and the headless capture harness (pulls in `wgpu`; implies `render`). |
 //! | `ui`     | no      | The live egui tuning panel, a development tool not in [`CartoonHairPlugins`] (pulls in `bevy_egui`; implies `render`). |
 //!
@@ -203,9 +204,10 @@ pub mod prelude {
         HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
     };
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
+    #[cfg(feature = "rapier")]
+    pub use crate::sim::HairCollisionGroups;
     pub use crate::sim::{
-        AttachToBone, Hair, HairCollisionGroups, HairSimControl, HairSimSettings, Strand,
-        StrandParticles,
+        AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, Strand, StrandParticles,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

@@ -2,12 +2,14 @@
 
 use bevy::math::Affine3A;
 use bevy::prelude::*;
+#[cfg(feature = "rapier")]
 use bevy_rapier3d::prelude::Collider;
 
 use bevy::asset::UntypedAssetId;
 use bevy::transform::helper::TransformHelper;
 
 use super::bone::BoneSearch;
+use super::collider::HairCollider;
 use super::events::{
     BoneMismatch, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady, HairRebuilt,
     RebuildReason,
@@ -34,8 +36,9 @@ pub struct Hair {
     pub groom: Handle<HairGroom>,
     /// Keyframe styles the anchors follow; `None` anchors to the groom's own style.
     pub animation: Option<Handle<HairAnimation>>,
-    /// Spheres to collide with; they become a compound rapier [`Collider`] on this entity's
-    /// child, so other rapier users see the head too.
+    /// Spheres to collide with; they become a [`HairCollider`] on this entity's child (and,
+    /// with the `rapier` feature, a compound rapier collider there, so other rapier users see
+    /// the head too).
     pub collision: Option<Handle<HeadCollision>>,
 }
 
@@ -570,20 +573,28 @@ pub(crate) fn build_hair_strands(
             }
         }
         if let Some(shape) = collision {
-            let balls = shape
-                .spheres
-                .iter()
-                .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)))
-                .collect();
-            commands.spawn((
+            let mut head = commands.spawn((
                 Name::new("head collider"),
-                Collider::compound(balls),
+                HairCollider {
+                    spheres: shape.spheres.clone(),
+                },
                 HeadColliderOf(entity),
                 Transform::default(),
                 // Its parent's pose, so the spheres are in place on their first frame.
                 GlobalTransform::from(full),
                 ChildOf(entity),
             ));
+            // Other rapier users see the head too.
+            #[cfg(feature = "rapier")]
+            head.insert(Collider::compound(
+                shape
+                    .spheres
+                    .iter()
+                    .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)))
+                    .collect(),
+            ));
+            #[cfg(not(feature = "rapier"))]
+            let _ = &mut head;
         }
         let strand_count = groom.strand_count();
         commands.entity(entity).insert(ComputedHair {

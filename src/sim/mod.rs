@@ -26,6 +26,7 @@
 
 mod attach;
 mod bone;
+mod collider;
 mod events;
 mod settings;
 pub mod solver;
@@ -38,11 +39,13 @@ pub use attach::{
     StrandParticles,
 };
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
+pub use collider::HairCollider;
 pub use events::{
     BoneMismatch, BoneNotFound, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady,
     HairRebuilt, RebuildReason,
 };
 pub use settings::{HairSimSettings, compliance_factor};
+#[cfg(feature = "rapier")]
 pub use step::HairCollisionGroups;
 
 use bevy::prelude::*;
@@ -88,6 +91,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairSimSettings>()
             .register_type::<HairSimControl>()
             .register_type::<AttachToBone>()
+            .register_type::<HairCollider>()
             .register_type::<StrandParticles>()
             .register_type::<BoneSearch>()
             .add_observer(attach::detach_hair)

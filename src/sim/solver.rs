@@ -152,7 +152,8 @@ pub struct StepInput {
     pub spheres: Vec<(Vec3A, f32)>,
     /// Spheres per substep.
     pub sphere_count: usize,
-    /// Other collider shapes, at the frame's final pose.
+    /// Other collider shapes (rapier's, feature `rapier`), at the frame's final pose.
+    #[cfg(feature = "rapier")]
     pub shapes: Vec<ShapeCollider>,
     /// `gravity * h^2`.
     pub gravity_h2: Vec3,
@@ -164,7 +165,8 @@ pub struct StepInput {
     pub anchor_factor: Vec<f32>,
 }
 
-/// A collider of any shape, tested through parry's point projection.
+/// A collider of any shape, tested through parry's point projection (feature `rapier`).
+#[cfg(feature = "rapier")]
 #[derive(Clone)]
 pub struct ShapeCollider {
     /// The shape.
@@ -177,6 +179,7 @@ pub struct ShapeCollider {
     pub aabb_max: Vec3,
 }
 
+#[cfg(feature = "rapier")]
 impl std::fmt::Debug for ShapeCollider {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("ShapeCollider")
@@ -388,6 +391,7 @@ impl Batch {
             self.integrate_and_solve(input, bone);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
+            #[cfg(feature = "rapier")]
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
             }
@@ -490,6 +494,7 @@ impl Batch {
     }
 
     /// Pushes free nodes out of arbitrary shapes (parry point projection), keeping the margin.
+    #[cfg(feature = "rapier")]
     fn collide_shapes(&mut self, shapes: &[ShapeCollider]) {
         for node in self.nodes.iter_mut().skip(PINNED) {
             for l in 0..LANES {

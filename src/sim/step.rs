@@ -6,30 +6,50 @@ use bevy::ecs::entity::EntityHashMap;
 use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
+#[cfg(feature = "rapier")]
 use bevy_rapier3d::parry::math::Pose;
+#[cfg(feature = "rapier")]
 use bevy_rapier3d::parry::shape::SharedShape;
+#[cfg(feature = "rapier")]
 use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group};
 
 use super::HairSimControl;
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
+use super::collider::HairCollider;
 use super::settings::{HairSimSettings, compliance_factor};
-use super::solver::{PINNED, ShapeCollider, StepInput, along};
+#[cfg(feature = "rapier")]
+use super::solver::ShapeCollider;
+use super::solver::{PINNED, StepInput, along};
 
-/// Which rapier colliders a hair collides with, by rapier's own rule: a collider counts when
-/// `collider.memberships & hair.filters` and `hair.memberships & collider.filters` are both
-/// non-zero. Without this component a hair collides with every collider.
+/// Opts a hair into colliding with the world's rapier colliders (feature `rapier`), filtered by
+/// rapier's own rule: a collider counts when `collider.memberships & hair.filters` and
+/// `hair.memberships & collider.filters` are both non-zero (`CollisionGroups::default()`: all).
+/// Without this component a hair collides only with [`HairCollider`]s: its own head collider and
+/// any you add. Sensors are never collided with.
+#[cfg(feature = "rapier")]
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component, Debug)]
 pub struct HairCollisionGroups(pub CollisionGroups);
+
+/// What a collider is made of.
+enum ViewShape {
+    /// A [`HairCollider`]'s spheres, in its entity's space.
+    Spheres(Vec<(Vec3A, f32)>),
+    /// A rapier collider (feature `rapier`).
+    #[cfg(feature = "rapier")]
+    Rapier {
+        shape: SharedShape,
+        groups: CollisionGroups,
+    },
+}
 
 /// A collider as seen at the previous and the current frame.
 struct ColliderView {
     prev: Affine3A,
     now: Affine3A,
-    shape: SharedShape,
-    groups: CollisionGroups,
+    shape: ViewShape,
 }
 
 /// Colliders of the world, with last frame's poses so moving ones are interpolated per substep.
@@ -55,6 +75,7 @@ fn usable(bone: &Affine3A) -> bool {
     bone.is_finite() && bone.matrix3.determinant().abs() > 1e-12
 }
 
+#[cfg(feature = "rapier")]
 fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
     (collider.memberships & hair.filters) != Group::NONE
         && (hair.memberships & collider.filters) != Group::NONE
@@ -63,23 +84,35 @@ fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
 /// teleports carried, unusable bones skipped, non-finite strands reset.
 #[allow(clippy::type_complexity)]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "one query per collider source; two fewer without the rapier feature"
+)]
 pub(crate) fn step_hair_strands(
     time: Res<Time>,
     control: Res<HairSimControl>,
     mut history: ResMut<ColliderHistory>,
     mut hairs: Query<(
+        Entity,
         &Hair,
         &GlobalTransform,
         &HairSimSettings,
         &mut ComputedHair,
-        Option<&HairCollisionGroups>,
     )>,
-    colliders: Query<(
-        Entity,
-        &Collider,
-        &GlobalTransform,
-        Option<&CollisionGroups>,
-    )>,
+    own: Query<(Entity, &HairCollider, &GlobalTransform)>,
+    #[cfg(feature = "rapier")] rapier_hairs: Query<&HairCollisionGroups>,
+    #[cfg(feature = "rapier")] colliders: Query<
+        (
+            Entity,
+            &Collider,
+            &GlobalTransform,
+            Option<&CollisionGroups>,
+        ),
+        (
+            Without<HairCollider>,
+            Without<bevy_rapier3d::prelude::Sensor>,
+        ),
+    >,
     animations: Res<Assets<crate::asset::HairAnimation>>,
 ) {
     let mut dt = time.delta_secs();
@@ -89,24 +122,53 @@ pub(crate) fn step_hair_strands(
     if control.step_once {
         dt = control.step_time;
     }
-    let views: Vec<ColliderView> = colliders
+    let seen = |e: Entity, now: Affine3A| history.poses.get(&e).copied().unwrap_or(now);
+    #[cfg_attr(not(feature = "rapier"), allow(unused_mut))]
+    let mut views: Vec<ColliderView> = own
         .iter()
-        .map(|(e, c, g, groups)| {
+        .map(|(e, c, g)| {
             let now = g.affine();
             ColliderView {
-                prev: history.poses.get(&e).copied().unwrap_or(now),
+                prev: seen(e, now),
                 now,
-                shape: c.raw.clone(),
-                groups: groups.copied().unwrap_or_default(),
+                shape: ViewShape::Spheres(
+                    c.spheres
+                        .iter()
+                        .map(|s| (Vec3A::from(s.center), s.radius))
+                        .collect(),
+                ),
             }
         })
         .collect();
+    // The world's rapier colliders matter only to hairs that opted in.
+    #[cfg(feature = "rapier")]
+    if !rapier_hairs.is_empty() {
+        views.extend(colliders.iter().map(|(e, c, g, groups)| {
+            let now = g.affine();
+            ColliderView {
+                prev: seen(e, now),
+                now,
+                shape: ViewShape::Rapier {
+                    shape: c.raw.clone(),
+                    groups: groups.copied().unwrap_or_default(),
+                },
+            }
+        }));
+    }
     history.poses.clear();
-    for (e, _, g, _) in &colliders {
+    for (e, _, g) in &own {
         history.poses.insert(e, g.affine());
     }
+    #[cfg(feature = "rapier")]
+    if !rapier_hairs.is_empty() {
+        for (e, _, g, _) in &colliders {
+            history.poses.insert(e, g.affine());
+        }
+    }
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for (hair, global, settings, mut computed, groups) in &mut hairs {
+    for (hair_entity, hair, global, settings, mut computed) in &mut hairs {
+        #[cfg(not(feature = "rapier"))]
+        let _ = hair_entity;
         let computed = &mut *computed;
         let full = global.affine();
         if !usable(&full) {
@@ -187,32 +249,42 @@ pub(crate) fn step_hair_strands(
             input.bones.push(interpolate(&from, &bone, t));
         }
         // Colliders this hair sees, per substep.
-        let hair_groups = groups.map(|g| g.0).unwrap_or_default();
-        let max_margin = settings.margins().1 * computed.size;
         let mut sphere_templates: Vec<(usize, Vec3A, f32)> = Vec::new();
         for (v, view) in views.iter().enumerate() {
-            if !groups_match(&hair_groups, &view.groups) {
-                continue;
-            }
-            if let Some(ball) = view.shape.as_ball() {
-                sphere_templates.push((v, Vec3A::ZERO, ball.radius));
-            } else if let Some(compound) = view.shape.as_compound()
-                && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
-            {
-                for (pose, s) in compound.shapes() {
-                    let r = s.as_ball().map_or(0.0, |b| b.radius);
-                    sphere_templates.push((v, Vec3A::from(pose.translation), r));
+            match &view.shape {
+                ViewShape::Spheres(spheres) => {
+                    sphere_templates.extend(spheres.iter().map(|&(c, r)| (v, c, r)));
                 }
-            } else {
-                let (_, r, t) = view.now.to_scale_rotation_translation();
-                let pose = Pose::from_parts(t, r);
-                let aabb = view.shape.compute_aabb(&pose);
-                input.shapes.push(ShapeCollider {
-                    shape: view.shape.clone(),
-                    pose,
-                    aabb_min: aabb.mins - Vec3::splat(max_margin),
-                    aabb_max: aabb.maxs + Vec3::splat(max_margin),
-                });
+                #[cfg(feature = "rapier")]
+                ViewShape::Rapier { shape, groups } => {
+                    let Ok(hair_groups) = rapier_hairs.get(hair_entity) else {
+                        continue;
+                    };
+                    if !groups_match(&hair_groups.0, groups) {
+                        continue;
+                    }
+                    let max_margin = settings.margins().1 * computed.size;
+                    if let Some(ball) = shape.as_ball() {
+                        sphere_templates.push((v, Vec3A::ZERO, ball.radius));
+                    } else if let Some(compound) = shape.as_compound()
+                        && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
+                    {
+                        for (pose, s) in compound.shapes() {
+                            let r = s.as_ball().map_or(0.0, |b| b.radius);
+                            sphere_templates.push((v, Vec3A::from(pose.translation), r));
+                        }
+                    } else {
+                        let (_, r, t) = view.now.to_scale_rotation_translation();
+                        let pose = Pose::from_parts(t, r);
+                        let aabb = shape.compute_aabb(&pose);
+                        input.shapes.push(ShapeCollider {
+                            shape: shape.clone(),
+                            pose,
+                            aabb_min: aabb.mins - Vec3::splat(max_margin),
+                            aabb_max: aabb.maxs + Vec3::splat(max_margin),
+                        });
+                    }
+                }
             }
         }
         input.sphere_count = sphere_templates.len();

@@ -1112,3 +1112,86 @@ fn replacing_a_groom_rebuilds_the_hair() {
     assert_eq!(seen(&app), vec!["ready 6", "rebuilt Reloaded"]);
     assert_eq!(particles(&mut app)[0].len(), 5);
 }
+
+/// Deepest a particle (not a root) sits inside a sphere at `centre` of `radius`, metres (0 when
+/// none is inside).
+fn deepest_inside(strands: &[Vec<Vec3>], centre: Vec3, radius: f32) -> f32 {
+    strands
+        .iter()
+        .flat_map(|s| s.iter().skip(1))
+        .map(|p| radius - p.distance(centre))
+        .fold(0.0, f32::max)
+}
+
+/// A ball sitting where the styled hair stands (above the head of the harness's bone).
+fn ball_in_the_hair() -> (Vec3, f32) {
+    (Vec3::new(0.0, 1.6 + 0.2, 0.0), 0.06)
+}
+
+#[test]
+fn a_hair_collider_anyone_adds_pushes_the_hair_out() {
+    let mut h = Harness::new(spiky_groom(40, 6), HairSimSettings::default(), 60.0);
+    let (centre, radius) = ball_in_the_hair();
+    for _ in 0..30 {
+        h.update();
+    }
+    let before = deepest_inside(&h.strands(), centre, radius);
+    assert!(
+        before > 0.01,
+        "the test ball must start inside the hair ({before} m)"
+    );
+    h.app.world_mut().spawn((
+        HairCollider {
+            spheres: vec![CollisionSphere {
+                center: Vec3::ZERO,
+                radius,
+            }],
+        },
+        Transform::from_translation(centre),
+    ));
+    for _ in 0..60 {
+        h.update();
+    }
+    let after = deepest_inside(&h.strands(), centre, radius);
+    println!(
+        "particles inside a user's HairCollider: {before:.4} m deep before, {after:.4} m after"
+    );
+    assert!(after < 1e-3, "a particle is {after} m inside the collider");
+}
+
+#[cfg(feature = "rapier")]
+#[test]
+fn the_worlds_rapier_colliders_are_opt_in() {
+    use bevy_rapier3d::prelude::{Collider, CollisionGroups, Sensor};
+    let run = |opt_in: bool, sensor: bool| {
+        let mut h = Harness::new(spiky_groom(40, 6), HairSimSettings::default(), 60.0);
+        let (centre, radius) = ball_in_the_hair();
+        let mut ball = h
+            .app
+            .world_mut()
+            .spawn((Collider::ball(radius), Transform::from_translation(centre)));
+        if sensor {
+            ball.insert(Sensor);
+        }
+        if opt_in {
+            h.app
+                .world_mut()
+                .entity_mut(h.hair)
+                .insert(HairCollisionGroups(CollisionGroups::default()));
+        }
+        for _ in 0..90 {
+            h.update();
+        }
+        deepest_inside(&h.strands(), centre, radius)
+    };
+    let (off, on, sensor) = (run(false, false), run(true, false), run(true, true));
+    println!(
+        "rapier ball: {off:.4} m deep without opting in, {on:.4} m with, {sensor:.4} m as a sensor"
+    );
+    assert!(
+        off > 0.01,
+        "without HairCollisionGroups the world's colliders are ignored"
+    );
+    assert!(on < 1e-3, "with it the ball pushes the hair out ({on} m)");
+    assert!(sensor > 0.01, "sensors are never collided with");
+}

@@ -1,5 +1,5 @@
 //! The **Debug** window: what to draw over the hair, pause and step, stage timings and the
-//! simulation's counters. The drawing and the timings themselves live in [`crate::debug`] and
+//! simulation's counters. The drawing and the timings themselves live in [`crate::debug`](mod@crate::debug) and
 //! work without the panel.
 
 use bevy::prelude::*;
