@@ -162,17 +162,17 @@ fn orbit_keys(
 
 fn hair_keys(
     keys: Res<ButtonInput<KeyCode>>,
-    mut control: ResMut<HairSimControl>,
+    mut hair_time: ResMut<Time<HairTime>>,
     mut ui: ResMut<HairTuningUi>,
 ) {
     if keys.just_pressed(KeyCode::KeyM) {
         ui.toggle();
     }
     if keys.just_pressed(KeyCode::KeyP) {
-        control.paused = !control.paused;
+        hair_time.toggle_pause();
     }
     if keys.just_pressed(KeyCode::Enter) {
-        control.step_once = true;
+        hair_time.step_once();
     }
 }
 

@@ -207,7 +207,8 @@ pub mod prelude {
     #[cfg(feature = "rapier")]
     pub use crate::sim::HairCollisionGroups;
     pub use crate::sim::{
-        AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, Strand, StrandParticles,
+        AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
+        Strand, StrandParticles,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

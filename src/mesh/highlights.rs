@@ -46,12 +46,14 @@ impl Default for SpecularQuads {
 }
 
 /// The highlight strip entity of a hair (world space).
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Component, Reflect, Debug, Clone, Copy, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 #[relationship(relationship_target = HairHighlights)]
 pub struct HairHighlightsOf(pub Entity);
 
 /// A hair's highlight entities; despawning the hair despawns them.
-#[derive(Component, Debug, Default)]
+#[derive(Component, Reflect, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 #[relationship_target(relationship = HairHighlightsOf, linked_spawn)]
 pub struct HairHighlights(Vec<Entity>);
 

@@ -54,12 +54,14 @@ impl Default for HairMeshSettings {
 }
 
 /// The mesh entity of a hair (world space, so it is not a child of the bone).
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Component, Reflect, Debug, Clone, Copy, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 #[relationship(relationship_target = HairMeshes)]
 pub struct HairMeshOf(pub Entity);
 
 /// A hair's mesh entities; despawning the hair despawns them.
-#[derive(Component, Debug, Default)]
+#[derive(Component, Reflect, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 #[relationship_target(relationship = HairMeshOf, linked_spawn)]
 pub struct HairMeshes(Vec<Entity>);
 

@@ -105,7 +105,8 @@ pub struct SilhouetteCamera;
 /// The stroke layer [`extract_silhouettes`] gave a camera (see [`SilhouetteCamera`]); when the
 /// camera stops getting strokes of its own, the layer is taken out of its [`RenderLayers`] again
 /// (unless the camera had it before).
-#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 pub struct StrokeLayer {
     /// The layer.
     pub layer: usize,
@@ -120,12 +121,14 @@ pub const FIRST_STROKE_LAYER: usize = 24;
 pub const MAX_STROKE_CAMERAS: usize = 8;
 
 /// The stroke mesh entity of a hair (world space).
-#[derive(Component, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Component, Reflect, Debug, Clone, Copy, PartialEq, Eq)]
+#[reflect(Component, Debug, PartialEq)]
 #[relationship(relationship_target = HairStrokes)]
 pub struct HairStrokesOf(pub Entity);
 
 /// A hair's stroke entities; despawning the hair despawns them.
-#[derive(Component, Debug, Default)]
+#[derive(Component, Reflect, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 #[relationship_target(relationship = HairStrokesOf, linked_spawn)]
 pub struct HairStrokes(Vec<Entity>);
 

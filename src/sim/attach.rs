@@ -15,7 +15,7 @@ use super::events::{
     RebuildReason,
 };
 use super::settings::HairSimSettings;
-use super::solver::{Batch, LANES, build_chain};
+use super::solver::{Batch, LANES, PINNED, build_chain};
 use crate::asset::{HairAnimation, HairGroom, HeadCollision};
 
 /// Hair on this entity. Hang the entity on a bone with [`AttachToBone`](super::AttachToBone)
@@ -260,9 +260,11 @@ pub(crate) fn build_batches(
 
 /// Per hair: what has been reported and whether a reload is pending. Derived; inserted by the
 /// plugin.
-#[derive(Component, Debug, Default)]
+#[derive(Component, Reflect, Debug, Default)]
+#[reflect(Component, Debug, Default)]
 pub struct HairStatus {
     /// Failures already reported: `(what, asset)`, so each is logged and triggered once.
+    #[reflect(ignore)]
     reported: Vec<(u8, UntypedAssetId)>,
     /// A file of this hair was reloaded: rebuild.
     pub(crate) reloaded: bool,
@@ -596,7 +598,23 @@ pub(crate) fn build_hair_strands(
             #[cfg(not(feature = "rapier"))]
             let _ = &mut head;
         }
+        // A re-exported file with the same strands keeps the hair where it is and how it moves
+        // (the roots take the new style); anything else starts from the style.
+        let kept = match (&computed, reason) {
+            (Some(old), Some(RebuildReason::Reloaded)) if same_layout(&old.batches, &batches) => {
+                for (new, old) in batches.iter_mut().zip(&old.batches) {
+                    for (n, o) in new.nodes.iter_mut().zip(&old.nodes).skip(PINNED) {
+                        n.x = o.x;
+                        n.p = o.p;
+                    }
+                }
+                Some((old.last_bone, old.accumulator, old.animation_time))
+            }
+            _ => None,
+        };
         let strand_count = groom.strand_count();
+        let (last_bone, accumulator, animation_time) =
+            kept.unwrap_or((bone_ok.then_some(bone), 0.0, 0.0));
         commands.entity(entity).insert(ComputedHair {
             batches,
             lane_of,
@@ -607,7 +625,9 @@ pub(crate) fn build_hair_strands(
             margin_key: margin_key(settings),
             scale,
             size,
-            last_bone: bone_ok.then_some(bone),
+            last_bone,
+            accumulator,
+            animation_time,
             ..default()
         });
         status.reloaded = false;
@@ -620,6 +640,14 @@ pub(crate) fn build_hair_strands(
             Some(reason) => commands.trigger(HairRebuilt { entity, reason }),
         }
     }
+}
+
+/// Whether two builds hold the same strands in the same lanes with the same node counts.
+fn same_layout(old: &[Batch], new: &[Batch]) -> bool {
+    old.len() == new.len()
+        && old.iter().zip(new).all(|(a, b)| {
+            a.strands == b.strands && a.count == b.count && a.nodes.len() == b.nodes.len()
+        })
 }
 
 /// Marks hairs whose groom, animation or collision file was reloaded, so they rebuild.

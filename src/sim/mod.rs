@@ -26,6 +26,7 @@
 
 mod attach;
 mod bone;
+mod clock;
 mod collider;
 mod events;
 mod settings;
@@ -39,6 +40,7 @@ pub use attach::{
     StrandParticles,
 };
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
+pub use clock::{HairTime, HairTimeExt};
 pub use collider::HairCollider;
 pub use events::{
     BoneMismatch, BoneNotFound, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady,
@@ -52,30 +54,14 @@ use bevy::prelude::*;
 
 use crate::HairSystems;
 
-/// Pause and single-step control of every hair (the debug panel's buttons).
-#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+/// Debug output of the simulation. Pausing and stepping the hair is [`Time<HairTime>`](Time)'s
+/// job ([`HairTimeExt`]).
+#[derive(Resource, Reflect, Clone, Debug, Default, PartialEq)]
 #[reflect(Resource, Default, Debug)]
 pub struct HairSimControl {
-    /// When set, hair does not advance (the rest of the game does).
-    pub paused: bool,
-    /// Advance by [`HairSimControl::step_time`] this frame even when paused; cleared after use.
-    pub step_once: bool,
-    /// Time one step advances, seconds. Default: `1/60`.
-    pub step_time: f32,
     /// Also write the structural particles into [`StrandParticles::structural`] (for drawing
     /// springs; the debug panel turns it on). Default: `false`.
     pub write_structural: bool,
-}
-
-impl Default for HairSimControl {
-    fn default() -> Self {
-        Self {
-            paused: false,
-            step_once: false,
-            step_time: 1.0 / 60.0,
-            write_structural: false,
-        }
-    }
 }
 
 /// Attaches hair to bones and simulates it. Part of
@@ -86,6 +72,12 @@ pub struct HairSimulationPlugin;
 impl Plugin for HairSimulationPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<HairSimControl>()
+            .init_resource::<Time<HairTime>>()
+            .add_systems(
+                First,
+                // The hair's clock follows the virtual clock, updated just before.
+                clock::advance_hair_time.after(bevy::time::TimeSystems),
+            )
             .init_resource::<step::ColliderHistory>()
             .register_type::<Hair>()
             .register_type::<HairSimSettings>()
@@ -116,16 +108,9 @@ impl Plugin for HairSimulationPlugin {
                     step::write_strand_particles,
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
-                    clear_step_once,
                 )
                     .chain()
                     .in_set(HairSystems::Simulate),
             );
-    }
-}
-
-fn clear_step_once(mut control: ResMut<HairSimControl>) {
-    if control.step_once {
-        control.step_once = false;
     }
 }

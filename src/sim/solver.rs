@@ -165,18 +165,19 @@ pub struct StepInput {
     pub anchor_factor: Vec<f32>,
 }
 
-/// A collider of any shape, tested through parry's point projection (feature `rapier`).
+/// A collider of any shape, tested through parry's point projection (feature `rapier`). Opaque:
+/// the plugin fills it from rapier colliders, so no parry type is part of this crate's API.
 #[cfg(feature = "rapier")]
 #[derive(Clone)]
 pub struct ShapeCollider {
     /// The shape.
-    pub shape: bevy_rapier3d::parry::shape::SharedShape,
+    pub(crate) shape: bevy_rapier3d::parry::shape::SharedShape,
     /// Its pose.
-    pub pose: bevy_rapier3d::parry::math::Pose,
+    pub(crate) pose: bevy_rapier3d::parry::math::Pose,
     /// World bounds, grown by the largest margin: nodes outside skip the query.
-    pub aabb_min: Vec3,
+    pub(crate) aabb_min: Vec3,
     /// See `aabb_min`.
-    pub aabb_max: Vec3,
+    pub(crate) aabb_max: Vec3,
 }
 
 #[cfg(feature = "rapier")]

@@ -13,7 +13,6 @@ use bevy_rapier3d::parry::shape::SharedShape;
 #[cfg(feature = "rapier")]
 use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group};
 
-use super::HairSimControl;
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
@@ -22,6 +21,7 @@ use super::settings::{HairSimSettings, compliance_factor};
 #[cfg(feature = "rapier")]
 use super::solver::ShapeCollider;
 use super::solver::{PINNED, StepInput, along};
+use super::{HairSimControl, HairTime};
 
 /// Opts a hair into colliding with the world's rapier colliders (feature `rapier`), filtered by
 /// rapier's own rule: a collider counts when `collider.memberships & hair.filters` and
@@ -89,8 +89,7 @@ fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
     reason = "one query per collider source; two fewer without the rapier feature"
 )]
 pub(crate) fn step_hair_strands(
-    time: Res<Time>,
-    control: Res<HairSimControl>,
+    time: Res<Time<HairTime>>,
     mut history: ResMut<ColliderHistory>,
     mut hairs: Query<(
         Entity,
@@ -115,13 +114,8 @@ pub(crate) fn step_hair_strands(
     >,
     animations: Res<Assets<crate::asset::HairAnimation>>,
 ) {
-    let mut dt = time.delta_secs();
-    if control.paused {
-        dt = 0.0;
-    }
-    if control.step_once {
-        dt = control.step_time;
-    }
+    // The hair's clock: zero while paused, one step when stepped.
+    let dt = time.delta_secs();
     let seen = |e: Entity, now: Affine3A| history.poses.get(&e).copied().unwrap_or(now);
     #[cfg_attr(not(feature = "rapier"), allow(unused_mut))]
     let mut views: Vec<ColliderView> = own

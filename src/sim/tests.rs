@@ -1195,3 +1195,100 @@ fn the_worlds_rapier_colliders_are_opt_in() {
     assert!(on < 1e-3, "with it the ball pushes the hair out ({on} m)");
     assert!(sensor > 0.01, "sensors are never collided with");
 }
+
+#[test]
+fn reloading_the_same_strands_keeps_the_hair_moving() {
+    // Two identical runs; in one the groom is re-exported (same strands) mid-swing. With its
+    // motion kept, the reloaded hair goes on exactly as the other; snapped back to its style it
+    // would differ by the hair's lag.
+    let run = |reload: bool| {
+        let mut app = event_app();
+        let style = spiky_groom(12, 6);
+        let groom = app
+            .world_mut()
+            .resource_mut::<Assets<HairGroom>>()
+            .add(style.clone());
+        let (root, _) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+        app.world_mut().spawn((
+            Hair {
+                groom: groom.clone(),
+                ..default()
+            },
+            AttachToBone::named(root, "head"),
+        ));
+        let mut lag = 0.0;
+        for f in 0..30 {
+            if reload && f == 20 {
+                app.world_mut()
+                    .resource_mut::<Assets<HairGroom>>()
+                    .insert(&groom, style.clone())
+                    .unwrap();
+            }
+            app.world_mut().get_mut::<Transform>(root).unwrap().rotation =
+                Quat::from_rotation_y(0.1 * f as f32);
+            app.update();
+            if f == 19 {
+                let bone = app.world().get::<GlobalTransform>(root).unwrap().affine();
+                let styled: Vec<Vec<Vec3>> = style
+                    .strands()
+                    .map(|s| {
+                        s.iter()
+                            .map(|p| bone.transform_point3(*p + Vec3::new(0.0, 1.6, 0.0)))
+                            .collect()
+                    })
+                    .collect();
+                lag = max_deviation(&particles(&mut app), &styled);
+            }
+        }
+        (particles(&mut app), seen(&app), lag)
+    };
+    let (kept, events, lag) = run(true);
+    let (control, _, _) = run(false);
+    assert_eq!(events.last().map(String::as_str), Some("rebuilt Reloaded"));
+    let differ = max_deviation(&kept, &control);
+    println!(
+        "after a reload mid-swing: {differ:e} m from the run without one (the hair lagged {lag:.4} m behind its style)"
+    );
+    assert!(
+        lag > 0.01,
+        "the swing must move the hair off its style ({lag} m)"
+    );
+    assert!(differ < 1e-4, "the reload changed the motion by {differ} m");
+}
+
+#[test]
+fn the_hair_clock_pauses_and_steps_only_the_hair() {
+    let mut h = Harness::new(spiky_groom(10, 6), HairSimSettings::default(), 60.0);
+    for _ in 0..5 {
+        h.update();
+    }
+    h.app.world_mut().resource_mut::<Time<HairTime>>().pause();
+    h.update();
+    let paused = h.strands();
+    let hair_seconds = h.app.world().resource::<Time<HairTime>>().elapsed_secs();
+    for _ in 0..10 {
+        h.update();
+    }
+    assert_eq!(h.strands(), paused, "paused hair moved");
+    let time = h.app.world().resource::<Time<HairTime>>();
+    assert_eq!(
+        time.elapsed_secs(),
+        hair_seconds,
+        "the paused clock advanced"
+    );
+    // A NaN step is refused; one step advances exactly one step, once.
+    let mut time = h.app.world_mut().resource_mut::<Time<HairTime>>();
+    time.set_step_seconds(f32::NAN);
+    assert_eq!(time.context().step_seconds(), 1.0 / 60.0);
+    time.step_once();
+    h.update();
+    assert_ne!(h.strands(), paused, "a step did not move the hair");
+    let stepped = h.strands();
+    let time = h.app.world().resource::<Time<HairTime>>();
+    assert!((time.elapsed_secs() - hair_seconds - 1.0 / 60.0).abs() < 1e-6);
+    h.update();
+    assert_eq!(h.strands(), stepped, "one step, not two");
+    // The game's virtual clock went on all along.
+    let virt = h.app.world().resource::<Time<Virtual>>().elapsed_secs();
+    assert!(virt > hair_seconds + 0.15, "{virt} vs {hair_seconds}");
+}

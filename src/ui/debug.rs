@@ -7,13 +7,13 @@ use bevy_egui::{EguiContexts, egui};
 
 use super::HairTuningUi;
 use crate::debug::{HairDebugDraw, HairStageTimings};
-use crate::sim::{ComputedHair, HairSimControl};
+use crate::sim::{ComputedHair, HairTime, HairTimeExt};
 
 /// The Debug window.
 pub(super) fn debug_window(
     mut contexts: EguiContexts,
     mut draw: ResMut<HairDebugDraw>,
-    mut control: ResMut<HairSimControl>,
+    mut hair_time: ResMut<Time<HairTime>>,
     timings: Res<HairStageTimings>,
     tuning: Res<HairTuningUi>,
     hairs: Query<&ComputedHair>,
@@ -38,20 +38,27 @@ pub(super) fn debug_window(
             draw.set_if_neq(d);
 
             ui.separator();
-            let mut c = control.clone();
             ui.horizontal(|ui| {
-                ui.checkbox(&mut c.paused, "Pause");
-                if ui.button("Step").clicked() {
-                    c.step_once = true;
+                let mut paused = hair_time.is_paused();
+                if ui.checkbox(&mut paused, "Pause").changed() {
+                    hair_time.toggle_pause();
                 }
-                ui.add(
-                    egui::DragValue::new(&mut c.step_time)
-                        .speed(0.001)
-                        .range(0.001..=0.1)
-                        .suffix(" s"),
-                );
+                if ui.button("Step").clicked() {
+                    hair_time.step_once();
+                }
+                let mut step = hair_time.context().step_seconds();
+                if ui
+                    .add(
+                        egui::DragValue::new(&mut step)
+                            .speed(0.001)
+                            .range(0.001..=0.1)
+                            .suffix(" s"),
+                    )
+                    .changed()
+                {
+                    hair_time.set_step_seconds(step);
+                }
             });
-            control.set_if_neq(c);
 
             ui.separator();
             egui::Grid::new("hair_timings")
