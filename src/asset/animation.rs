@@ -12,7 +12,7 @@ use super::error::{
     BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text, whole_file,
 };
 use super::groom::{GroomLoaderSettings, HEADER_BYTES, HairGroom, MAX_PARTICLES};
-use super::xml::{Item, Xml};
+use super::xml::Xml;
 
 /// Most keyframes an animation may have.
 pub const MAX_KEYS: usize = 256;
@@ -112,26 +112,11 @@ pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, 
     let duration_attr = float_attr_or(&xml, &root, "duration", f32::NAN)?;
     let duration_at = xml.attr("duration").map_or(root.offset, |a| a.offset);
     let mut keys: Vec<KeyReference> = Vec::new();
-    loop {
-        let node = match xml.next_in(&root)? {
-            Item::End => break,
-            Item::Markup { .. } => continue,
-            Item::Text { text, offset } => {
-                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
-                    return Err(xml.error_at_slice(
-                        &text[k..],
-                        offset,
-                        "text inside <hairanim>; keys are <key .../> elements",
-                    ));
-                }
-                continue;
-            }
-            Item::Element(e) if e.name == "key" => e,
-            Item::Element(e) => {
-                xml.skip(&e)?;
-                continue;
-            }
-        };
+    while let Some(node) = xml.next_child(
+        &root,
+        "key",
+        "text inside <hairanim>; keys are <key .../> elements",
+    )? {
         if keys.len() >= MAX_KEYS {
             return Err(xml.error(node.offset, format!("more than {MAX_KEYS} keys")));
         }

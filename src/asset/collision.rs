@@ -6,7 +6,7 @@ use bevy::prelude::*;
 
 use super::error::{BYTES_PER_ELEMENT, HairAssetError, length_attr, read_header, read_text};
 use super::groom::HEADER_BYTES;
-use super::xml::{Item, Xml};
+use super::xml::Xml;
 
 /// Most spheres a collision shape may have.
 pub const MAX_SPHERES: usize = 4096;
@@ -38,26 +38,11 @@ pub fn parse_collision(file: &str, input: &str) -> Result<HeadCollision, HairAss
     let root = xml.root()?;
     let header = read_header(&xml, &root, "collision")?;
     let mut spheres = Vec::new();
-    loop {
-        let node = match xml.next_in(&root)? {
-            Item::End => break,
-            Item::Markup { .. } => continue,
-            Item::Text { text, offset } => {
-                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
-                    return Err(xml.error_at_slice(
-                        &text[k..],
-                        offset,
-                        "text inside <collision>; shapes are <sphere .../> elements",
-                    ));
-                }
-                continue;
-            }
-            Item::Element(e) if e.name == "sphere" => e,
-            Item::Element(e) => {
-                xml.skip(&e)?;
-                continue;
-            }
-        };
+    while let Some(node) = xml.next_child(
+        &root,
+        "sphere",
+        "text inside <collision>; shapes are <sphere .../> elements",
+    )? {
         let index = spheres.len();
         if index >= MAX_SPHERES {
             return Err(xml.error(node.offset, format!("more than {MAX_SPHERES} spheres")));

@@ -182,26 +182,11 @@ pub fn parse_groom_within(
     let mut strand: Vec<Vec3> = Vec::with_capacity(16);
     // The number (or partial particle) being read, carried across text pieces of one strand.
     let mut coord = [0.0f32; 3];
-    loop {
-        let element = match xml.next_in(&root)? {
-            Item::End => break,
-            Item::Markup { .. } => continue,
-            Item::Text { text, offset } => {
-                if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
-                    return Err(xml.error_at_slice(
-                        &text[k..],
-                        offset,
-                        "text outside <strand>; numbers belong inside a <strand> element",
-                    ));
-                }
-                continue;
-            }
-            Item::Element(e) if e.name == "strand" => e,
-            Item::Element(e) => {
-                xml.skip(&e)?;
-                continue;
-            }
-        };
+    while let Some(element) = xml.next_child(
+        &root,
+        "strand",
+        "text outside <strand>; numbers belong inside a <strand> element",
+    )? {
         let index = groom.strand_count();
         if index >= MAX_STRANDS {
             return Err(xml.error(element.offset, format!("more than {MAX_STRANDS} strands")));

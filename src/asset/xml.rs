@@ -169,6 +169,30 @@ impl<'a> Xml<'a> {
         self.next()
     }
 
+    /// The next child element of `parent` named `wanted`, or `None` at `parent`'s end. Comments,
+    /// processing instructions and other elements (later versions' additions) are skipped;
+    /// non-whitespace text is an error with `stray` as its message (nothing is dropped silently).
+    pub fn next_child(
+        &mut self,
+        parent: &Element<'a>,
+        wanted: &str,
+        stray: &str,
+    ) -> Result<Option<Element<'a>>, HairAssetError> {
+        loop {
+            match self.next_in(parent)? {
+                Item::End => return Ok(None),
+                Item::Markup { .. } => {}
+                Item::Text { text, offset } => {
+                    if let Some(k) = text.find(|c: char| !c.is_ascii_whitespace()) {
+                        return Err(self.error_at_slice(&text[k..], offset, stray));
+                    }
+                }
+                Item::Element(e) if e.name == wanted => return Ok(Some(e)),
+                Item::Element(e) => self.skip(&e)?,
+            }
+        }
+    }
+
     /// Skips the content of `element` (just returned by [`Xml::next`]) up to its end tag.
     pub fn skip(&mut self, element: &Element<'a>) -> Result<(), HairAssetError> {
         if element.empty {
