@@ -65,12 +65,15 @@ pub struct HairMeshOf(pub Entity);
 #[relationship_target(relationship = HairMeshOf, linked_spawn)]
 pub struct HairMeshes(Vec<Entity>);
 
-/// Derived mesh state of a hair: its mesh asset and the shared topology.
-#[derive(Component, Debug, Clone)]
+/// Derived mesh state of a hair: its mesh asset and the shared topology. Reflected for
+/// inspectors (the topology is not).
+#[derive(Component, Reflect, Debug, Clone)]
+#[reflect(Component, Debug, from_reflect = false)]
 pub struct ComputedHairMesh {
     /// The mesh asset holding every strand.
     pub mesh: Handle<Mesh>,
     /// The shared per-strand topology.
+    #[reflect(ignore)]
     pub topology: TubeTopology,
     /// Strands in the mesh.
     pub strands: usize,

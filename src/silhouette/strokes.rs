@@ -135,13 +135,19 @@ pub struct HairStrokes(Vec<Entity>);
 /// Derived silhouette state of a hair: the edge map of its strand topology (built once per
 /// topology, shared by every strand) and the stroke meshes (one per block of strands, see
 /// [`STROKE_BLOCKS`], so that each block's output becomes a mesh without being copied).
-#[derive(Component)]
+///
+/// Reflected for inspectors: the stroke count and the per-vertex positions along the strand
+/// (the edge finder and the per-camera buffers are not).
+#[derive(Component, Reflect)]
+#[reflect(Component, from_reflect = false)]
 pub struct ComputedSilhouettes {
     /// The silhouette-edge finder of the strands' tube topology.
+    #[reflect(ignore)]
     pub tube: TubeEdges,
     /// Position along the strand (0 root, 1 tip) of each tube vertex.
     pub along: Vec<f32>,
     /// The strokes of each camera they are built for.
+    #[reflect(ignore)]
     pub views: Vec<StrokeView>,
     /// Strokes (chains) drawn last frame.
     pub chains: usize,

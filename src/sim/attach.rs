@@ -81,16 +81,24 @@ pub struct StrandParticles {
 pub struct HeadColliderOf(pub Entity);
 
 /// Solver state of a hair, derived from [`Hair`] and [`HairSimSettings`]; rebuilt when the groom,
-/// the animation or the structure offset changes.
-#[derive(Component, Default)]
+/// the animation or the structure offset changes. Reflected for inspectors: the counters, the
+/// size and the clocks (the solver's batches are not).
+#[derive(Component, Reflect, Default)]
+#[reflect(Component, Default, from_reflect = false)]
 pub struct ComputedHair {
+    #[reflect(ignore)]
     pub(crate) batches: Vec<Batch>,
     /// `(batch, lane)` of each strand.
+    #[reflect(ignore)]
     pub(crate) lane_of: Vec<(u32, u8)>,
+    #[reflect(ignore)]
     pub(crate) groom: AssetId<HairGroom>,
+    #[reflect(ignore)]
     pub(crate) animation: Option<AssetId<HairAnimation>>,
+    #[reflect(ignore)]
     pub(crate) collision: Option<AssetId<HeadCollision>>,
     pub(crate) offset: f32,
+    #[reflect(ignore)]
     pub(crate) margin_key: (u64, u32, u32),
     /// The bone's scale the groom was built at (see [`split_bone`]).
     pub(crate) scale: Vec3,
@@ -107,7 +115,8 @@ pub struct ComputedHair {
 }
 
 /// Counters of a hair's simulation.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Reflect, Debug, Clone, Copy, Default, PartialEq)]
+#[reflect(Debug, Default, PartialEq)]
 pub struct HairStepStats {
     /// Substeps run in the last frame.
     pub substeps: u32,

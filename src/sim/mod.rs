@@ -84,6 +84,8 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairSimControl>()
             .register_type::<AttachToBone>()
             .register_type::<HairCollider>()
+            .register_type::<ComputedHair>()
+            .register_type::<HairStatus>()
             .register_type::<StrandParticles>()
             .register_type::<BoneSearch>()
             .add_observer(attach::detach_hair)

@@ -1292,3 +1292,35 @@ fn the_hair_clock_pauses_and_steps_only_the_hair() {
     let virt = h.app.world().resource::<Time<Virtual>>().elapsed_secs();
     assert!(virt > hair_seconds + 0.15, "{virt} vs {hair_seconds}");
 }
+
+#[test]
+fn hair_components_are_reflected_for_inspectors() {
+    use bevy::reflect::ReflectRef;
+    let h = Harness::new(spiky_groom(5, 4), HairSimSettings::default(), 60.0);
+    let world = h.app.world();
+    let registry = world.resource::<AppTypeRegistry>().read();
+    for name in [
+        "Hair",
+        "HairSimSettings",
+        "AttachToBone",
+        "StrandParticles",
+        "HairCollider",
+        "ComputedHair",
+        "HairStatus",
+    ] {
+        assert!(
+            registry
+                .get_with_short_type_path(name)
+                .is_some_and(|r| r.data::<bevy::ecs::reflect::ReflectComponent>().is_some()),
+            "{name} is not a reflected component"
+        );
+    }
+    let computed = world.get::<ComputedHair>(h.hair).unwrap();
+    let ReflectRef::Struct(fields) = computed.reflect_ref() else {
+        panic!("ComputedHair is not a reflected struct");
+    };
+    let size = fields
+        .field("size")
+        .and_then(|f| f.try_downcast_ref::<f32>());
+    assert_eq!(size, Some(&1.0));
+}
