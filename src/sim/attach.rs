@@ -274,7 +274,7 @@ pub(crate) fn build_batches(
 pub struct HairStatus {
     /// Failures already reported: `(what, asset)`, so each is logged and triggered once.
     #[reflect(ignore)]
-    reported: Vec<(u8, UntypedAssetId)>,
+    reported: Vec<(Report, UntypedAssetId)>,
     /// A file of this hair was reloaded: rebuild.
     pub(crate) reloaded: bool,
     /// How many times the strands were built.
@@ -285,7 +285,7 @@ pub struct HairStatus {
 
 impl HairStatus {
     /// Records `(what, id)`; `true` the first time.
-    fn first_report(&mut self, what: u8, id: UntypedAssetId) -> bool {
+    fn first_report(&mut self, what: Report, id: UntypedAssetId) -> bool {
         if self.reported.contains(&(what, id)) {
             return false;
         }
@@ -297,6 +297,19 @@ impl HairStatus {
     pub(crate) fn forget(&mut self, id: UntypedAssetId) {
         self.reported.retain(|(_, r)| *r != id);
     }
+}
+
+/// What a hair reports once per asset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Report {
+    /// The asset failed to load.
+    Failed(HairAssetKind),
+    /// The animation's keyframes do not match the groom.
+    AnimationMismatch,
+    /// The files were exported for another bone.
+    BoneMismatch,
+    /// The groom was authored on a bone of another scale.
+    BoneScale,
 }
 
 /// The hairs [`build_hair_strands`] looks at.
@@ -341,6 +354,22 @@ impl HairAssets<'_> {
     }
 }
 
+/// An optional asset of a hair: `Some(Some(asset))` when loaded, `Some(None)` when there is none
+/// or it failed (`failed` reports it and returns `Some`), `None` while it is still loading.
+fn optional<'a, A: Asset>(
+    handle: &Option<Handle<A>>,
+    store: &'a Assets<A>,
+    failed: impl FnOnce(UntypedAssetId) -> Option<()>,
+) -> Option<Option<&'a A>> {
+    let Some(handle) = handle else {
+        return Some(None);
+    };
+    match store.get(handle) {
+        Some(asset) => Some(Some(asset)),
+        None => failed(handle.id().untyped()).map(|()| None),
+    }
+}
+
 /// Reports a failed asset of `hair` once: an error log line and a [`HairAssetFailed`] event.
 fn report_failure(
     commands: &mut Commands,
@@ -351,7 +380,7 @@ fn report_failure(
     id: UntypedAssetId,
     error: String,
 ) {
-    if !status.first_report(kind as u8, id) {
+    if !status.first_report(Report::Failed(kind), id) {
         return;
     }
     let path = assets.path(id);
@@ -380,8 +409,7 @@ pub(crate) fn build_hair_strands(
     helper: TransformHelper,
     head_colliders: Query<(Entity, &HeadColliderOf)>,
 ) {
-    for (entity, hair, settings, mut global, computed, strands, mut status, search) in &mut hairs {
-        let status = &mut *status;
+    for (entity, hair, settings, mut global, computed, strands, status, search) in &mut hairs {
         let anim_id = hair.animation.as_ref().map(|h| h.id());
         let collision_id = hair.collision.as_ref().map(|h| h.id());
         let offset = settings.structure_offset();
@@ -421,84 +449,48 @@ pub(crate) fn build_hair_strands(
         if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
             continue;
         }
+        // Only now: a hair that is up to date is not marked changed every frame.
+        let status = status.into_inner();
+        let mut failed = |kind, id: UntypedAssetId| {
+            let error = assets.failure(id)?;
+            report_failure(&mut commands, status, &assets, entity, kind, id, error);
+            Some(())
+        };
         let Some(groom) = assets.grooms.get(&hair.groom) else {
-            if let Some(error) = assets.failure(&hair.groom) {
-                let id = hair.groom.id().untyped();
-                report_failure(
-                    &mut commands,
-                    status,
-                    &assets,
-                    entity,
-                    HairAssetKind::Groom,
-                    id,
-                    error,
-                );
-            }
+            failed(HairAssetKind::Groom, hair.groom.id().untyped());
             continue;
         };
-        let animation = match &hair.animation {
-            None => None,
-            Some(h) => match assets.animations.get(h) {
-                Some(a) if a.base().same_topology(groom) => Some(a),
-                Some(a) => {
-                    // Refuse rather than crash (the thesis crashed here): anchor to the groom.
-                    if status.first_report(10, h.id().untyped()) {
-                        let message = format!(
-                            "the animation {:?} has keyframes of {} strands ({} particles), the \
-                             groom {:?} has {} strands ({} particles)",
-                            assets.path(h),
-                            a.base().strand_count(),
-                            a.base().points.len(),
-                            assets.path(&hair.groom),
-                            groom.strand_count(),
-                            groom.points.len()
-                        );
-                        error!(
-                            "hair {entity}: {message}; the hair anchors to the groom's own style"
-                        );
-                        commands.trigger(HairAnimationMismatch { entity, message });
-                    }
-                    None
-                }
-                None => match assets.failure(h) {
-                    Some(error) => {
-                        let id = h.id().untyped();
-                        report_failure(
-                            &mut commands,
-                            status,
-                            &assets,
-                            entity,
-                            HairAssetKind::Animation,
-                            id,
-                            error,
-                        );
-                        None
-                    }
-                    None => continue,
-                },
-            },
+        // Optional assets: a failed one is left out (reported once); one still loading waits.
+        let Some(animation) = optional(&hair.animation, &assets.animations, |id| {
+            failed(HairAssetKind::Animation, id)
+        }) else {
+            continue;
         };
-        let collision = match &hair.collision {
-            None => None,
-            Some(h) => match assets.collisions.get(h) {
-                Some(c) => Some(c),
-                None => match assets.failure(h) {
-                    Some(error) => {
-                        let id = h.id().untyped();
-                        report_failure(
-                            &mut commands,
-                            status,
-                            &assets,
-                            entity,
-                            HairAssetKind::Collision,
-                            id,
-                            error,
-                        );
-                        None
-                    }
-                    None => continue,
-                },
-            },
+        let Some(collision) = optional(&hair.collision, &assets.collisions, |id| {
+            failed(HairAssetKind::Collision, id)
+        }) else {
+            continue;
+        };
+        let animation = match (animation, &hair.animation) {
+            (Some(a), Some(h)) if !a.base().same_topology(groom) => {
+                // Refuse rather than crash (the thesis crashed here): anchor to the groom.
+                if status.first_report(Report::AnimationMismatch, h.id().untyped()) {
+                    let message = format!(
+                        "the animation {:?} has keyframes of {} strands ({} particles), the \
+                         groom {:?} has {} strands ({} particles)",
+                        assets.path(h),
+                        a.base().strand_count(),
+                        a.base().points.len(),
+                        assets.path(&hair.groom),
+                        groom.strand_count(),
+                        groom.points.len()
+                    );
+                    error!("hair {entity}: {message}; the hair anchors to the groom's own style");
+                    commands.trigger(HairAnimationMismatch { entity, message });
+                }
+                None
+            }
+            (animation, _) => animation,
         };
         // Hung by name: the files must have been exported for that bone.
         if let Some(BoneSearch::Found(bone_entity)) = search
@@ -510,7 +502,7 @@ pub(crate) fn build_hair_strands(
                 .flatten()
                 .find(|b| !b.is_empty() && b.as_str() != bone_name.as_str())
             {
-                if status.first_report(11, hair.groom.id().untyped()) {
+                if status.first_report(Report::BoneMismatch, hair.groom.id().untyped()) {
                     error!(
                         "hair {entity}: it hangs on the bone {:?} but its files were exported \
                          for {file_bone:?}; attach it to {file_bone:?} or export the hair for \
@@ -531,7 +523,7 @@ pub(crate) fn build_hair_strands(
         let size = mean_scale / *status.first_scale.get_or_insert(mean_scale);
         if let Some(authored) = groom.bone_scale
             && !(0.99..=1.01).contains(&(mean_scale / authored))
-            && status.first_report(12, hair.groom.id().untyped())
+            && status.first_report(Report::BoneScale, hair.groom.id().untyped())
         {
             warn!(
                 "hair {entity}: the groom {:?} was made on a bone of {authored} m per unit, this \
@@ -659,6 +651,14 @@ fn same_layout(old: &[Batch], new: &[Batch]) -> bool {
         })
 }
 
+/// Collects the assets of `events` that were modified (reloaded).
+fn modified<A: Asset>(events: &mut MessageReader<AssetEvent<A>>, out: &mut Vec<UntypedAssetId>) {
+    out.extend(events.read().filter_map(|e| match e {
+        AssetEvent::Modified { id } => Some(id.untyped()),
+        _ => None,
+    }));
+}
+
 /// Marks hairs whose groom, animation or collision file was reloaded, so they rebuild.
 pub(crate) fn mark_reloaded_hairs(
     mut grooms: MessageReader<AssetEvent<HairGroom>>,
@@ -667,18 +667,9 @@ pub(crate) fn mark_reloaded_hairs(
     mut hairs: Query<(&Hair, &mut HairStatus)>,
 ) {
     let mut reloaded: Vec<UntypedAssetId> = Vec::new();
-    reloaded.extend(grooms.read().filter_map(|e| match e {
-        AssetEvent::Modified { id } => Some(id.untyped()),
-        _ => None,
-    }));
-    reloaded.extend(animations.read().filter_map(|e| match e {
-        AssetEvent::Modified { id } => Some(id.untyped()),
-        _ => None,
-    }));
-    reloaded.extend(collisions.read().filter_map(|e| match e {
-        AssetEvent::Modified { id } => Some(id.untyped()),
-        _ => None,
-    }));
+    modified(&mut grooms, &mut reloaded);
+    modified(&mut animations, &mut reloaded);
+    modified(&mut collisions, &mut reloaded);
     if reloaded.is_empty() {
         return;
     }

@@ -35,8 +35,8 @@ pub struct HairCollisionGroups(pub CollisionGroups);
 
 /// What a collider is made of.
 enum ViewShape {
-    /// A [`HairCollider`]'s spheres, in its entity's space.
-    Spheres(Vec<(Vec3A, f32)>),
+    /// A [`HairCollider`] on this entity (its spheres are read in place, not copied).
+    Own(Entity),
     /// A rapier collider (feature `rapier`).
     #[cfg(feature = "rapier")]
     Rapier {
@@ -120,17 +120,12 @@ pub(crate) fn step_hair_strands(
     #[cfg_attr(not(feature = "rapier"), allow(unused_mut))]
     let mut views: Vec<ColliderView> = own
         .iter()
-        .map(|(e, c, g)| {
+        .map(|(e, _, g)| {
             let now = g.affine();
             ColliderView {
                 prev: seen(e, now),
                 now,
-                shape: ViewShape::Spheres(
-                    c.spheres
-                        .iter()
-                        .map(|s| (Vec3A::from(s.center), s.radius))
-                        .collect(),
-                ),
+                shape: ViewShape::Own(e),
             }
         })
         .collect();
@@ -246,8 +241,15 @@ pub(crate) fn step_hair_strands(
         let mut sphere_templates: Vec<(usize, Vec3A, f32)> = Vec::new();
         for (v, view) in views.iter().enumerate() {
             match &view.shape {
-                ViewShape::Spheres(spheres) => {
-                    sphere_templates.extend(spheres.iter().map(|&(c, r)| (v, c, r)));
+                ViewShape::Own(e) => {
+                    if let Ok((_, collider, _)) = own.get(*e) {
+                        sphere_templates.extend(
+                            collider
+                                .spheres
+                                .iter()
+                                .map(|s| (v, Vec3A::from(s.center), s.radius)),
+                        );
+                    }
                 }
                 #[cfg(feature = "rapier")]
                 ViewShape::Rapier { shape, groups } => {

@@ -123,28 +123,7 @@ def main(argv=None):
         o.select_set(o in (rig, body))
     bpy.context.view_layer.objects.active = rig
     glb = os.path.join(out, "mixamo.glb")
-    bpy.ops.export_scene.gltf(
-        filepath=glb,
-        export_format="GLB",
-        use_selection=True,
-        export_yup=True,
-        export_apply=False,
-        export_animations=True,
-        export_animation_mode="ACTIONS",
-        export_frame_range=False,
-        export_force_sampling=True,
-        export_optimize_animation_size=True,
-        export_skins=True,
-        export_all_influences=False,
-        export_def_bones=False,
-        export_rest_position_armature=True,
-        export_materials="EXPORT",
-        export_texcoords=False,
-        export_normals=True,
-        export_cameras=False,
-        export_lights=False,
-        export_extras=False,
-    )
+    ninja.export_glb(glb)
     print(f"mixamo test character: {n} strands, {ns} spheres on {HEAD!r}, rig scale {RIG_SCALE};"
           f" glb {os.path.getsize(glb)} bytes; written to {out}")
     return 0

@@ -545,6 +545,33 @@ COLLISION_SPHERES = [  # name, centre (Blender world), radius
 ]
 
 
+def export_glb(path):
+    """Export the selected rig and body as the bundled characters are: glTF binary, "+Y Up", the
+    rest-pose armature, every action sampled, skins and materials, nothing else."""
+    bpy.ops.export_scene.gltf(
+        filepath=path,
+        export_format="GLB",
+        use_selection=True,
+        export_yup=True,
+        export_apply=False,
+        export_animations=True,
+        export_animation_mode="ACTIONS",
+        export_frame_range=False,
+        export_force_sampling=True,
+        export_optimize_animation_size=True,
+        export_skins=True,
+        export_all_influences=False,
+        export_def_bones=False,
+        export_rest_position_armature=True,
+        export_materials="EXPORT",
+        export_texcoords=False,
+        export_normals=True,
+        export_cameras=False,
+        export_lights=False,
+        export_extras=False,
+    )
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", default=os.path.join(REPO, "assets", "ninja"))
@@ -611,28 +638,7 @@ def main(argv=None):
         o.select_set(o in (rig, body))
     bpy.context.view_layer.objects.active = rig
     glb = os.path.join(out, "ninja.glb")
-    bpy.ops.export_scene.gltf(
-        filepath=glb,
-        export_format="GLB",
-        use_selection=True,
-        export_yup=True,
-        export_apply=False,
-        export_animations=True,
-        export_animation_mode="ACTIONS",
-        export_frame_range=False,
-        export_force_sampling=True,
-        export_optimize_animation_size=True,
-        export_skins=True,
-        export_all_influences=False,
-        export_def_bones=False,
-        export_rest_position_armature=True,
-        export_materials="EXPORT",
-        export_texcoords=False,
-        export_normals=True,
-        export_cameras=False,
-        export_lights=False,
-        export_extras=False,
-    )
+    export_glb(glb)
     if args.blend:
         bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(args.blend), compress=True)
     lengths = np.linalg.norm(np.diff(base, axis=1), axis=2).sum(axis=1)
