@@ -47,7 +47,8 @@ pub struct NinjaScenePlugin {
 
 /// Where the demo camera looks from: an orbit around the head. Change it and the camera follows
 /// in the same frame.
-#[derive(Component, Clone, Debug, PartialEq)]
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
 pub struct NinjaOrbit {
     /// Turn around the vertical axis, radians (0 looks at the face).
     pub yaw: f32,
@@ -82,7 +83,8 @@ impl NinjaOrbit {
 }
 
 /// The demo's handles: the character's glTF scene and the hair's material.
-#[derive(Resource, Clone, Debug)]
+#[derive(Resource, Reflect, Clone, Debug)]
+#[reflect(Resource, Debug)]
 pub struct NinjaScene {
     /// The character's scene.
     pub scene: Handle<WorldAsset>,

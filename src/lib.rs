@@ -76,6 +76,7 @@
 //! |----------|---------|--------------|
 //! | `render` | yes     | Toon materials and other GPU-side parts, presets (`ron`). |
 //! | `rapier` | yes     | The head collider is also a rapier collider other rapier users see; hairs with `HairCollisionGroups` collide with the world's rapier colliders. Without it, hair collides with [`sim::HairCollider`]s only. |
+//! | `avian`  | no      | The same for avian 0.7: the head collider is also an avian collider (zero density); hairs with `HairCollisionLayers` collide with the world's avian colliders. |
 //! | `demo`   | no      | The ninja demo scene, its clip recorder and the headless capture harness (pulls in `wgpu`; implies `render`). |
 //! | `ui`     | no      | The live egui tuning panel, a development tool not in [`CartoonHairPlugins`] (pulls in `bevy_egui`; implies `render`). |
 //!
@@ -206,6 +207,8 @@ pub mod prelude {
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
     #[cfg(feature = "rapier")]
     pub use crate::sim::HairCollisionGroups;
+    #[cfg(feature = "avian")]
+    pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
         AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
         Strand, StrandParticles,

@@ -28,6 +28,7 @@
 //! candidate is scored only over the pixels it touches, and strokes are rasterised by sampling
 //! a prefiltered (anti-aliased) copy of the [`StrokeImage`] along the stroke's axis.
 
+use bevy::prelude::ReflectDefault;
 use std::f32::consts::PI;
 use std::fmt;
 
@@ -209,7 +210,8 @@ fn smoothstep(edge0: f32, edge1: f32, x: f32) -> f32 {
 
 /// How to build a [`TonalArtMap`]; see [`generate`]. Check a hand-made value with
 /// [`TamSettings::validate`] ([`generate`] does it too).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, bevy::reflect::Reflect)]
+#[reflect(Debug, PartialEq, Default)]
 pub struct TamSettings {
     /// Number of tones (hatching images), from the lightest to the darkest. `1..=64`.
     /// Default: `6`.

@@ -9,7 +9,8 @@ use crate::hatching::{StrokeImage, TamSettings, generate, tonal_art_map_image};
 /// How the tonal art map is generated when a material first asks for hatching without one
 /// (see [`assign_tonal_art_maps`]). Small by default so switching hatching on takes a moment,
 /// not seconds.
-#[derive(Resource, Clone, Debug, PartialEq)]
+#[derive(Resource, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Resource, Default, Debug, PartialEq)]
 pub struct HatchingMapSettings(pub TamSettings);
 
 impl Default for HatchingMapSettings {

@@ -2,8 +2,6 @@
 
 use bevy::math::Affine3A;
 use bevy::prelude::*;
-#[cfg(feature = "rapier")]
-use bevy_rapier3d::prelude::Collider;
 
 use bevy::asset::UntypedAssetId;
 use bevy::transform::helper::TransformHelper;
@@ -37,8 +35,8 @@ pub struct Hair {
     /// Keyframe styles the anchors follow; `None` anchors to the groom's own style.
     pub animation: Option<Handle<HairAnimation>>,
     /// Spheres to collide with; they become a [`HairCollider`] on this entity's child (and,
-    /// with the `rapier` feature, a compound rapier collider there, so other rapier users see
-    /// the head too).
+    /// with the `rapier` or `avian` feature, a compound collider of that engine there, so its
+    /// other users see the head too).
     pub collision: Option<Handle<HeadCollision>>,
 }
 
@@ -576,7 +574,8 @@ pub(crate) fn build_hair_strands(
             }
         }
         if let Some(shape) = collision {
-            let mut head = commands.spawn((
+            // Physics engine features add their own collider to it (`physics`).
+            commands.spawn((
                 Name::new("head collider"),
                 HairCollider {
                     spheres: shape.spheres.clone(),
@@ -587,17 +586,6 @@ pub(crate) fn build_hair_strands(
                 GlobalTransform::from(full),
                 ChildOf(entity),
             ));
-            // Other rapier users see the head too.
-            #[cfg(feature = "rapier")]
-            head.insert(Collider::compound(
-                shape
-                    .spheres
-                    .iter()
-                    .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)))
-                    .collect(),
-            ));
-            #[cfg(not(feature = "rapier"))]
-            let _ = &mut head;
         }
         // A re-exported file with the same strands keeps the hair where it is and how it moves
         // (the roots take the new style); anything else starts from the style.

@@ -29,6 +29,7 @@ mod bone;
 mod clock;
 mod collider;
 mod events;
+mod physics;
 mod settings;
 pub mod solver;
 mod step;
@@ -46,9 +47,11 @@ pub use events::{
     BoneMismatch, BoneNotFound, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady,
     HairRebuilt, RebuildReason,
 };
-pub use settings::{HairSimSettings, compliance_factor};
 #[cfg(feature = "rapier")]
-pub use step::HairCollisionGroups;
+pub use physics::HairCollisionGroups;
+#[cfg(feature = "avian")]
+pub use physics::HairCollisionLayers;
+pub use settings::{HairSimSettings, compliance_factor};
 
 use bevy::prelude::*;
 
@@ -106,7 +109,7 @@ impl Plugin for HairSimulationPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    step::step_hair_strands,
+                    step::step_hair_strands.after(physics::GatherColliders),
                     step::write_strand_particles,
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
@@ -114,5 +117,6 @@ impl Plugin for HairSimulationPlugin {
                     .chain()
                     .in_set(HairSystems::Simulate),
             );
+        physics::build(app);
     }
 }

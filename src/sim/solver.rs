@@ -34,6 +34,8 @@ use std::f32::consts::FRAC_PI_2;
 
 use bevy::math::{Affine3A, Vec3, Vec3A};
 
+pub use super::physics::ShapeCollider;
+
 /// Strands solved side by side in one batch.
 pub const LANES: usize = 8;
 /// One number per lane.
@@ -152,8 +154,7 @@ pub struct StepInput {
     pub spheres: Vec<(Vec3A, f32)>,
     /// Spheres per substep.
     pub sphere_count: usize,
-    /// Other collider shapes (rapier's, feature `rapier`), at the frame's final pose.
-    #[cfg(feature = "rapier")]
+    /// Other collider shapes (from rapier or avian colliders), at the frame's final pose.
     pub shapes: Vec<ShapeCollider>,
     /// `gravity * h^2`.
     pub gravity_h2: Vec3,
@@ -163,32 +164,6 @@ pub struct StepInput {
     pub alpha: [f32; 3],
     /// Anchor correction factor per node (`0` = free, `1` = held on the anchor).
     pub anchor_factor: Vec<f32>,
-}
-
-/// A collider of any shape, tested through parry's point projection (feature `rapier`). Opaque:
-/// the plugin fills it from rapier colliders, so no parry type is part of this crate's API.
-#[cfg(feature = "rapier")]
-#[derive(Clone)]
-pub struct ShapeCollider {
-    /// The shape.
-    pub(crate) shape: bevy_rapier3d::parry::shape::SharedShape,
-    /// Its pose.
-    pub(crate) pose: bevy_rapier3d::parry::math::Pose,
-    /// World bounds, grown by the largest margin: nodes outside skip the query.
-    pub(crate) aabb_min: Vec3,
-    /// See `aabb_min`.
-    pub(crate) aabb_max: Vec3,
-}
-
-#[cfg(feature = "rapier")]
-impl std::fmt::Debug for ShapeCollider {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("ShapeCollider")
-            .field("shape", &self.shape.shape_type())
-            .field("aabb_min", &self.aabb_min)
-            .field("aabb_max", &self.aabb_max)
-            .finish()
-    }
 }
 
 fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
@@ -392,7 +367,6 @@ impl Batch {
             self.integrate_and_solve(input, bone);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
-            #[cfg(feature = "rapier")]
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
             }
@@ -494,8 +468,8 @@ impl Batch {
         }
     }
 
-    /// Pushes free nodes out of arbitrary shapes (parry point projection), keeping the margin.
-    #[cfg(feature = "rapier")]
+    /// Pushes free nodes out of arbitrary shapes (the engine's point projection), keeping the
+    /// margin.
     fn collide_shapes(&mut self, shapes: &[ShapeCollider]) {
         for node in self.nodes.iter_mut().skip(PINNED) {
             for l in 0..LANES {
@@ -505,19 +479,19 @@ impl Batch {
                     if x.cmplt(sc.aabb_min).any() || x.cmpgt(sc.aabb_max).any() {
                         continue;
                     }
-                    let proj = sc.shape.project_point(&sc.pose, x, true);
-                    let to_surface = proj.point - x;
+                    let (point, inside) = sc.shape.project(x);
+                    let to_surface = point - x;
                     let dist = to_surface.length();
-                    let moved = if proj.is_inside {
+                    let moved = if inside {
                         // Inside: out through the nearest surface point, then the margin.
                         let out = if dist > 1e-9 {
                             to_surface / dist
                         } else {
                             Vec3::Y
                         };
-                        Some(proj.point + out * m)
+                        Some(point + out * m)
                     } else if dist < m && dist > 1e-9 {
-                        Some(proj.point - to_surface / dist * m)
+                        Some(point - to_surface / dist * m)
                     } else {
                         None
                     };

@@ -6,53 +6,17 @@ use bevy::ecs::entity::EntityHashMap;
 use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
-#[cfg(feature = "rapier")]
-use bevy_rapier3d::parry::math::Pose;
-#[cfg(feature = "rapier")]
-use bevy_rapier3d::parry::shape::SharedShape;
-#[cfg(feature = "rapier")]
-use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group};
 
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
 use super::collider::HairCollider;
+use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairSimSettings, compliance_factor};
-#[cfg(feature = "rapier")]
-use super::solver::ShapeCollider;
 use super::solver::{PINNED, StepInput, along};
 use super::{HairSimControl, HairTime};
 
-/// Opts a hair into colliding with the world's rapier colliders (feature `rapier`), filtered by
-/// rapier's own rule: a collider counts when `collider.memberships & hair.filters` and
-/// `hair.memberships & collider.filters` are both non-zero (`CollisionGroups::default()`: all).
-/// Without this component a hair collides only with [`HairCollider`]s: its own head collider and
-/// any you add. Sensors are never collided with.
-#[cfg(feature = "rapier")]
-#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
-#[reflect(Component, Debug)]
-pub struct HairCollisionGroups(pub CollisionGroups);
-
-/// What a collider is made of.
-enum ViewShape {
-    /// A [`HairCollider`] on this entity (its spheres are read in place, not copied).
-    Own(Entity),
-    /// A rapier collider (feature `rapier`).
-    #[cfg(feature = "rapier")]
-    Rapier {
-        shape: SharedShape,
-        groups: CollisionGroups,
-    },
-}
-
-/// A collider as seen at the previous and the current frame.
-struct ColliderView {
-    prev: Affine3A,
-    now: Affine3A,
-    shape: ViewShape,
-}
-
-/// Colliders of the world, with last frame's poses so moving ones are interpolated per substep.
+/// [`HairCollider`]s' poses last frame, so moving ones are interpolated per substep.
 #[derive(Resource, Default)]
 pub(crate) struct ColliderHistory {
     poses: EntityHashMap<Affine3A>,
@@ -75,22 +39,13 @@ fn usable(bone: &Affine3A) -> bool {
     bone.is_finite() && bone.matrix3.determinant().abs() > 1e-12
 }
 
-#[cfg(feature = "rapier")]
-fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
-    (collider.memberships & hair.filters) != Group::NONE
-        && (hair.memberships & collider.filters) != Group::NONE
-}
-
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
 /// teleports carried, unusable bones skipped, non-finite strands reset.
 #[allow(clippy::type_complexity)]
-#[allow(
-    clippy::too_many_arguments,
-    reason = "one query per collider source; two fewer without the rapier feature"
-)]
 pub(crate) fn step_hair_strands(
     time: Res<Time<HairTime>>,
     mut history: ResMut<ColliderHistory>,
+    world: Res<WorldColliders>,
     mut hairs: Query<(
         Entity,
         &Hair,
@@ -99,65 +54,24 @@ pub(crate) fn step_hair_strands(
         &mut ComputedHair,
     )>,
     own: Query<(Entity, &HairCollider, &GlobalTransform)>,
-    #[cfg(feature = "rapier")] rapier_hairs: Query<&HairCollisionGroups>,
-    #[cfg(feature = "rapier")] colliders: Query<
-        (
-            Entity,
-            &Collider,
-            &GlobalTransform,
-            Option<&CollisionGroups>,
-        ),
-        (
-            Without<HairCollider>,
-            Without<bevy_rapier3d::prelude::Sensor>,
-        ),
-    >,
     animations: Res<Assets<crate::asset::HairAnimation>>,
 ) {
     // The hair's clock: zero while paused, one step when stepped.
     let dt = time.delta_secs();
-    let seen = |e: Entity, now: Affine3A| history.poses.get(&e).copied().unwrap_or(now);
-    #[cfg_attr(not(feature = "rapier"), allow(unused_mut))]
-    let mut views: Vec<ColliderView> = own
+    // Every HairCollider: its pose last frame and now, and its spheres (in its space).
+    let own_views: Vec<(Affine3A, Affine3A, &HairCollider)> = own
         .iter()
-        .map(|(e, _, g)| {
+        .map(|(e, collider, g)| {
             let now = g.affine();
-            ColliderView {
-                prev: seen(e, now),
-                now,
-                shape: ViewShape::Own(e),
-            }
+            (history.poses.get(&e).copied().unwrap_or(now), now, collider)
         })
         .collect();
-    // The world's rapier colliders matter only to hairs that opted in.
-    #[cfg(feature = "rapier")]
-    if !rapier_hairs.is_empty() {
-        views.extend(colliders.iter().map(|(e, c, g, groups)| {
-            let now = g.affine();
-            ColliderView {
-                prev: seen(e, now),
-                now,
-                shape: ViewShape::Rapier {
-                    shape: c.raw.clone(),
-                    groups: groups.copied().unwrap_or_default(),
-                },
-            }
-        }));
-    }
     history.poses.clear();
-    for (e, _, g) in &own {
-        history.poses.insert(e, g.affine());
-    }
-    #[cfg(feature = "rapier")]
-    if !rapier_hairs.is_empty() {
-        for (e, _, g, _) in &colliders {
-            history.poses.insert(e, g.affine());
-        }
-    }
+    history
+        .poses
+        .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = ComputeTaskPool::get_or_init(TaskPool::default);
     for (hair_entity, hair, global, settings, mut computed) in &mut hairs {
-        #[cfg(not(feature = "rapier"))]
-        let _ = hair_entity;
         let computed = &mut *computed;
         let full = global.affine();
         if !usable(&full) {
@@ -237,49 +151,32 @@ pub(crate) fn step_hair_strands(
             };
             input.bones.push(interpolate(&from, &bone, t));
         }
-        // Colliders this hair sees, per substep.
-        let mut sphere_templates: Vec<(usize, Vec3A, f32)> = Vec::new();
-        for (v, view) in views.iter().enumerate() {
-            match &view.shape {
-                ViewShape::Own(e) => {
-                    if let Ok((_, collider, _)) = own.get(*e) {
-                        sphere_templates.extend(
-                            collider
-                                .spheres
-                                .iter()
-                                .map(|s| (v, Vec3A::from(s.center), s.radius)),
-                        );
-                    }
-                }
-                #[cfg(feature = "rapier")]
-                ViewShape::Rapier { shape, groups } => {
-                    let Ok(hair_groups) = rapier_hairs.get(hair_entity) else {
-                        continue;
-                    };
-                    if !groups_match(&hair_groups.0, groups) {
-                        continue;
-                    }
+        // Colliders this hair sees: spheres followed per substep, other engine shapes at the
+        // frame's final pose.
+        let mut sphere_templates: Vec<(&Affine3A, &Affine3A, Vec3A, f32)> = Vec::new();
+        for (prev, now, collider) in &own_views {
+            sphere_templates.extend(
+                collider
+                    .spheres
+                    .iter()
+                    .map(|s| (prev, now, Vec3A::from(s.center), s.radius)),
+            );
+        }
+        let seen = world
+            .seen_by
+            .get(&hair_entity)
+            .map_or(&[][..], Vec::as_slice);
+        for collider in seen.iter().map(|&i| &world.colliders[i]) {
+            match &collider.shape {
+                WorldShape::Spheres(spheres) => sphere_templates.extend(
+                    spheres
+                        .iter()
+                        .map(|&(centre, r)| (&collider.prev, &collider.now, centre, r)),
+                ),
+                #[cfg(any(feature = "rapier", feature = "avian"))]
+                WorldShape::Other(kind) => {
                     let max_margin = settings.margins().1 * computed.size;
-                    if let Some(ball) = shape.as_ball() {
-                        sphere_templates.push((v, Vec3A::ZERO, ball.radius));
-                    } else if let Some(compound) = shape.as_compound()
-                        && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
-                    {
-                        for (pose, s) in compound.shapes() {
-                            let r = s.as_ball().map_or(0.0, |b| b.radius);
-                            sphere_templates.push((v, Vec3A::from(pose.translation), r));
-                        }
-                    } else {
-                        let (_, r, t) = view.now.to_scale_rotation_translation();
-                        let pose = Pose::from_parts(t, r);
-                        let aabb = shape.compute_aabb(&pose);
-                        input.shapes.push(ShapeCollider {
-                            shape: shape.clone(),
-                            pose,
-                            aabb_min: aabb.mins - Vec3::splat(max_margin),
-                            aabb_max: aabb.maxs + Vec3::splat(max_margin),
-                        });
-                    }
+                    input.shapes.push(kind.collider(&collider.now, max_margin));
                 }
             }
         }
@@ -290,9 +187,8 @@ pub(crate) fn step_hair_strands(
             } else {
                 1.0
             };
-            for &(v, centre, radius) in &sphere_templates {
-                let view = &views[v];
-                let pose = interpolate(&view.prev, &view.now, t);
+            for &(prev, now, centre, radius) in &sphere_templates {
+                let pose = interpolate(prev, now, t);
                 let scale = pose.matrix3.x_axis.length();
                 input
                     .spheres

@@ -1159,41 +1159,191 @@ fn a_hair_collider_anyone_adds_pushes_the_hair_out() {
     assert!(after < 1e-3, "a particle is {after} m inside the collider");
 }
 
+/// Deepest a particle (not a root) sits inside a box of half extents `half` at `pose`, metres
+/// (0 when none is).
+#[cfg(any(feature = "rapier", feature = "avian"))]
+fn deepest_inside_box(strands: &[Vec<Vec3>], pose: &Transform, half: Vec3) -> f32 {
+    strands
+        .iter()
+        .flat_map(|s| s.iter().skip(1))
+        .map(|p| (half - (pose.rotation.inverse() * (*p - pose.translation)).abs()).min_element())
+        .fold(0.0, f32::max)
+}
+
+/// A physics engine's colliders as the hair sees them: how deep the hair sits, after 90 frames,
+/// in a ball and in a box placed in it, (without opting in, opted in, as a sensor).
+#[cfg(any(feature = "rapier", feature = "avian"))]
+struct EngineDepths {
+    ball: [f32; 3],
+    cuboid: [f32; 3],
+}
+
+#[cfg(any(feature = "rapier", feature = "avian"))]
+impl EngineDepths {
+    /// `spawn(world, at, ball radius or box half extents, ball?, sensor?)` makes the engine's
+    /// collider; `opt_in` marks the hair.
+    fn measure(
+        spawn: impl Fn(&mut World, Transform, Vec3, bool, bool),
+        opt_in: impl Fn(&mut EntityWorldMut),
+    ) -> Self {
+        let run = |ball: bool, opted: bool, sensor: bool| {
+            let mut h = Harness::new(spiky_groom(40, 6), HairSimSettings::default(), 60.0);
+            let (centre, radius) = ball_in_the_hair();
+            // The box is turned, so a strand through its middle is pushed out sideways too.
+            let pose = Transform::from_translation(centre).with_rotation(Quat::from_euler(
+                EulerRot::XYZ,
+                0.6,
+                0.3,
+                0.5,
+            ));
+            let size = if ball {
+                Vec3::splat(radius)
+            } else {
+                Vec3::new(0.05, 0.04, 0.06)
+            };
+            spawn(h.app.world_mut(), pose, size, ball, sensor);
+            if opted {
+                opt_in(&mut h.app.world_mut().entity_mut(h.hair));
+            }
+            for _ in 0..90 {
+                h.update();
+            }
+            if ball {
+                deepest_inside(&h.strands(), centre, radius)
+            } else {
+                deepest_inside_box(&h.strands(), &pose, size)
+            }
+        };
+        let three = |ball| {
+            [
+                run(ball, false, false),
+                run(ball, true, false),
+                run(ball, true, true),
+            ]
+        };
+        Self {
+            ball: three(true),
+            cuboid: three(false),
+        }
+    }
+
+    fn check(&self, engine: &str) {
+        println!(
+            "{engine}: ball {:.4} m deep without opting in, {:.4} m with, {:.4} m as a sensor; \
+             box {:.4} / {:.4} / {:.4} m",
+            self.ball[0],
+            self.ball[1],
+            self.ball[2],
+            self.cuboid[0],
+            self.cuboid[1],
+            self.cuboid[2]
+        );
+        for (shape, [off, on, sensor]) in [("ball", self.ball), ("box", self.cuboid)] {
+            assert!(
+                off > 0.01,
+                "{engine} {shape}: without opting in the world's colliders are ignored ({off} m)"
+            );
+            assert!(
+                on < 1e-3,
+                "{engine} {shape}: opted in, it pushes the hair out ({on} m)"
+            );
+            assert!(
+                sensor > 0.01,
+                "{engine} {shape}: sensors are never collided with ({sensor} m)"
+            );
+        }
+    }
+}
+
 #[cfg(feature = "rapier")]
 #[test]
 fn the_worlds_rapier_colliders_are_opt_in() {
     use bevy_rapier3d::prelude::{Collider, CollisionGroups, Sensor};
-    let run = |opt_in: bool, sensor: bool| {
-        let mut h = Harness::new(spiky_groom(40, 6), HairSimSettings::default(), 60.0);
-        let (centre, radius) = ball_in_the_hair();
-        let mut ball = h
-            .app
-            .world_mut()
-            .spawn((Collider::ball(radius), Transform::from_translation(centre)));
-        if sensor {
-            ball.insert(Sensor);
+    EngineDepths::measure(
+        |world, at, size, ball, sensor| {
+            let collider = if ball {
+                Collider::ball(size.x)
+            } else {
+                Collider::cuboid(size.x, size.y, size.z)
+            };
+            let mut e = world.spawn((collider, at));
+            if sensor {
+                e.insert(Sensor);
+            }
+        },
+        |hair| {
+            hair.insert(HairCollisionGroups(CollisionGroups::default()));
+        },
+    )
+    .check("rapier");
+}
+
+#[cfg(feature = "avian")]
+#[test]
+fn the_worlds_avian_colliders_are_opt_in() {
+    use avian3d::prelude::{Collider, CollisionLayers, Sensor};
+    EngineDepths::measure(
+        |world, at, size, ball, sensor| {
+            let collider = if ball {
+                Collider::sphere(size.x)
+            } else {
+                Collider::cuboid(2.0 * size.x, 2.0 * size.y, 2.0 * size.z)
+            };
+            let mut e = world.spawn((collider, at));
+            if sensor {
+                e.insert(Sensor);
+            }
+        },
+        |hair| {
+            hair.insert(crate::sim::HairCollisionLayers(CollisionLayers::default()));
+        },
+    )
+    .check("avian");
+}
+
+/// With an engine feature, the head collider is also that engine's collider, of the head's
+/// spheres (so the engine's other users see the head).
+#[cfg(any(feature = "rapier", feature = "avian"))]
+#[test]
+fn the_head_collider_is_an_engine_collider_too() {
+    let mut h = Harness::new(spiky_groom(4, 4), HairSimSettings::default(), 60.0);
+    let world = h.app.world_mut();
+    let head_collider = world
+        .query_filtered::<Entity, With<HeadColliderOf>>()
+        .single(world)
+        .unwrap();
+    let spheres = head().spheres;
+    #[cfg(feature = "rapier")]
+    {
+        let c = world
+            .get::<bevy_rapier3d::prelude::Collider>(head_collider)
+            .unwrap();
+        let compound = c.raw.as_compound().expect("a compound of balls");
+        assert_eq!(compound.shapes().len(), spheres.len());
+        for ((pose, shape), s) in compound.shapes().iter().zip(&spheres) {
+            assert_eq!(pose.translation, s.center);
+            assert_eq!(shape.as_ball().unwrap().radius, s.radius);
         }
-        if opt_in {
-            h.app
-                .world_mut()
-                .entity_mut(h.hair)
-                .insert(HairCollisionGroups(CollisionGroups::default()));
+    }
+    #[cfg(feature = "avian")]
+    {
+        let c = world
+            .get::<avian3d::prelude::Collider>(head_collider)
+            .unwrap();
+        let compound = c.shape().as_compound().expect("a compound of spheres");
+        assert_eq!(compound.shapes().len(), spheres.len());
+        for ((pose, shape), s) in compound.shapes().iter().zip(&spheres) {
+            assert!((pose.translation - s.center).length() < 1e-6);
+            assert_eq!(shape.as_ball().unwrap().radius, s.radius);
         }
-        for _ in 0..90 {
-            h.update();
-        }
-        deepest_inside(&h.strands(), centre, radius)
-    };
-    let (off, on, sensor) = (run(false, false), run(true, false), run(true, true));
-    println!(
-        "rapier ball: {off:.4} m deep without opting in, {on:.4} m with, {sensor:.4} m as a sensor"
-    );
-    assert!(
-        off > 0.01,
-        "without HairCollisionGroups the world's colliders are ignored"
-    );
-    assert!(on < 1e-3, "with it the ball pushes the hair out ({on} m)");
-    assert!(sensor > 0.01, "sensors are never collided with");
+        let density = world
+            .get::<avian3d::prelude::ColliderDensity>(head_collider)
+            .unwrap();
+        assert_eq!(
+            density.0, 0.0,
+            "the head must not add mass to a character body"
+        );
+    }
 }
 
 #[test]

@@ -1,0 +1,220 @@
+//! Colliders from physics engines: the world's colliders a hair opted in to, gathered once a
+//! frame for the solver, and the head collider made visible to the engine's other users.
+//!
+//! - `rapier` (default feature): [`HairCollisionGroups`] opts a hair in; rapier's `Collider`s
+//!   count when the groups match. The head collider gets a compound rapier collider.
+//! - `avian`: [`HairCollisionLayers`] opts a hair in; avian's `Collider`s count when the layers
+//!   interact. The head collider gets a compound avian collider of zero density, so it never
+//!   changes the mass of a body it ends up part of.
+//!
+//! Sensors and other [`HairCollider`](super::HairCollider) entities are never gathered. Spheres
+//! (a ball, or a compound of balls) are followed per substep like the crate's own colliders;
+//! any other shape is projected onto at the frame's final pose. No type of either engine's
+//! `parry` is part of this crate's API.
+#![cfg_attr(
+    not(any(feature = "rapier", feature = "avian")),
+    expect(dead_code, reason = "without an engine feature nothing is gathered")
+)]
+
+use bevy::ecs::entity::EntityHashMap;
+use bevy::math::{Affine3A, Vec3A};
+use bevy::prelude::*;
+
+#[cfg(feature = "avian")]
+mod avian;
+#[cfg(feature = "rapier")]
+mod rapier;
+
+#[cfg(feature = "avian")]
+pub use avian::HairCollisionLayers;
+#[cfg(feature = "rapier")]
+pub use rapier::HairCollisionGroups;
+
+/// The engines' gathering systems run in this set, after last frame's colliders are cleared
+/// and before the hairs are stepped.
+#[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) struct GatherColliders;
+
+/// Adds the enabled engines' gathering systems and head-collider observers.
+pub(crate) fn build(app: &mut App) {
+    app.init_resource::<WorldColliders>().add_systems(
+        PostUpdate,
+        begin_frame
+            .before(GatherColliders)
+            .in_set(crate::HairSystems::Simulate),
+    );
+    #[cfg(feature = "rapier")]
+    rapier::build(app);
+    #[cfg(feature = "avian")]
+    avian::build(app);
+}
+
+/// Last frame's colliders go; their poses become the history moving ones are interpolated from.
+fn begin_frame(mut world: ResMut<WorldColliders>) {
+    let world = &mut *world;
+    world.colliders.clear();
+    world.seen_by.clear();
+    std::mem::swap(&mut world.poses, &mut world.next_poses);
+    world.next_poses.clear();
+}
+
+/// What a gathered engine collider is, for the solver.
+pub(crate) enum WorldShape {
+    /// Spheres in the collider's space (centre, radius): followed per substep.
+    Spheres(Vec<(Vec3A, f32)>),
+    /// Any other shape, projected onto at the frame's final pose.
+    #[cfg(any(feature = "rapier", feature = "avian"))]
+    Other(ShapeKind),
+}
+
+/// A collider of the world, at the previous and the current frame.
+pub(crate) struct WorldCollider {
+    pub prev: Affine3A,
+    pub now: Affine3A,
+    pub shape: WorldShape,
+}
+
+/// The world's engine colliders this frame, and which hairs see which of them.
+#[derive(Resource, Default)]
+pub(crate) struct WorldColliders {
+    pub colliders: Vec<WorldCollider>,
+    /// Hair entity -> indices into `colliders` it collides with.
+    pub seen_by: EntityHashMap<Vec<usize>>,
+    /// Each gathered collider's pose last frame.
+    poses: EntityHashMap<Affine3A>,
+    /// Poses written this frame (swapped into `poses` at the start of the next gather).
+    next_poses: EntityHashMap<Affine3A>,
+}
+
+impl WorldColliders {
+    /// Adds a collider that `hairs` see (nothing when none does).
+    pub(crate) fn push(
+        &mut self,
+        entity: Entity,
+        now: Affine3A,
+        shape: WorldShape,
+        hairs: &[Entity],
+    ) {
+        if hairs.is_empty() {
+            return;
+        }
+        let prev = self.poses.get(&entity).copied().unwrap_or(now);
+        self.next_poses.insert(entity, now);
+        let index = self.colliders.len();
+        self.colliders.push(WorldCollider { prev, now, shape });
+        for hair in hairs {
+            self.seen_by.entry(*hair).or_default().push(index);
+        }
+    }
+}
+
+/// An engine's shape at a pose: what the solver projects particles onto. (Without an engine
+/// feature it has no variant, and no value of it exists.)
+#[derive(Clone)]
+pub(crate) enum ShapeKind {
+    /// A rapier shape at its pose.
+    #[cfg(feature = "rapier")]
+    Rapier(
+        bevy_rapier3d::parry::shape::SharedShape,
+        bevy_rapier3d::parry::math::Pose,
+    ),
+    /// An avian collider (its scaled shape) at a translation and rotation.
+    #[cfg(feature = "avian")]
+    Avian(avian3d::prelude::Collider, Vec3, Quat),
+}
+
+impl ShapeKind {
+    /// The shape at `pose` (translation and rotation; scale is the engine's own), its bounds
+    /// grown by `margin`: what the solver tests particles against.
+    #[cfg(any(feature = "rapier", feature = "avian"))]
+    pub(crate) fn collider(&self, pose: &Affine3A, margin: f32) -> ShapeCollider {
+        let (_, rotation, translation) = pose.to_scale_rotation_translation();
+        let shape = match *self {
+            #[cfg(feature = "rapier")]
+            Self::Rapier(ref shape, _) => Self::Rapier(
+                shape.clone(),
+                bevy_rapier3d::parry::math::Pose::from_parts(translation, rotation),
+            ),
+            #[cfg(feature = "avian")]
+            Self::Avian(ref collider, _, _) => Self::Avian(collider.clone(), translation, rotation),
+        };
+        let (min, max) = shape.aabb();
+        ShapeCollider {
+            shape,
+            aabb_min: min - Vec3::splat(margin),
+            aabb_max: max + Vec3::splat(margin),
+        }
+    }
+
+    /// World bounds (min, max).
+    #[cfg(any(feature = "rapier", feature = "avian"))]
+    fn aabb(&self) -> (Vec3, Vec3) {
+        match *self {
+            #[cfg(feature = "rapier")]
+            Self::Rapier(ref shape, ref pose) => {
+                let aabb = shape.compute_aabb(pose);
+                (aabb.mins, aabb.maxs)
+            }
+            #[cfg(feature = "avian")]
+            Self::Avian(ref collider, translation, rotation) => {
+                use avian3d::prelude::SimpleCollider;
+                let aabb = collider.aabb(translation, rotation);
+                (aabb.min, aabb.max)
+            }
+        }
+    }
+
+    #[cfg_attr(
+        not(any(feature = "rapier", feature = "avian")),
+        expect(unused_variables, reason = "without an engine there is no shape")
+    )]
+    /// The nearest point on the surface to `x` and whether `x` is inside. (The shape is
+    /// treated as hollow: a solid projection of an inside point is the point itself, which
+    /// gives no way out.)
+    pub(crate) fn project(&self, x: Vec3) -> (Vec3, bool) {
+        match *self {
+            #[cfg(feature = "rapier")]
+            Self::Rapier(ref shape, ref pose) => {
+                let p = shape.project_point(pose, x, false);
+                (p.point, p.is_inside)
+            }
+            #[cfg(feature = "avian")]
+            Self::Avian(ref collider, translation, rotation) => {
+                collider.project_point(translation, rotation, x, false)
+            }
+        }
+    }
+
+    /// The engine's name and shape type, for `Debug`.
+    fn describe(&self) -> String {
+        match *self {
+            #[cfg(feature = "rapier")]
+            Self::Rapier(ref shape, _) => format!("rapier {:?}", shape.shape_type()),
+            #[cfg(feature = "avian")]
+            Self::Avian(ref collider, _, _) => {
+                format!("avian {:?}", collider.shape_scaled().shape_type())
+            }
+        }
+    }
+}
+
+/// A collider of any shape from a physics engine (features `rapier`, `avian`), tested through
+/// the engine's point projection. Opaque: the plugin fills it from the engine's colliders.
+#[derive(Clone)]
+pub struct ShapeCollider {
+    pub(crate) shape: ShapeKind,
+    /// World bounds, grown by the largest margin: nodes outside skip the query.
+    pub(crate) aabb_min: Vec3,
+    /// See `aabb_min`.
+    pub(crate) aabb_max: Vec3,
+}
+
+impl std::fmt::Debug for ShapeCollider {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ShapeCollider")
+            .field("shape", &self.shape.describe())
+            .field("aabb_min", &self.aabb_min)
+            .field("aabb_max", &self.aabb_max)
+            .finish()
+    }
+}

@@ -1,0 +1,105 @@
+//! rapier colliders (feature `rapier`).
+
+use bevy::math::Vec3A;
+use bevy::prelude::*;
+use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group, Sensor};
+
+use super::{GatherColliders, ShapeKind, WorldColliders, WorldShape};
+use crate::sim::HairCollider;
+use crate::sim::attach::HeadColliderOf;
+
+/// Opts a hair into colliding with the world's rapier colliders (feature `rapier`), filtered by
+/// rapier's own rule: a collider counts when `collider.memberships & hair.filters` and
+/// `hair.memberships & collider.filters` are both non-zero (`CollisionGroups::default()`: all).
+/// Without this component a hair collides only with [`HairCollider`]s: its own head collider and
+/// any you add. Sensors are never collided with.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug)]
+pub struct HairCollisionGroups(pub CollisionGroups);
+
+pub(super) fn build(app: &mut App) {
+    app.register_type::<HairCollisionGroups>()
+        .add_observer(head_collider)
+        .add_systems(
+            PostUpdate,
+            gather
+                .in_set(GatherColliders)
+                .in_set(crate::HairSystems::Simulate),
+        );
+}
+
+fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
+    (collider.memberships & hair.filters) != Group::NONE
+        && (hair.memberships & collider.filters) != Group::NONE
+}
+
+/// Other rapier users see the head too: a compound of its spheres.
+fn head_collider(
+    add: On<Add, HeadColliderOf>,
+    heads: Query<&HairCollider>,
+    mut commands: Commands,
+) {
+    let Ok(head) = heads.get(add.entity) else {
+        return;
+    };
+    commands.entity(add.entity).insert(Collider::compound(
+        head.spheres
+            .iter()
+            .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)))
+            .collect(),
+    ));
+}
+
+/// The world's rapier colliders, for the hairs that opted in.
+#[allow(clippy::type_complexity)]
+fn gather(
+    mut world: ResMut<WorldColliders>,
+    hairs: Query<(Entity, &HairCollisionGroups)>,
+    colliders: Query<
+        (
+            Entity,
+            &Collider,
+            &GlobalTransform,
+            Option<&CollisionGroups>,
+        ),
+        (Without<HairCollider>, Without<Sensor>),
+    >,
+) {
+    if hairs.is_empty() {
+        return;
+    }
+    let mut seen = Vec::new();
+    for (entity, collider, global, groups) in &colliders {
+        let groups = groups.copied().unwrap_or_default();
+        seen.clear();
+        seen.extend(
+            hairs
+                .iter()
+                .filter(|(_, hair)| groups_match(&hair.0, &groups))
+                .map(|(e, _)| e),
+        );
+        let shape = &collider.raw;
+        let shape = if let Some(ball) = shape.as_ball() {
+            WorldShape::Spheres(vec![(Vec3A::ZERO, ball.radius)])
+        } else if let Some(compound) = shape.as_compound()
+            && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
+        {
+            WorldShape::Spheres(
+                compound
+                    .shapes()
+                    .iter()
+                    .map(|(pose, s)| {
+                        let r = s.as_ball().map_or(0.0, |b| b.radius);
+                        (Vec3A::from(pose.translation), r)
+                    })
+                    .collect(),
+            )
+        } else {
+            WorldShape::Other(ShapeKind::Rapier(shape.clone(), Default::default()))
+        };
+        // rapier's shape is already scaled (`Collider::raw`): the pose must not scale it again.
+        let (_, r, t) = global.to_scale_rotation_translation();
+        let pose = bevy::math::Affine3A::from_rotation_translation(r, t);
+        world.push(entity, pose, shape, &seen);
+    }
+}
