@@ -9,8 +9,8 @@ use bevy::transform::helper::TransformHelper;
 use super::bone::BoneSearch;
 use super::collider::HairCollider;
 use super::events::{
-    BoneMismatch, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady, HairRebuilt,
-    RebuildReason,
+    BoneMismatch, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed, HairAssetKind,
+    HairReady, HairRebuilt, RebuildReason,
 };
 use super::settings::HairSimSettings;
 use super::solver::{Batch, LANES, PINNED, build_chain};
@@ -531,6 +531,11 @@ pub(crate) fn build_hair_strands(
                 assets.path(&hair.groom),
                 mean_scale / authored
             );
+            commands.trigger(BoneScaleMismatch {
+                entity,
+                authored,
+                bone: mean_scale,
+            });
         }
         let (lo, hi) = settings.margins();
         let margins: Vec<f32> = (0..groom.strand_count() as u32)

@@ -87,6 +87,21 @@ pub struct BoneMismatch {
     pub exported: String,
 }
 
+/// The groom was exported from a bone of another scale than the one it hangs on (its
+/// `bone_scale` differs from the bone's world scale by more than 1%): the hair comes out
+/// `bone / authored` times its authored size. Usually the character and its hair were exported
+/// from different files, or the armature's scale was applied in one and not the other. The hair
+/// is still built.
+#[derive(EntityEvent, Clone, Debug, PartialEq)]
+pub struct BoneScaleMismatch {
+    /// The hair entity.
+    pub entity: Entity,
+    /// Metres per bone unit where the groom was made (its `bone_scale`).
+    pub authored: f32,
+    /// Metres per bone unit of the bone it hangs on.
+    pub bone: f32,
+}
+
 /// The animation's keyframes do not match the groom's strands: the hair anchors to the groom's
 /// own style.
 #[derive(EntityEvent, Clone, Debug, PartialEq)]

@@ -4,7 +4,7 @@
 //! - [`Hair`] on the user's entity, hung on a bone with [`AttachToBone`] (by name, predicate or
 //!   entity; a missing bone is a [`BoneNotFound`] error) or made a child of the bone directly.
 //! - Events on the hair entity: [`HairReady`], [`HairRebuilt`], [`HairAssetFailed`],
-//!   [`BoneNotFound`], [`BoneMismatch`], [`HairAnimationMismatch`].
+//!   [`BoneNotFound`], [`BoneMismatch`], [`BoneScaleMismatch`], [`HairAnimationMismatch`].
 //! - Any rig scale: the groom is in the bone's space and is scaled by the bone's scale when the
 //!   strands are built; the solver, margins, radii and gravity work in world metres.
 //! - One entity per guide strand ([`StrandOf`], [`Strand`], [`StrandParticles`]).
@@ -44,8 +44,8 @@ pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawne
 pub use clock::{HairTime, HairTimeExt};
 pub use collider::HairCollider;
 pub use events::{
-    BoneMismatch, BoneNotFound, HairAnimationMismatch, HairAssetFailed, HairAssetKind, HairReady,
-    HairRebuilt, RebuildReason,
+    BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
+    HairAssetKind, HairReady, HairRebuilt, RebuildReason,
 };
 #[cfg(feature = "rapier")]
 pub use physics::HairCollisionGroups;

@@ -602,6 +602,10 @@ fn event_app() -> App {
         seen.0
             .push(format!("mismatch {} {}", e.attached, e.exported));
     })
+    .add_observer(|e: On<BoneScaleMismatch>, mut seen: ResMut<Seen>| {
+        seen.0
+            .push(format!("scale mismatch {} {}", e.authored, e.bone));
+    })
     .add_observer(|e: On<HairAnimationMismatch>, mut seen: ResMut<Seen>| {
         seen.0.push(format!("animation mismatch {}", e.message));
     });
@@ -784,6 +788,43 @@ fn a_bone_other_than_the_exported_one_is_an_error() {
     }
     assert_eq!(seen(&app), vec!["mismatch neck head".to_string()]);
     assert_eq!(strand_count(&mut app), 0);
+}
+
+#[test]
+fn a_bone_of_another_scale_than_the_authored_one_is_reported_once() {
+    let run = |bone_scale: f32| {
+        let mut app = event_app();
+        let mut groom = spiky_groom(5, 4);
+        groom.bone_scale = Some(0.01); // made on a Mixamo-style rig
+        let groom = app
+            .world_mut()
+            .resource_mut::<Assets<HairGroom>>()
+            .add(groom);
+        let root = Transform::from_scale(Vec3::splat(bone_scale));
+        let (root, _) = character(&mut app, root, Vec3::Y);
+        app.world_mut().spawn((
+            Hair { groom, ..default() },
+            AttachToBone::named(root, "head"),
+        ));
+        for _ in 0..5 {
+            app.update();
+        }
+        (seen(&app), strand_count(&mut app))
+    };
+    let (events, strands) = run(0.01);
+    assert_eq!(
+        events,
+        vec!["ready 5".to_string()],
+        "the authored scale: no report"
+    );
+    assert_eq!(strands, 5);
+    let (events, strands) = run(1.0);
+    assert_eq!(
+        events,
+        vec!["scale mismatch 0.01 1".to_string(), "ready 5".to_string()],
+        "another scale: one report, and the hair is still built"
+    );
+    assert_eq!(strands, 5);
 }
 
 /// Every strand's particles, in strand order.
