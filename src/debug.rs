@@ -6,7 +6,7 @@
 //!   [`HairStageTimings`] and in Bevy's `DiagnosticsStore` (paths in [`paths`]), with the hair's
 //!   counters (strands, substeps, resets, teleports).
 
-use crate::HairSystems;
+use crate::schedule::HairSystems;
 use crate::sim::{ComputedHair, HairCollider, HairStrands, Strand, StrandParticles};
 use bevy::diagnostic::{Diagnostic, Diagnostics, RegisterDiagnostic};
 use bevy::platform::time::Instant;
@@ -138,13 +138,13 @@ fn mark_stage_boundary<const B: usize>(mut timings: ResMut<HairStageTimings>) {
 pub mod paths {
     use bevy::diagnostic::DiagnosticPath;
 
-    /// [`HairSystems::Attach`](crate::HairSystems::Attach), ms.
+    /// [`HairSystems::Attach`](crate::schedule::HairSystems::Attach), ms.
     pub const ATTACH: DiagnosticPath = DiagnosticPath::const_new("hair/attach_ms");
-    /// [`HairSystems::Simulate`](crate::HairSystems::Simulate), ms.
+    /// [`HairSystems::Simulate`](crate::schedule::HairSystems::Simulate), ms.
     pub const SIMULATE: DiagnosticPath = DiagnosticPath::const_new("hair/simulate_ms");
-    /// [`HairSystems::BuildMesh`](crate::HairSystems::BuildMesh), ms.
+    /// [`HairSystems::BuildMesh`](crate::schedule::HairSystems::BuildMesh), ms.
     pub const BUILD_MESH: DiagnosticPath = DiagnosticPath::const_new("hair/build_mesh_ms");
-    /// [`HairSystems::Silhouettes`](crate::HairSystems::Silhouettes), ms.
+    /// [`HairSystems::Silhouettes`](crate::schedule::HairSystems::Silhouettes), ms.
     pub const SILHOUETTES: DiagnosticPath = DiagnosticPath::const_new("hair/silhouettes_ms");
     /// Guide strands simulated.
     pub const STRANDS: DiagnosticPath = DiagnosticPath::const_new("hair/strands");
@@ -303,7 +303,7 @@ mod tests {
         app.add_plugins((
             MinimalPlugins,
             bevy::diagnostic::DiagnosticsPlugin,
-            crate::HairSchedulePlugin,
+            crate::schedule::HairSchedulePlugin,
             HairStageTimingsPlugin,
         ))
         .add_systems(PostUpdate, sleep_ms(2).in_set(HairSystems::Attach))

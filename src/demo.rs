@@ -26,9 +26,9 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::world_serialization::{WorldAsset, WorldAssetRoot, WorldInstanceReady};
 
-use crate::CartoonHairPlugins;
 use crate::headless::{CaptureSettings, HeadlessError, HeadlessRenderer};
 use crate::mesh::ComputedHairMesh;
+use crate::plugins::CartoonHairPlugins;
 use crate::preset::HairPreset;
 use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps};
 use crate::sim::{AttachToBone, ComputedHair, Hair, HairAssetFailed, HairSimSettings};

@@ -99,8 +99,10 @@
 //!
 //! ## Frame order
 //!
-//! See [`HairSystems`]: attach, simulate, build meshes, silhouettes, all in `PostUpdate` after
-//! [`TransformSystems::Propagate`] so the bone the hair hangs on has its final pose for the frame.
+//! See [`HairSystems`]: attach, simulate, build meshes, silhouettes, materials, all in
+//! `PostUpdate` after transform propagation (so the bone the hair hangs on has its final pose
+//! for the frame) and before Bevy's visibility systems (so what hair spawns or hides is culled
+//! in the same frame).
 //!
 //! ## FAQ
 //!
@@ -155,42 +157,19 @@ pub mod hatching;
 #[cfg(feature = "demo")]
 pub mod headless;
 pub mod mesh;
+mod plugins;
 #[cfg(feature = "render")]
 pub mod preset;
 #[cfg(feature = "render")]
 pub mod render;
+pub mod schedule;
 pub mod silhouette;
 pub mod sim;
 #[cfg(feature = "ui")]
 pub mod ui;
 
-use bevy::app::{PluginGroupBuilder, PostUpdate};
-use bevy::ecs::schedule::{IntoScheduleConfigs, SystemSet};
-use bevy::prelude::*;
-use bevy::transform::TransformSystems;
-
-/// A `TaskPoolPlugin` whose compute pool has a thread per core.
-///
-/// Bevy's default splits small machines between IO, async and compute pools, leaving compute (where
-/// systems, `par_iter` and this crate's strand work run) one thread on 2 cores. Hair simulation
-/// roughly halves in wall time with this on such machines. Use as
-/// `DefaultPlugins.set(compute_on_every_core())`.
-pub fn compute_on_every_core() -> bevy::app::TaskPoolPlugin {
-    use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
-    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
-    TaskPoolPlugin {
-        task_pool_options: TaskPoolOptions {
-            compute: TaskPoolThreadAssignmentPolicy {
-                min_threads: cores,
-                max_threads: cores,
-                percent: 1.0,
-                on_thread_spawn: None,
-                on_thread_destroy: None,
-            },
-            ..default()
-        },
-    }
-}
+pub use plugins::{CartoonHairPlugins, compute_on_every_core};
+pub use schedule::{HairSchedulePlugin, HairSystems};
 
 /// The things most apps need: `use bevy_cartoon_hair::prelude::*;`.
 pub mod prelude {
@@ -198,12 +177,14 @@ pub mod prelude {
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::HairMeshSettings;
     pub use crate::mesh::highlights::SpecularQuads;
+    pub use crate::plugins::CartoonHairPlugins;
     #[cfg(feature = "render")]
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
         HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
     };
+    pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
     #[cfg(feature = "rapier")]
     pub use crate::sim::HairCollisionGroups;
@@ -215,81 +196,4 @@ pub mod prelude {
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};
-    pub use crate::{CartoonHairPlugins, HairSystems};
-}
-
-/// All of the crate's plugins. Add it once, next to `DefaultPlugins`.
-///
-/// | plugin | role |
-/// |--------|------|
-/// | [`HairSchedulePlugin`] | orders the [`HairSystems`] sets |
-/// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders |
-/// | [`sim::HairSimulationPlugin`] | attaches hair to bones and simulates strands |
-/// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
-/// | [`silhouette::HairSilhouettePlugin`] | object-space outline strokes |
-/// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
-/// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
-/// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
-///
-/// The egui tuning panel (`ui::HairTuningUiPlugin`, feature `ui`) is not in the group: a shipped
-/// game does not carry a debug panel. Add it yourself during development.
-pub struct CartoonHairPlugins;
-
-impl PluginGroup for CartoonHairPlugins {
-    fn build(self) -> PluginGroupBuilder {
-        let group = PluginGroupBuilder::start::<Self>()
-            .add(HairSchedulePlugin)
-            .add(asset::HairAssetPlugin)
-            .add(sim::HairSimulationPlugin)
-            .add(mesh::HairMeshPlugin)
-            .add(silhouette::HairSilhouettePlugin);
-        #[cfg(feature = "render")]
-        let group = group
-            .add(render::HairShaderLibraryPlugin)
-            .add(render::ToonHairMaterialPlugin)
-            .add(render::ImageSpaceOutlinePlugin);
-        group
-    }
-}
-
-/// The stages of a hair frame, run in `PostUpdate` in this order:
-///
-/// 1. [`HairSystems::Attach`]: spawn strand entities for new `Hair`, follow bones, detach.
-/// 2. [`HairSystems::Simulate`]: step particles (sub-stepped springs, anchors, collisions).
-/// 3. [`HairSystems::BuildMesh`]: rebuild the swept tube meshes from the particles.
-/// 4. [`HairSystems::Silhouettes`]: extract object-space outline strokes from those meshes.
-///
-/// The whole chain runs after [`TransformSystems::Propagate`], which itself runs after Bevy's
-/// animation systems, so bones already carry this frame's animated pose.
-#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum HairSystems {
-    /// Spawn, follow and despawn hair attached to bones.
-    Attach,
-    /// Advance the strand simulation by the frame's time.
-    Simulate,
-    /// Rebuild strand meshes from particle positions.
-    BuildMesh,
-    /// Extract silhouette strokes from strand meshes.
-    Silhouettes,
-}
-
-/// Configures the [`HairSystems`] chain. Part of [`CartoonHairPlugins`].
-#[derive(Default)]
-pub struct HairSchedulePlugin;
-
-impl Plugin for HairSchedulePlugin {
-    fn build(&self, app: &mut App) {
-        app.configure_sets(
-            PostUpdate,
-            (
-                HairSystems::Attach,
-                HairSystems::Simulate,
-                HairSystems::BuildMesh,
-                HairSystems::Silhouettes,
-            )
-                .chain()
-                // Bones must hold this frame's animated, propagated pose before hair reads them.
-                .after(TransformSystems::Propagate),
-        );
-    }
 }

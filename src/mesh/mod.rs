@@ -17,9 +17,9 @@ use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 use bevy::tasks::{ComputeTaskPool, TaskPool};
 
-use crate::HairSystems;
 use crate::asset::HairGroom;
 use crate::curve::QuadraticCurve;
+use crate::schedule::HairSystems;
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use tube::{FrameReference, TubeParams, TubeScratch, TubeTopology};
 

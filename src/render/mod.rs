@@ -7,6 +7,8 @@
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
+use crate::schedule::HairSystems;
+
 mod outline;
 mod ramps;
 #[cfg(test)]
@@ -101,11 +103,13 @@ impl Plugin for ToonHairMaterialPlugin {
                     apply_stroke_material,
                     apply_highlight_material,
                 )
-                    // Mesh and stroke entities exist once BuildMesh and Silhouettes have run.
-                    .after(crate::HairSystems::Silhouettes),
+                    .in_set(HairSystems::Materials),
             )
             // Hatching works without the panel: materials that ask for it get a map.
-            .add_systems(PostUpdate, assign_tonal_art_maps);
+            .add_systems(
+                PostUpdate,
+                assign_tonal_art_maps.in_set(HairSystems::Materials),
+            );
     }
 }
 

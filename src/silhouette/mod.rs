@@ -27,7 +27,7 @@ pub use strokes::{
 
 use bevy::prelude::*;
 
-use crate::HairSystems;
+use crate::schedule::HairSystems;
 use crate::sim::Hair;
 
 /// Extracts object-space silhouette strokes every frame. Part of

@@ -55,7 +55,7 @@ pub use settings::{HairSimSettings, compliance_factor};
 
 use bevy::prelude::*;
 
-use crate::HairSystems;
+use crate::schedule::HairSystems;
 
 /// Debug output of the simulation. Pausing and stepping the hair is [`Time<HairTime>`](Time)'s
 /// job ([`HairTimeExt`]).

@@ -11,7 +11,7 @@ use super::*;
 use crate::asset::{
     CollisionSphere, HairAnimation, HairAssetPlugin, HairGroom, HairKeyframe, HeadCollision,
 };
-use crate::{HairSchedulePlugin, curve::QuadraticCurve};
+use crate::{curve::QuadraticCurve, schedule::HairSchedulePlugin};
 
 const HEAD_RADIUS: f32 = 0.1;
 

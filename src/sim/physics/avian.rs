@@ -24,7 +24,7 @@ pub(super) fn build(app: &mut App) {
             PostUpdate,
             gather
                 .in_set(GatherColliders)
-                .in_set(crate::HairSystems::Simulate),
+                .in_set(crate::schedule::HairSystems::Simulate),
         );
 }
 

@@ -41,7 +41,7 @@ pub(crate) fn build(app: &mut App) {
         PostUpdate,
         begin_frame
             .before(GatherColliders)
-            .in_set(crate::HairSystems::Simulate),
+            .in_set(crate::schedule::HairSystems::Simulate),
     );
     #[cfg(feature = "rapier")]
     rapier::build(app);
