@@ -225,9 +225,12 @@ fn bench_tam(c: &mut Criterion) {
 /// plugin runs it on this machine's two cores, mesh writing included (`plugin_2_threads_*`).
 fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     use bevy_cartoon_hair::mesh::tube::{TubeParams, TubeScratch, TubeTopology, build_tube};
-    use bevy_cartoon_hair::silhouette::edges::{
-        EdgeAdjacency, SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams,
-        StrokeVertices, build_chain_strip, chain_edges, silhouette_edges,
+    use bevy_cartoon_hair::silhouette::adjacency::{
+        EdgeAdjacency, SilhouetteScratch, silhouette_edges,
+    };
+    use bevy_cartoon_hair::silhouette::chain::{SilhouetteChains, chain_edges};
+    use bevy_cartoon_hair::silhouette::strip::{
+        StrokeCamera, StrokeParams, StrokeVertices, build_chain_strip,
     };
     use bevy_cartoon_hair::silhouette::strokes::{StrokeBuilder, StrokeWorker};
     use bevy_cartoon_hair::silhouette::tube_edges::{TubeEdgeScratch, TubeEdges};

@@ -1,23 +1,30 @@
 //! Silhouettes (thesis 4.3.7): object-space stroke geometry.
 //!
-//! [`edges`] holds the CPU side: an edge-adjacency table of the strand topology built once and
-//! shared by all strands, per-frame extraction of the edges between front- and back-facing
-//! triangles, chaining into ordered polylines (several loops and open chains per strand, no edge
-//! ever dropped, odd vertices split rather than lost), and screen-space stroke strips with the
-//! thesis's angle, depth and stroke scaling, stroke limit and E-curve fade.
+//! The CPU side, by stage:
+//! - [`adjacency`]: an edge-adjacency table of any closed mesh, built once per topology, and
+//!   per-frame extraction of the edges between front- and back-facing triangles (the general
+//!   path, public for meshes other than hair; see its example);
+//! - [`tube_edges`]: the same edges found faster on strand tubes (what the hair uses);
+//! - [`chain`]: chaining into ordered polylines (several loops and open chains per strand, no
+//!   edge ever dropped, odd vertices split rather than lost);
+//! - [`strip`]: screen-space stroke strips with the thesis's angle, depth and stroke scaling,
+//!   stroke limit and E-curve fade.
 //!
-//! [`tube_edges`] finds the same silhouette edges faster on strand tubes: the two triangles of
-//! every quad are tested in one vectorised pass over coordinate rows, the results become bit
-//! masks per ring band, and each class of edge is the exclusive or of two masks. Tests check it
-//! against the general path edge for edge.
+//! [`tube_edges`] tests the two triangles of every quad in one vectorised pass over coordinate
+//! rows; the results become bit masks per ring band, and each class of edge is the exclusive or
+//! of two masks. Tests check it against the general path edge for edge.
 //!
 //! [`strokes`] is the ECS side: [`SilhouetteSettings`] per hair, the [`extract_silhouettes`]
 //! system (blocks of strands shared out to threads, each block's strokes moved into a mesh of
 //! its own without a copy), and the stroke mesh entities (drawn by the render plugin with a textured, unlit,
 //! depth-tested material; the module docs explain how that handles self-overlapping strands).
 
-pub mod edges;
+pub mod adjacency;
+pub mod chain;
+pub mod strip;
 pub mod strokes;
+#[cfg(test)]
+mod tests;
 pub mod tube_edges;
 
 pub use strokes::{

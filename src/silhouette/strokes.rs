@@ -20,10 +20,9 @@ use bevy::tasks::{ComputeTaskPool, TaskPool};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use super::edges::{
-    SilhouetteChains, SilhouetteScratch, StrokeCamera, StrokeParams, StrokeVertices,
-    build_chain_strip, chain_edges,
-};
+use super::adjacency::SilhouetteScratch;
+use super::chain::{SilhouetteChains, chain_edges};
+use super::strip::{StrokeCamera, StrokeParams, StrokeVertices, build_chain_strip};
 use super::tube_edges::{TubeEdgeScratch, TubeEdges};
 use crate::curve::QuadraticCurve;
 use crate::mesh::{ComputedHairMesh, HairMeshSettings, StripBuffers};

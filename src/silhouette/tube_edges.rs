@@ -1,6 +1,6 @@
 //! Silhouette edges of strand tubes from per-ring facing bit masks.
 //!
-//! [`silhouette_edges`](super::edges::silhouette_edges) works on any closed mesh: it tests every
+//! [`silhouette_edges`](super::adjacency::silhouette_edges) works on any closed mesh: it tests every
 //! triangle through the index list, then walks the whole edge table. A strand tube (the layout of
 //! [`TubeTopology`]) is a grid, so [`TubeEdges`] does the same job with its structure:
 //!
@@ -17,7 +17,7 @@
 
 use bevy::math::Vec3A;
 
-use super::edges::Viewer;
+use super::adjacency::Viewer;
 use crate::mesh::tube::TubeTopology;
 
 /// The silhouette-edge finder of one [`TubeTopology`]; cheap to build (it only keeps the sizes).
@@ -59,7 +59,7 @@ impl TubeEdges {
 
     /// Writes the silhouette edges of one strand's tube (`positions`, laid out as
     /// [`TubeTopology`] says) seen by `viewer` into `out` (cleared first). The edges and their
-    /// orientation are those of [`silhouette_edges`](super::edges::silhouette_edges) on
+    /// orientation are those of [`silhouette_edges`](super::adjacency::silhouette_edges) on
     /// [`TubeTopology::indices`]; only their order differs.
     ///
     /// # Panics
@@ -384,7 +384,7 @@ fn facing_values_body(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::silhouette::edges::{EdgeAdjacency, SilhouetteScratch, silhouette_edges};
+    use crate::silhouette::adjacency::{EdgeAdjacency, SilhouetteScratch, silhouette_edges};
     use bevy::math::Vec3;
 
     /// A small deterministic generator (xorshift).
