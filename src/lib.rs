@@ -82,8 +82,8 @@
 //!
 //! ## Plugins
 //!
-//! [`CartoonHairPlugins`] is a [`PluginGroup`]; every member can be disabled or replaced with
-//! [`PluginGroupBuilder::disable`] / [`PluginGroupBuilder::set`].
+//! [`CartoonHairPlugins`] is a [`PluginGroup`](bevy::app::PluginGroup); every member can be disabled or replaced with
+//! [`PluginGroupBuilder::disable`](bevy::app::PluginGroupBuilder::disable) / [`PluginGroupBuilder::set`](bevy::app::PluginGroupBuilder::set).
 //!
 //! | plugin | what it does | disable or replace when |
 //! |--------|--------------|-------------------------|

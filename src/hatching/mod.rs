@@ -7,7 +7,12 @@
 //! generated levels as its mip chain, so the GPU's trilinear filtering keeps stroke width constant
 //! on screen. The `generate_tam` example writes the tones and mips as PNGs.
 
+mod raster;
+mod settings;
+mod stroke_image;
 pub mod tam;
+#[cfg(test)]
+mod tam_tests;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
@@ -17,7 +22,9 @@ use bevy::render::render_resource::{
     TextureViewDimension,
 };
 
-pub use tam::{StrokeImage, TamError, TamSettings, TonalArtMap, generate};
+pub use settings::{TamError, TamSettings};
+pub use stroke_image::{MAX_STROKE_IMAGE_SIZE, StrokeImage};
+pub use tam::{TamLevel, TonalArtMap, generate};
 
 /// Packs a tonal art map into a 2D array texture (`R8Unorm`, one layer per tone, lightest first;
 /// `1.0` is paper, `0.0` ink) whose mip chain is the map's own levels, with a repeating,

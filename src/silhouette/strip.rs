@@ -117,7 +117,7 @@ impl StrokeCamera {
 
     /// This camera, seen from `viewer`: the eye point of a perspective camera, or the direction
     /// toward an orthographic one. It is what [`StrokeParams::depth_bias`] pulls toward and
-    /// what the facing test of [`silhouette_edges`] should be given.
+    /// what the facing test of [`silhouette_edges`](super::adjacency::silhouette_edges) should be given.
     pub fn with_viewer(mut self, viewer: Viewer) -> Self {
         let finite = match viewer {
             Viewer::Point(p) => p.is_finite(),

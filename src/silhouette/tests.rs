@@ -3,8 +3,8 @@
 use super::adjacency::*;
 use super::chain::*;
 use super::strip::*;
-use bevy::math::{Mat4, Vec2, Vec3};
 use crate::mesh::tube::{FrameReference, TubeParams, TubeScratch, TubeTopology, build_tube};
+use bevy::math::{Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 
 struct Tube {
