@@ -7,6 +7,8 @@
 
 use bevy::prelude::*;
 
+use crate::math::finite_or;
+
 /// `value = a*x^2 + b*x + c` over `x` in `[0, 1]` from root (`0`) to tip (`1`).
 #[derive(Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Default, Debug, PartialEq)]
@@ -41,25 +43,18 @@ impl QuadraticCurve {
         Self::new(0.0, tip - root, root)
     }
 
-    /// The curve's value at `x`; `x` is clamped to `[0, 1]`.
+    /// The curve's value at `x`; `x` is clamped to `[0, 1]` (`0` when not finite).
+    #[inline]
     pub fn eval(&self, x: f32) -> f32 {
-        let x = if x.is_finite() {
-            x.clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let x = finite_or(x, 0.0).clamp(0.0, 1.0);
         (self.a * x + self.b) * x + self.c
     }
 
     /// Like [`QuadraticCurve::eval`] but clamped to `[0, 1]` and `0` for non-finite results: for
     /// stiffnesses and alphas.
+    #[inline]
     pub fn eval_unit(&self, x: f32) -> f32 {
-        let v = self.eval(x);
-        if v.is_finite() {
-            v.clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
+        finite_or(self.eval(x), 0.0).clamp(0.0, 1.0)
     }
 }
 

@@ -156,7 +156,9 @@ pub mod demo;
 pub mod hatching;
 #[cfg(feature = "demo")]
 pub mod headless;
+mod math;
 pub mod mesh;
+mod parallel;
 mod plugins;
 #[cfg(feature = "render")]
 pub mod preset;

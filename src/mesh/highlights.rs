@@ -7,9 +7,7 @@
 //! here they sit on the tube's surface at `N*` and are pulled a little toward the camera, so they
 //! show on the hair where its highlight is.
 
-use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::NoFrustumCulling;
-use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 
 use super::tube::sample_spline;
@@ -171,17 +169,6 @@ impl HighlightBuilder {
     }
 }
 
-fn empty_mesh() -> Mesh {
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
-    )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new())
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, Vec::<[f32; 3]>::new())
-    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, Vec::<[f32; 2]>::new())
-    .with_inserted_indices(Indices::U32(Vec::new()))
-}
-
 /// Rebuilds every hair's highlight strips for the first active 3D camera and the first
 /// directional light.
 // A Bevy system: its parameters are its queries.
@@ -233,7 +220,7 @@ pub fn build_specular_quads(
             Some(m) => m.0.clone(),
             None => {
                 if existing.is_none() {
-                    let mesh = meshes.add(empty_mesh());
+                    let mesh = meshes.add(StripBuffers::empty_mesh(false));
                     commands.spawn((
                         Name::new("hair highlights"),
                         Mesh3d(mesh),

@@ -15,10 +15,10 @@ use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
-use bevy::tasks::{ComputeTaskPool, TaskPool};
 
 use crate::asset::HairGroom;
 use crate::curve::QuadraticCurve;
+use crate::parallel;
 use crate::schedule::HairSystems;
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use tube::{FrameReference, TubeParams, TubeScratch, TubeTopology};
@@ -165,8 +165,8 @@ pub fn rebuild_strand_meshes(
     strands: Query<(&Strand, &StrandParticles)>,
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
-    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
-    for (hair, hair_assets, settings, global, strand_list, computed, sim) in &mut hairs {
+    let pool = parallel::compute_pool();
+    for (hair, hair_assets, settings, global, strand_list, mut computed, sim) in &mut hairs {
         // A character scaled at run time keeps its tubes in proportion.
         let radius = settings.radius * sim.size();
         let (rings, sides) = settings_topology(settings);
@@ -174,7 +174,9 @@ pub fn rebuild_strand_meshes(
         let rebuild = computed.as_ref().is_none_or(|c| {
             c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
         });
-        let computed = if rebuild {
+        // Built on creation and on a topology change; read in place on every other frame.
+        let mut created = None;
+        if rebuild {
             let topology = TubeTopology::new(rings, sides);
             let mesh = meshes.add(new_hair_mesh(&topology, count));
             let entity = match &computed {
@@ -211,10 +213,17 @@ pub fn rebuild_strand_meshes(
                 entity,
                 rest_frames,
             };
-            commands.entity(hair).insert(c.clone());
-            c
-        } else {
-            computed.map(|c| c.clone()).expect("checked above")
+            match computed.as_deref_mut() {
+                Some(existing) => *existing = c,
+                None => {
+                    // The component lands at the end of the frame; this frame uses the copy.
+                    commands.entity(hair).insert(c.clone());
+                    created = Some(c);
+                }
+            }
+        }
+        let Some(computed) = created.as_ref().or(computed.as_deref()) else {
+            continue;
         };
         // Gather particles in strand order, reusing last frame's buffers.
         let mut gathered = 0;
@@ -263,33 +272,22 @@ pub fn rebuild_strand_meshes(
         let mut positions = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_POSITION);
         let mut normals = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_NORMAL);
         normals.resize(positions.len(), [0.0, 1.0, 0.0]);
-        // The pool's threads plus this one (which would otherwise only wait in `scope`).
-        let workers = pool.thread_num().max(1) + 1;
-        let chunk = scratch.len().div_ceil(workers).max(1);
+        let chunk = scratch.len().div_ceil(parallel::workers(pool)).max(1);
         let topology = &computed.topology;
-        let strands_ref = &*scratch;
-        pool.scope(|scope| {
-            for (i, ((pos, nrm), group)) in positions
-                .chunks_mut(per * chunk)
-                .zip(normals.chunks_mut(per * chunk))
-                .zip(strands_ref.chunks(chunk))
-                .enumerate()
+        let parts = positions
+            .chunks_mut(per * chunk)
+            .zip(normals.chunks_mut(per * chunk))
+            .zip(scratch.chunks(chunk));
+        parallel::run_parts(pool, parts, &|((pos, nrm), group): (
+            (&mut [[f32; 3]], &mut [[f32; 3]]),
+            &[(u32, Vec<Vec3>)],
+        )| {
+            let mut tmp = TubeScratch::default();
+            for ((p, n), (index, particles)) in
+                pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
             {
-                let params_for = &params_for;
-                let work = async move {
-                    let mut tmp = TubeScratch::default();
-                    for ((p, n), (index, particles)) in
-                        pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
-                    {
-                        let params = params_for(*index);
-                        tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
-                    }
-                };
-                if i == 0 {
-                    scope.spawn_on_scope(work);
-                } else {
-                    scope.spawn(work);
-                }
+                let params = params_for(*index);
+                tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
             }
         });
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
@@ -318,6 +316,24 @@ pub(crate) struct StripBuffers {
 }
 
 impl StripBuffers {
+    /// An empty strip mesh (positions, +Z normals, UVs, indices; vertex colours when
+    /// `with_colors`), for [`StripBuffers::take`] and [`StripBuffers::put`] to fill.
+    pub(crate) fn empty_mesh(with_colors: bool) -> Mesh {
+        let mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, Vec::<[f32; 3]>::new())
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, Vec::<[f32; 2]>::new())
+        .with_inserted_indices(Indices::U32(Vec::new()));
+        if with_colors {
+            mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, Vec::<[f32; 4]>::new())
+        } else {
+            mesh
+        }
+    }
+
     /// Takes the buffers out of `mesh`, emptied (except the normals, which are constant).
     pub(crate) fn take(mesh: &mut Mesh) -> Self {
         let mut b = Self {

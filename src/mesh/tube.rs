@@ -35,6 +35,8 @@
 
 use bevy::math::{Vec3, Vec3A};
 
+use crate::math::orthonormalise;
+
 /// The fewest rings (samples along the strand) a tube has.
 pub const MIN_RINGS: usize = 2;
 /// The most rings (samples along the strand) a tube has.
@@ -534,13 +536,6 @@ fn transport(v: Vec3, from: Vec3, to: Vec3) -> Vec3 {
     }
     let a = from.cross(to);
     v * c + a.cross(v) + a * (a.dot(v) / (1.0 + c))
-}
-
-/// `v` made perpendicular to unit `t` and normalised, with a fallback when it is parallel.
-fn orthonormalise(v: Vec3, t: Vec3) -> Vec3 {
-    (v - t * t.dot(v))
-        .try_normalize()
-        .unwrap_or_else(|| t.any_orthonormal_vector())
 }
 
 #[cfg(test)]

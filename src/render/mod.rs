@@ -34,7 +34,7 @@ pub const SHADER_LIBRARY: &[(&str, &str)] =
 pub const MATERIAL_SHADERS: &[(&str, &str)] = &[("toon.wgsl", include_str!("toon.wgsl"))];
 
 /// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
-pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wgsl", include_str!("outline.wgsl"))];
+pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wgsl", include_str!("outline/outline.wgsl"))];
 
 /// Registers the crate's WGSL library modules so materials can `#import` them. Part of
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins).

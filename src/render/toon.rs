@@ -3,6 +3,8 @@
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
+
+use crate::math::finite_or;
 use bevy::render::render_resource::{
     AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
 };
@@ -113,10 +115,6 @@ pub struct ToonHairUniform {
     back_light_color: Vec4,
     params: Vec4,
     params2: Vec4,
-}
-
-fn finite_or(v: f32, default: f32) -> f32 {
-    if v.is_finite() { v } else { default }
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {

@@ -8,6 +8,7 @@ use bevy::math::{Mat4, Vec2, Vec3, Vec4};
 
 use super::adjacency::Viewer;
 use super::chain::SilhouetteChain;
+use crate::curve::QuadraticCurve;
 
 /// How silhouette polylines become strokes; the widths are in pixels.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -29,8 +30,8 @@ pub struct StrokeParams {
     /// clamped to half of it. Default `8.0`.
     pub stroke_limit_px: f32,
     /// The **E** curve `[a, b, c]`: alpha `a*x^2 + b*x + c` (clamped to `[0, 1]`) at `x` from `0`
-    /// at the root to `1` at the tip. Default `[0, 0, 1]` (opaque).
-    pub fade: [f32; 3],
+    /// at the root to `1` at the tip. Default: constant `1` (opaque).
+    pub fade: QuadraticCurve,
     /// Pixels of stroke per texture repeat: `u = arc length in px / texture_length_px`.
     /// Default `64.0`.
     pub texture_length_px: f32,
@@ -52,7 +53,7 @@ impl Default for StrokeParams {
             depth_scale: 0.0,
             stroke_scale: 1.0,
             stroke_limit_px: 8.0,
-            fade: [0.0, 0.0, 1.0],
+            fade: QuadraticCurve::constant(1.0),
             texture_length_px: 64.0,
             depth_bias: 0.0,
             color: [0.0, 0.0, 0.0, 1.0],
@@ -415,22 +416,6 @@ fn merge_duplicates(run: &mut Run, start: usize, end: usize) -> usize {
     kept
 }
 
-/// `a*x^2 + b*x + c` at `x` clamped to `[0, 1]`, clamped to `[0, 1]`; `0` when not finite.
-#[inline(always)]
-fn eval_unit([a, b, c]: [f32; 3], x: f32) -> f32 {
-    let x = if x.is_finite() {
-        x.clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let v = (a * x + b) * x + c;
-    if v.is_finite() {
-        v.clamp(0.0, 1.0)
-    } else {
-        0.0
-    }
-}
-
 /// Moves the run's points toward the viewer by the depth bias, projects them, and turns their
 /// position along the strand into alpha.
 fn project(run: &mut Run, n: usize, camera: &StrokeCamera, params: &StrokeParams) {
@@ -504,7 +489,7 @@ fn project_portable(run: &mut Run, n: usize, camera: &StrokeCamera, params: &Str
         sx[i] = cx * hx * inv_w;
         sy[i] = cy * hy * inv_w;
         w[i] = if valid { cw } else { f32::NAN };
-        alpha[i] = eval_unit(fade, alpha[i]);
+        alpha[i] = fade.eval_unit(alpha[i]);
     }
 }
 

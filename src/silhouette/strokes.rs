@@ -12,11 +12,9 @@
 //! buffer, which cannot tell a strand from itself and so drew outlines through self-overlapping
 //! strands (its Figure 4.18); a depth test has no such blind spot.
 
-use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::{NoFrustumCulling, RenderLayers};
-use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
-use bevy::tasks::{ComputeTaskPool, TaskPool};
+use bevy::tasks::TaskPool;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -25,6 +23,7 @@ use super::chain::{SilhouetteChains, chain_edges};
 use super::strip::{StrokeCamera, StrokeParams, StrokeVertices, build_chain_strip};
 use super::tube_edges::{TubeEdgeScratch, TubeEdges};
 use crate::curve::QuadraticCurve;
+use crate::math::finite_or;
 use crate::mesh::{ComputedHairMesh, HairMeshSettings, StripBuffers};
 use crate::sim::Hair;
 
@@ -75,15 +74,20 @@ impl Default for SilhouetteSettings {
 }
 
 impl SilhouetteSettings {
-    fn stroke_params(&self) -> StrokeParams {
-        let f = |v: f32, d: f32| if v.is_finite() { v } else { d };
+    /// The stroke parameters these settings give for tubes of `radius` (world units, for the
+    /// depth bias): a non-finite field falls back to its default, and every field is clamped to
+    /// its documented range.
+    pub fn stroke_params(&self, radius: f32) -> StrokeParams {
+        let d = Self::default();
         StrokeParams {
-            width_px: f(self.width_px, 3.0).clamp(0.0, 64.0),
-            angle_scale: f(self.angle_scale, 1.0).clamp(0.0, 4.0),
-            depth_scale: f(self.depth_scale, 0.0).clamp(0.0, 4.0),
-            stroke_scale: f(self.stroke_scale, 1.0).clamp(0.0, 16.0),
-            stroke_limit_px: f(self.stroke_limit_px, 6.0).clamp(0.0, 128.0),
-            fade: [self.fade.a, self.fade.b, self.fade.c],
+            width_px: finite_or(self.width_px, d.width_px).clamp(0.0, 64.0),
+            angle_scale: finite_or(self.angle_scale, d.angle_scale).clamp(0.0, 4.0),
+            depth_scale: finite_or(self.depth_scale, d.depth_scale).clamp(0.0, 4.0),
+            stroke_scale: finite_or(self.stroke_scale, d.stroke_scale).clamp(0.0, 16.0),
+            stroke_limit_px: finite_or(self.stroke_limit_px, d.stroke_limit_px).clamp(0.0, 128.0),
+            fade: self.fade,
+            depth_bias: finite_or(self.depth_bias, d.depth_bias).max(0.0)
+                * finite_or(radius, 0.0).max(0.0),
             color: self.color.to_linear().to_f32_array(),
             ..default()
         }
@@ -274,7 +278,7 @@ pub fn extract_silhouettes(
             }
         }
     }
-    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let pool = crate::parallel::compute_pool();
     for (hair, settings, mesh_settings, hair_mesh, computed) in &mut hairs {
         let topology = &hair_mesh.topology;
         let tube = TubeEdges::new(topology);
@@ -315,10 +319,7 @@ pub fn extract_silhouettes(
             continue;
         }
         // Pull strokes toward the viewer (see the module docs on visibility).
-        let params = StrokeParams {
-            depth_bias: settings.depth_bias.max(0.0) * mesh_settings.radius.max(0.0),
-            ..settings.stroke_params()
-        };
+        let params = settings.stroke_params(mesh_settings.radius);
         computed.chains = 0;
         for (slot, (camera_entity, camera, camera_transform, ..)) in views.iter().enumerate() {
             let Some(viewport) = camera.physical_viewport_size() else {
@@ -364,7 +365,7 @@ pub fn extract_silhouettes(
             let view = &mut computed.views[index];
             // One stroke entity per block.
             while view.meshes.len() < builder.blocks() {
-                let mesh = meshes.add(empty_stroke_mesh());
+                let mesh = meshes.add(StripBuffers::empty_mesh(true));
                 let mut entity = commands.spawn((
                     Name::new("hair strokes"),
                     Mesh3d(mesh.clone()),
@@ -431,31 +432,23 @@ impl StrokeBuilder {
         let blocks = strands.clamp(1, STROKE_BLOCKS);
         let chunk = strands.div_ceil(blocks).max(1);
         self.blocks.resize_with(blocks, Default::default);
-        let threads = (pool.thread_num() + 1).min(blocks);
+        let threads = crate::parallel::workers(pool).min(blocks);
         let next = AtomicUsize::new(0);
-        let (next, workers) = (&next, &self.blocks);
-        pool.scope(|scope| {
-            for t in 0..threads {
-                let work = async move {
-                    loop {
-                        let b = next.fetch_add(1, Ordering::Relaxed);
-                        let Some(block) = workers.get(b) else {
-                            break;
-                        };
-                        let range = (b * chunk * per).min(strands * per)
-                            ..((b + 1) * chunk * per).min(strands * per);
-                        // Each block is taken once: the lock is never contended.
-                        let mut worker = block.lock().unwrap_or_else(|e| e.into_inner());
-                        worker.clear();
-                        for strand in positions[range].chunks_exact(per) {
-                            worker.add_strand(tube, strand, along, camera, params);
-                        }
-                    }
+        let workers = &self.blocks;
+        // Each thread takes the next block until none is left.
+        crate::parallel::run_parts(pool, 0..threads, &|_| {
+            loop {
+                let b = next.fetch_add(1, Ordering::Relaxed);
+                let Some(block) = workers.get(b) else {
+                    break;
                 };
-                if t == 0 {
-                    scope.spawn_on_scope(work);
-                } else {
-                    scope.spawn(work);
+                let range = (b * chunk * per).min(strands * per)
+                    ..((b + 1) * chunk * per).min(strands * per);
+                // Each block is taken once: the lock is never contended.
+                let mut worker = block.lock().unwrap_or_else(|e| e.into_inner());
+                worker.clear();
+                for strand in positions[range].chunks_exact(per) {
+                    worker.add_strand(tube, strand, along, camera, params);
                 }
             }
         });
@@ -484,16 +477,4 @@ impl StrokeBuilder {
         }
         buffers.put(mesh);
     }
-}
-
-fn empty_stroke_mesh() -> Mesh {
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
-    )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new())
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, Vec::<[f32; 3]>::new())
-    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, Vec::<[f32; 2]>::new())
-    .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, Vec::<[f32; 4]>::new())
-    .with_inserted_indices(Indices::U32(Vec::new()))
 }

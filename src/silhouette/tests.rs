@@ -3,6 +3,7 @@
 use super::adjacency::*;
 use super::chain::*;
 use super::strip::*;
+use crate::curve::QuadraticCurve;
 use crate::mesh::tube::{FrameReference, TubeParams, TubeScratch, TubeTopology, build_tube};
 use bevy::math::{Mat4, Vec2, Vec3};
 use std::collections::HashMap;
@@ -485,7 +486,7 @@ fn orthographic_views_face_by_direction() {
 fn strips_are_counter_clockwise_faded_and_textured() {
     let camera = camera();
     let params = StrokeParams {
-        fade: [0.0, -1.0, 1.0],
+        fade: QuadraticCurve::new(0.0, -1.0, 1.0),
         texture_length_px: 10.0,
         ..StrokeParams::default()
     };

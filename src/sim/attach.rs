@@ -421,7 +421,7 @@ pub(crate) fn build_hair_strands(
                 .unwrap_or(*global)
                 .affine(),
         };
-        let bone_ok = full.is_finite() && full.matrix3.determinant().abs() > 1e-12;
+        let bone_ok = crate::math::usable_frame(&full);
         let (bone, scale) = if bone_ok {
             split_bone(&full)
         } else {

@@ -2,6 +2,8 @@
 
 use bevy::prelude::*;
 
+use crate::math::finite_or;
+
 use crate::curve::QuadraticCurve;
 
 /// How a hair moves. A component on the entity that holds [`Hair`](super::Hair); inserted with
@@ -81,37 +83,32 @@ impl Default for HairSimSettings {
     }
 }
 
-/// Finite-or-default helper for user-edited floats.
-fn sane(v: f32, default: f32) -> f32 {
-    if v.is_finite() { v } else { default }
-}
-
 impl HairSimSettings {
     /// Substep length in seconds after clamping.
     pub fn substep(&self) -> f32 {
-        1.0 / sane(self.substep_rate, 240.0).clamp(30.0, 2000.0)
+        1.0 / finite_or(self.substep_rate, 240.0).clamp(30.0, 2000.0)
     }
 
     /// Longest frame after clamping.
     pub fn frame_clamp(&self) -> f32 {
-        sane(self.max_frame_time, 0.1).clamp(0.001, 0.25)
+        finite_or(self.max_frame_time, 0.1).clamp(0.001, 0.25)
     }
 
     /// Structural offset after clamping.
     pub fn structure_offset(&self) -> f32 {
-        sane(self.structure_offset, 0.5).clamp(0.05, 2.0)
+        finite_or(self.structure_offset, 0.5).clamp(0.05, 2.0)
     }
 
     /// Margins after clamping: both `>= 0`, ordered.
     pub fn margins(&self) -> (f32, f32) {
-        let a = sane(self.margin_min, 0.0).max(0.0);
-        let b = sane(self.margin_max, a).max(0.0);
+        let a = finite_or(self.margin_min, 0.0).max(0.0);
+        let b = finite_or(self.margin_max, a).max(0.0);
         (a.min(b), a.max(b))
     }
 
     /// Damping factor applied to velocity each substep.
     pub fn damping_factor(&self) -> f32 {
-        (-sane(self.damping, 0.0).max(0.0) * self.substep()).exp()
+        (-finite_or(self.damping, 0.0).max(0.0) * self.substep()).exp()
     }
 
     /// Gravity, or zero if not finite.

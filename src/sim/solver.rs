@@ -34,6 +34,8 @@ use std::f32::consts::FRAC_PI_2;
 
 use bevy::math::{Affine3A, Vec3, Vec3A};
 
+use crate::math::orthonormalise;
+
 pub use super::physics::ShapeCollider;
 
 /// Strands solved side by side in one batch.
@@ -61,7 +63,7 @@ pub fn build_chain(
     let n0 = match reference {
         Some((rt, rn)) => {
             let carried = bevy::math::Quat::from_rotation_arc(rt, t0) * rn;
-            orthonormal(t0, carried)
+            orthonormalise(carried, t0)
         }
         None => {
             // The world axis least aligned with the root direction gives a stable first normal.
@@ -73,7 +75,7 @@ pub fn build_chain(
             } else {
                 Vec3::Z
             };
-            orthonormal(t0, axis)
+            orthonormalise(axis, t0)
         }
     };
     let mut normal = n0;
@@ -82,7 +84,7 @@ pub fn build_chain(
         let seg = points[i + 1] - points[i];
         let len = seg.length();
         let t = seg.normalize_or(prev_t);
-        normal = orthonormal(t, bevy::math::Quat::from_rotation_arc(prev_t, t) * normal);
+        normal = orthonormalise(bevy::math::Quat::from_rotation_arc(prev_t, t) * normal, t);
         prev_t = t;
         // Each structural particle sits a quarter turn around the strand from the previous one,
         // so even a straight strand's tetrahedra have volume (a flat chain could twist freely).
@@ -98,14 +100,6 @@ pub fn build_chain(
     }
     out.push(points[n - 1]);
     (t0, n0)
-}
-
-/// A unit vector perpendicular to `t`, as close to `v` as possible (any perpendicular if `v` is
-/// parallel to `t`).
-fn orthonormal(t: Vec3, v: Vec3) -> Vec3 {
-    let p = v - t * t.dot(v);
-    p.try_normalize()
-        .unwrap_or_else(|| t.any_orthonormal_vector())
 }
 
 /// Where along the strand node `k` of a chain of `nodes` sits, root `0` to tip `1`.

@@ -5,7 +5,9 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use bevy::ecs::entity::EntityHashMap;
 use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
-use bevy::tasks::{ComputeTaskPool, TaskPool};
+
+use crate::math::usable_frame;
+use crate::parallel;
 
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
@@ -13,7 +15,7 @@ use super::attach::{
 use super::collider::HairCollider;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairSimSettings, compliance_factor};
-use super::solver::{PINNED, StepInput, along};
+use super::solver::{Batch, PINNED, StepInput, along};
 use super::{HairSimControl, HairTime};
 
 /// [`HairCollider`]s' poses last frame, so moving ones are interpolated per substep.
@@ -33,10 +35,6 @@ pub(crate) fn interpolate(a: &Affine3A, b: &Affine3A, t: f32) -> Affine3A {
     let (sa, ra, ta) = a.to_scale_rotation_translation();
     let (sb, rb, tb) = b.to_scale_rotation_translation();
     Affine3A::from_scale_rotation_translation(sa.lerp(sb, t), ra.slerp(rb, t), ta.lerp(tb, t))
-}
-
-fn usable(bone: &Affine3A) -> bool {
-    bone.is_finite() && bone.matrix3.determinant().abs() > 1e-12
 }
 
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
@@ -70,11 +68,11 @@ pub(crate) fn step_hair_strands(
     history
         .poses
         .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
-    let pool = ComputeTaskPool::get_or_init(TaskPool::default);
+    let pool = parallel::compute_pool();
     for (hair_entity, hair, global, settings, mut computed) in &mut hairs {
         let computed = &mut *computed;
         let full = global.affine();
-        if !usable(&full) {
+        if !usable_frame(&full) {
             computed.stats.invalid_bone_frames += 1;
             computed.stats.substeps = 0;
             continue;
@@ -210,50 +208,35 @@ pub(crate) fn step_hair_strands(
         }
         // Step batches in parallel; each group of equal chain length shares anchor factors.
         let batches = &mut computed.batches;
-        // The pool's threads plus this one: on a 2-core machine Bevy gives the compute pool a
-        // single thread, and the thread calling `scope` would otherwise only wait.
-        let workers = pool.thread_num().max(1) + 1;
-        let chunk = batches.len().div_ceil(workers * 4).max(1);
+        let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
         let factors = anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()));
         let last = &input.bones.last().copied().unwrap_or(bone);
         let resets = AtomicU32::new(0);
-        pool.scope(|scope| {
-            for (i, part) in batches.chunks_mut(chunk).enumerate() {
-                let input = &input;
-                let factors = &factors;
-                let resets = &resets;
-                let work = async move {
-                    let mut local = StepInput {
-                        anchor_factor: Vec::new(),
-                        ..input.clone()
-                    };
-                    for b in part {
-                        let f = factors
-                            .iter()
-                            .find(|(n, _)| *n == b.nodes.len())
-                            .map(|(_, f)| f.as_slice())
-                            .unwrap_or(&[]);
-                        local.anchor_factor.clear();
-                        local.anchor_factor.extend_from_slice(f);
-                        b.step(&local);
-                        // A strand whose state stopped being finite starts again on its anchors.
-                        let bad = b.non_finite_lanes();
-                        if bad != 0 {
-                            for l in 0..super::solver::LANES {
-                                if bad & (1 << l) != 0 {
-                                    b.reset_lane(l, last);
-                                    if l < b.count {
-                                        resets.fetch_add(1, Ordering::Relaxed);
-                                    }
-                                }
+        parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
+            let mut local = StepInput {
+                anchor_factor: Vec::new(),
+                ..input.clone()
+            };
+            for b in part {
+                let f = factors
+                    .iter()
+                    .find(|(n, _)| *n == b.nodes.len())
+                    .map(|(_, f)| f.as_slice())
+                    .unwrap_or(&[]);
+                local.anchor_factor.clear();
+                local.anchor_factor.extend_from_slice(f);
+                b.step(&local);
+                // A strand whose state stopped being finite starts again on its anchors.
+                let bad = b.non_finite_lanes();
+                if bad != 0 {
+                    for l in 0..super::solver::LANES {
+                        if bad & (1 << l) != 0 {
+                            b.reset_lane(l, last);
+                            if l < b.count {
+                                resets.fetch_add(1, Ordering::Relaxed);
                             }
                         }
                     }
-                };
-                if i % workers == 0 {
-                    scope.spawn_on_scope(work);
-                } else {
-                    scope.spawn(work);
                 }
             }
         });

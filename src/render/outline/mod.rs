@@ -1,0 +1,213 @@
+//! [`ImageSpaceOutline`]: image-space silhouette edges (thesis 4.3.7; Redmond et al., Shin et
+//! al.), a post-process pass that inks the outline of the hair and the character.
+//!
+//! Edges come from a buffer in which objects are flat, Bevy's depth and normal prepass, never
+//! from the lit colour: the toon ramp's bands inside the hair are not edges. Per frame, on each
+//! camera with an enabled [`ImageSpaceOutline`], three fullscreen passes in the `Core3d` schedule
+//! (`outline.wgsl`):
+//!
+//! 1. `detect`: Sobel (both kernels, magnitude `sqrt(gx^2 + gy^2)`) on the prepass depth and/or
+//!    normals, thresholded with [`ImageSpaceOutline::threshold`] into an edge mask;
+//! 2. `dilate_x`: a pixel becomes edge if an edge lies within
+//!    [`ImageSpaceOutline::dilation_x`] pixels horizontally;
+//! 3. `composite`: the same vertically with [`ImageSpaceOutline::dilation_y`], then the
+//!    [`ImageSpaceOutline::color`] is mixed over the frame.
+//!
+//! The pass runs after tone mapping, so the ink is exactly the colour asked for.
+//!
+//! The thesis could not switch its outline back on once off. Here
+//! [`ImageSpaceOutline::enabled`] may change any number of times: while off the component is not
+//! extracted, so the pass is skipped, and the prepasses the plugin added for it are removed.
+
+mod pass;
+mod pipeline;
+mod prepass;
+
+use bevy::core_pipeline::tonemapping::tonemapping;
+use bevy::core_pipeline::{Core3d, Core3dSystems};
+use bevy::ecs::query::QueryItem;
+use bevy::ecs::system::lifetimeless::Read;
+use bevy::prelude::*;
+use bevy::render::extract_component::{
+    DynamicUniformIndex, ExtractComponent, ExtractComponentPlugin, UniformComponentPlugin,
+};
+use bevy::render::render_resource::ShaderType;
+use bevy::render::sync_component::SyncComponent;
+
+use crate::math::finite_or;
+
+use pass::{OutlineBindGroups, OutlineTextures};
+use pass::{image_space_outline, prepare_outline_bind_groups, prepare_outline_textures};
+use pipeline::OutlinePipelineIds;
+#[cfg(test)]
+pub(crate) use pipeline::OutlinePipelineKey;
+use pipeline::{init_outline_pipelines, prepare_outline_pipelines};
+use prepass::sync_outline_prepasses;
+
+use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
+
+/// The most pixels [`ImageSpaceOutline::dilation_x`] and [`ImageSpaceOutline::dilation_y`] reach;
+/// larger values are clamped to it (the shader's loops are bounded).
+pub const MAX_OUTLINE_DILATION: u32 = 32;
+
+/// Which flat buffer the edges are detected in. Each choice is its own pipeline (shader defs
+/// `EDGE_DEPTH`, `EDGE_NORMALS`), and adds only the prepasses it reads.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum OutlineSource {
+    /// Depth and normals: silhouettes against the background and against objects behind
+    /// (depth), and creases where a strand crosses another at the same depth (normals).
+    #[default]
+    DepthAndNormals,
+    /// Depth only (`DepthPrepass`): silhouettes, no creases; the cheapest.
+    Depth,
+    /// Normals only (`NormalPrepass`): creases and silhouettes, but strands parallel to each
+    /// other at different depths merge.
+    Normals,
+}
+
+impl OutlineSource {
+    /// Reads the depth prepass.
+    pub fn uses_depth(self) -> bool {
+        matches!(self, Self::DepthAndNormals | Self::Depth)
+    }
+
+    /// Reads the normal prepass.
+    pub fn uses_normals(self) -> bool {
+        matches!(self, Self::DepthAndNormals | Self::Normals)
+    }
+}
+
+/// Image-space outline on a camera (`Camera3d`): an ink line wherever the depth or normals jump.
+///
+/// Add it to the camera; the [`ImageSpaceOutlinePlugin`] adds the `DepthPrepass` and
+/// `NormalPrepass` it needs while enabled (and removes them again when disabled, unless they
+/// were there before). Every field can change every frame.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq, Clone)]
+pub struct ImageSpaceOutline {
+    /// Draw the outline. Switch it off and on as often as you like; while off the pass costs one
+    /// check per frame and the prepasses added for it are removed. Default: `true`.
+    pub enabled: bool,
+    /// Edge Threshold: the Sobel magnitude above which a pixel is an edge. A jump from an object
+    /// to the background measures about 1; lower values also ink creases and strands close in
+    /// front of others, higher values only the outer silhouette. Default: `0.3`.
+    pub threshold: f32,
+    /// X Dilation: a pixel becomes edge if an edge lies within this many pixels horizontally.
+    /// Wider lines cost a longer loop; clamped to [`MAX_OUTLINE_DILATION`]. Default: `1`.
+    pub dilation_x: u32,
+    /// Y Dilation: a pixel becomes edge if an edge lies within this many pixels vertically.
+    /// Clamped to [`MAX_OUTLINE_DILATION`]. Default: `1`.
+    pub dilation_y: u32,
+    /// Ink colour; its alpha is the ink's opacity over the frame. Default: black.
+    pub color: Color,
+    /// The flat buffer edges are found in. Default: [`OutlineSource::DepthAndNormals`].
+    pub source: OutlineSource,
+}
+
+impl Default for ImageSpaceOutline {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            threshold: 0.3,
+            dilation_x: 1,
+            dilation_y: 1,
+            color: Color::BLACK,
+            source: OutlineSource::DepthAndNormals,
+        }
+    }
+}
+
+/// The uniform block of an enabled [`ImageSpaceOutline`] (`outline.wgsl`), on the render world's
+/// view entity.
+#[derive(Component, Clone, Copy, Debug, Default, ShaderType)]
+pub struct GpuImageSpaceOutline {
+    /// Linear RGBA ink.
+    pub color: Vec4,
+    /// Sobel magnitude threshold.
+    pub threshold: f32,
+    /// Horizontal dilation in pixels, clamped.
+    pub dilation_x: u32,
+    /// Vertical dilation in pixels, clamped.
+    pub dilation_y: u32,
+}
+
+/// Which detection pipeline a view needs: its [`OutlineSource`], on the render world's view
+/// entity.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct OutlineSourceKey(pub OutlineSource);
+
+impl SyncComponent for ImageSpaceOutline {
+    // Everything the pass keeps on a view goes when the outline is disabled or removed.
+    type Target = (
+        GpuImageSpaceOutline,
+        OutlineSourceKey,
+        DynamicUniformIndex<GpuImageSpaceOutline>,
+        OutlinePipelineIds,
+        OutlineTextures,
+        OutlineBindGroups,
+    );
+}
+
+impl ExtractComponent for ImageSpaceOutline {
+    type QueryData = Read<ImageSpaceOutline>;
+    type QueryFilter = With<Camera3d>;
+    type Out = (GpuImageSpaceOutline, OutlineSourceKey);
+
+    fn extract_component(outline: QueryItem<'_, '_, Self::QueryData>) -> Option<Self::Out> {
+        // Disabled: not extracted, so the render world has nothing to run the pass on.
+        if !outline.enabled {
+            return None;
+        }
+        let threshold =
+            finite_or(outline.threshold, ImageSpaceOutline::default().threshold).max(0.0);
+        Some((
+            GpuImageSpaceOutline {
+                color: outline.color.to_linear().to_vec4(),
+                threshold,
+                dilation_x: outline.dilation_x.min(MAX_OUTLINE_DILATION),
+                dilation_y: outline.dilation_y.min(MAX_OUTLINE_DILATION),
+            },
+            OutlineSourceKey(outline.source),
+        ))
+    }
+}
+
+/// Draws [`ImageSpaceOutline`]s. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins)
+/// (feature `render`).
+#[derive(Default)]
+pub struct ImageSpaceOutlinePlugin;
+
+impl Plugin for ImageSpaceOutlinePlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "outline.wgsl");
+        app.register_type::<ImageSpaceOutline>()
+            .add_plugins((
+                ExtractComponentPlugin::<ImageSpaceOutline>::default(),
+                UniformComponentPlugin::<GpuImageSpaceOutline>::default(),
+            ))
+            // Extraction reads the prepass components after the main schedule, so anywhere in
+            // PostUpdate is in time for this frame.
+            .add_systems(PostUpdate, sync_outline_prepasses);
+
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        render_app
+            .add_systems(RenderStartup, init_outline_pipelines)
+            .add_systems(
+                Render,
+                (
+                    prepare_outline_pipelines.in_set(RenderSystems::Prepare),
+                    prepare_outline_textures.in_set(RenderSystems::PrepareResources),
+                    prepare_outline_bind_groups.in_set(RenderSystems::PrepareBindGroups),
+                ),
+            )
+            .add_systems(
+                Core3d,
+                image_space_outline
+                    .in_set(Core3dSystems::PostProcess)
+                    // Ink after tone mapping keeps its exact colour.
+                    .after(tonemapping),
+            );
+    }
+}
