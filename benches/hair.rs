@@ -12,6 +12,10 @@
 //!   (`silhouettes/plugin_2_threads_*`) and the general closed-mesh path beside the tube one.
 //! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
 //!   10 candidates).
+#![expect(
+    missing_docs,
+    reason = "criterion's macros define undocumented functions"
+)]
 
 use std::time::Duration;
 
@@ -134,7 +138,7 @@ fn bench_sim(c: &mut Criterion) {
     for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
         let mut app = hair_app(n, p);
         group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
-            b.iter(|| app.update())
+            b.iter(|| app.update());
         });
     }
     group.finish();
@@ -143,7 +147,7 @@ fn bench_sim(c: &mut Criterion) {
     for (n, p) in [(100, 6), (1_000, 16)] {
         let mut app = rapier_app(n, p);
         group.bench_function(BenchmarkId::from_parameter(format!("{n}x{p}")), |b| {
-            b.iter(|| app.update())
+            b.iter(|| app.update());
         });
     }
     group.finish();
@@ -181,12 +185,12 @@ fn bench_load(c: &mut Criterion) {
     let mut group = c.benchmark_group("load_groom");
     group.sample_size(10);
     group.bench_function("100k_x_6", |b| {
-        b.iter(|| parse_groom("bench.hair.xml", &text).unwrap())
+        b.iter(|| parse_groom("bench.hair.xml", &text).unwrap());
     });
     // The baseline: what the loader did before it streamed (roxmltree builds the document's
     // tree, then the strands' numbers are parsed from it), on the same text in the same run.
     group.bench_function("100k_x_6_roxmltree_baseline", |b| {
-        b.iter(|| roxmltree_baseline(&text))
+        b.iter(|| roxmltree_baseline(&text));
     });
     // Many short strands: 10 MB of text, the shape that was quadratic in attributes before.
     let mut short = String::from("<groom version=\"1\">\n");
@@ -197,13 +201,13 @@ fn bench_load(c: &mut Criterion) {
     }
     short.push_str("</groom>\n");
     group.bench_function("10mb_short_strands", |b| {
-        b.iter(|| parse_groom("short.hair.xml", &short).unwrap())
+        b.iter(|| parse_groom("short.hair.xml", &short).unwrap());
     });
     // A hostile header: 100,000 attributes on the root (38.6 s before; refused at the 33rd now).
     let attrs: String = (0..100_000).map(|i| format!(" a{i}=\"{i}\"")).collect();
     let hostile = format!("<groom version=\"1\"{attrs}><strand>0 0 0 0 1 0</strand></groom>");
     group.bench_function("100k_attributes_refused", |b| {
-        b.iter(|| parse_groom("hostile.hair.xml", &hostile).unwrap_err())
+        b.iter(|| parse_groom("hostile.hair.xml", &hostile).unwrap_err());
     });
     group.finish();
 }
@@ -215,7 +219,7 @@ fn bench_tam(c: &mut Criterion) {
     let mut group = c.benchmark_group("tam");
     group.sample_size(10);
     group.bench_function("thesis_default_6x512x3_78x10", |b| {
-        b.iter(|| generate(&stroke, &settings, |_, _| {}).unwrap())
+        b.iter(|| generate(&stroke, &settings, |_, _| {}).unwrap());
     });
     group.finish();
 }
@@ -262,7 +266,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             {
                 build_tube(&topology, s, &params, &mut scratch, p, n, None);
             }
-        })
+        });
     });
     group.finish();
     let adjacency = EdgeAdjacency::from_triangles(&topology.indices).unwrap();
@@ -287,7 +291,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             for s in positions.chunks(per) {
                 worker.add_strand(&tube, s, &along, &camera, &stroke);
             }
-        })
+        });
     });
     // What the plugin does per frame on this machine: the strands split between Bevy's compute
     // thread (one on two cores, by default) and the system's own thread, then the strokes
@@ -314,7 +318,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             for (w, mesh) in meshes.iter_mut().enumerate() {
                 builder.swap_into_mesh(w, mesh);
             }
-        })
+        });
     });
     // The same strokes through the general closed-mesh path (any triangle list).
     let mut sil_scratch = SilhouetteScratch::default();
@@ -338,7 +342,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
                     build_chain_strip(chain, s, &along, &camera, &stroke, &mut out);
                 }
             }
-        })
+        });
     });
     // The stages alone, to see where the time goes.
     let mut tube_scratch = TubeEdgeScratch::default();
@@ -347,7 +351,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             for s in positions.chunks(per) {
                 tube.silhouette_edges(s, eye, &mut tube_scratch, &mut edges);
             }
-        })
+        });
     });
     let all_edges: Vec<Vec<[u32; 2]>> = positions
         .chunks(per)
@@ -363,7 +367,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
             for e in &all_edges {
                 chain_edges(e, &mut sil_scratch, &mut chains);
             }
-        })
+        });
     });
     let all_chains: Vec<SilhouetteChains> = all_edges
         .iter()
@@ -382,7 +386,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
                     build_chain_strip(chain, s, &along, &camera, &stroke, &mut out);
                 }
             }
-        })
+        });
     });
     group.finish();
 }
@@ -458,7 +462,7 @@ fn bench_solver(c: &mut Criterion) {
                 for batch in &mut batches {
                     batch.step(&input);
                 }
-            })
+            });
         });
     }
     group.finish();

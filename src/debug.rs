@@ -324,7 +324,9 @@ mod tests {
             .value;
         assert!(simulate >= 12.0, "{simulate}");
         assert_eq!(
-            store.get(&paths::STRANDS).and_then(|d| d.value()),
+            store
+                .get(&paths::STRANDS)
+                .and_then(bevy::diagnostic::Diagnostic::value),
             Some(0.0),
             "no hair, no strands"
         );

@@ -332,6 +332,7 @@ pub fn check_ninja_assets_in(root: &std::path::Path) -> Result<(), PathBuf> {
 
 /// Why a clip could not be recorded.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ClipError {
     /// A file of the scene is not in the asset folder.
     #[error(
@@ -437,8 +438,11 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
         let path = settings.out.join(format!("frame_{index:04}.png"));
         match frame.save_png(&path) {
             Ok(()) => paths.push(path),
-            Err(message) => {
-                failure.get_or_insert(ClipError::Write { path, message });
+            Err(e) => {
+                failure.get_or_insert(ClipError::Write {
+                    path,
+                    message: e.to_string(),
+                });
             }
         }
     })?;

@@ -38,6 +38,7 @@ pub const ADAPTER_HELP: &str = "no Vulkan adapter found: install a GPU driver, o
 
 /// Why a headless frame could not be produced.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum HeadlessError {
     /// wgpu found no Vulkan adapter on this machine.
     #[error("{ADAPTER_HELP}")]
@@ -48,6 +49,14 @@ pub enum HeadlessError {
     /// Pipelines were still compiling, or the capture never arrived, after this many frames.
     #[error("no frame captured after {0} frames")]
     Timeout(u32),
+    /// A captured frame could not be written as a PNG file.
+    #[error("{path}: cannot write the PNG: {message}")]
+    SavePng {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What went wrong.
+        message: String,
+    },
 }
 
 /// Looks for a Vulkan adapter the way Bevy will, without starting Bevy. Returns its name.
@@ -123,7 +132,16 @@ impl CapturedFrame {
     }
 
     /// Encodes the frame as a PNG file.
-    pub fn save_png(&self, path: impl AsRef<std::path::Path>) -> Result<(), String> {
+    ///
+    /// # Errors
+    ///
+    /// [`HeadlessError::SavePng`] naming the file when it cannot be encoded or written.
+    pub fn save_png(&self, path: impl AsRef<std::path::Path>) -> Result<(), HeadlessError> {
+        let path = path.as_ref();
+        let fail = |message: String| HeadlessError::SavePng {
+            path: path.to_path_buf(),
+            message,
+        };
         let image = Image::new(
             bevy::render::render_resource::Extent3d {
                 width: self.width,
@@ -135,11 +153,11 @@ impl CapturedFrame {
             TextureFormat::Rgba8UnormSrgb,
             bevy::asset::RenderAssetUsages::default(),
         );
-        let dynamic = image.try_into_dynamic().map_err(|e| e.to_string())?;
+        let dynamic = image.try_into_dynamic().map_err(|e| fail(e.to_string()))?;
         dynamic
             .to_rgba8()
-            .save(path.as_ref())
-            .map_err(|e| format!("{}: {e}", path.as_ref().display()))
+            .save(path)
+            .map_err(|e| fail(e.to_string()))
     }
 }
 

@@ -16,7 +16,7 @@ use crate::{asset, mesh, silhouette, sim};
 /// `DefaultPlugins.set(compute_on_every_core())`.
 pub fn compute_on_every_core() -> bevy::app::TaskPoolPlugin {
     use bevy::app::{TaskPoolOptions, TaskPoolPlugin, TaskPoolThreadAssignmentPolicy};
-    let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
+    let cores = std::thread::available_parallelism().map_or(2, std::num::NonZero::get);
     TaskPoolPlugin {
         task_pool_options: TaskPoolOptions {
             compute: TaskPoolThreadAssignmentPolicy {

@@ -45,6 +45,7 @@ use crate::sim::HairSimSettings;
 /// Which of the default [`ToonRamps`] a material uses.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Default, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum RampKind {
     /// [`ToonRamps::two_tone`].
     TwoTone,
@@ -227,9 +228,10 @@ pub struct HairPreset {
     pub outline: Option<ImageSpaceOutline>,
 }
 
-/// Why a preset could not be saved or loaded. Every message names the file (or `<string>` for
-/// [`HairPreset::from_ron`]).
+/// Why a preset could not be saved or loaded. Every message names the file, when there is one
+/// ([`HairPreset::from_ron`] reads a string).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum HairPresetError {
     /// The file could not be read or written.
     #[error("{}: {source}", path.display())]
@@ -241,10 +243,10 @@ pub enum HairPresetError {
     },
     /// The text is not a valid preset: bad RON syntax, an unknown field, a value of the wrong
     /// type.
-    #[error("{file}:{line}:{column}: {message}")]
+    #[error("{}{line}:{column}: {message}", file_prefix(file))]
     Parse {
-        /// The file, or `<string>`.
-        file: String,
+        /// The file; `None` for text given as a string.
+        file: Option<String>,
         /// Line of the error, from 1.
         line: usize,
         /// Column of the error, from 1.
@@ -253,13 +255,23 @@ pub enum HairPresetError {
         message: String,
     },
     /// The preset could not be written as RON (a value RON cannot express).
-    #[error("{file}: cannot write the preset: {message}")]
+    #[error("{}cannot write the preset: {message}", file_label(file))]
     Serialize {
-        /// The file, or `<string>`.
-        file: String,
+        /// The file; `None` for [`HairPreset::to_ron`].
+        file: Option<String>,
         /// What went wrong.
         message: String,
     },
+}
+
+/// `"file:"` or nothing.
+fn file_prefix(file: &Option<String>) -> String {
+    file.as_ref().map_or_else(String::new, |f| format!("{f}:"))
+}
+
+/// `"file: "` or nothing.
+fn file_label(file: &Option<String>) -> String {
+    file.as_ref().map_or_else(String::new, |f| format!("{f}: "))
 }
 
 /// A registry holding just the preset's types.
@@ -317,17 +329,17 @@ impl HairPreset {
     ///
     /// [`HairPresetError::Serialize`] if RON cannot express a value.
     pub fn to_ron(&self) -> Result<String, HairPresetError> {
-        self.to_ron_named("<string>")
+        self.to_ron_named(None)
     }
 
-    fn to_ron_named(&self, file: &str) -> Result<String, HairPresetError> {
+    fn to_ron_named(&self, file: Option<&str>) -> Result<String, HairPresetError> {
         let registry = preset_registry();
         let serializer = TypedReflectSerializer::new(self, &registry);
         let config = ron::ser::PrettyConfig::new()
             .depth_limit(3)
             .indentor("    ");
         ron::ser::to_string_pretty(&serializer, config).map_err(|e| HairPresetError::Serialize {
-            file: file.to_owned(),
+            file: file.map(str::to_owned),
             message: e.to_string(),
         })
     }
@@ -336,25 +348,25 @@ impl HairPreset {
     ///
     /// # Errors
     ///
-    /// [`HairPresetError::Parse`] with the line, column and problem; the file is `<string>`.
+    /// [`HairPresetError::Parse`] with the line, column and problem (and no file).
     pub fn from_ron(text: &str) -> Result<Self, HairPresetError> {
-        Self::from_ron_named("<string>", text)
+        Self::from_ron_named(None, text)
     }
 
-    fn from_ron_named(file: &str, text: &str) -> Result<Self, HairPresetError> {
+    fn from_ron_named(file: Option<&str>, text: &str) -> Result<Self, HairPresetError> {
         let registry = preset_registry();
         let registration = HairPreset::get_type_registration();
         let seed = TypedReflectDeserializer::new(&registration, &registry);
         let value = ron::Options::default()
             .from_str_seed(text, seed)
             .map_err(|e| HairPresetError::Parse {
-                file: file.to_owned(),
+                file: file.map(str::to_owned),
                 line: e.span.start.line,
                 column: e.span.start.col,
                 message: e.code.to_string(),
             })?;
         HairPreset::from_reflect(value.as_partial_reflect()).ok_or_else(|| HairPresetError::Parse {
-            file: file.to_owned(),
+            file: file.map(str::to_owned),
             line: 1,
             column: 1,
             message: "the file does not describe a HairPreset".to_owned(),
@@ -368,7 +380,7 @@ impl HairPreset {
     /// [`HairPresetError::Io`] naming the file if it cannot be written.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), HairPresetError> {
         let path = path.as_ref();
-        let text = self.to_ron_named(&path.display().to_string())?;
+        let text = self.to_ron_named(Some(&path.display().to_string()))?;
         std::fs::write(path, text + "\n").map_err(|source| HairPresetError::Io {
             path: path.to_owned(),
             source,
@@ -387,7 +399,7 @@ impl HairPreset {
             path: path.to_owned(),
             source,
         })?;
-        Self::from_ron_named(&path.display().to_string(), &text)
+        Self::from_ron_named(Some(&path.display().to_string()), &text)
     }
 }
 
@@ -473,7 +485,7 @@ mod tests {
     fn malformed_presets_are_errors_naming_file_place_and_problem() {
         let unknown = HairPreset::from_ron("(\n  mesh: (hair_rezolution: 9),\n)").unwrap_err();
         let text = unknown.to_string();
-        assert!(text.starts_with("<string>:2:"), "{text}");
+        assert!(text.starts_with("2:"), "{text}");
         assert!(text.contains("hair_rezolution"), "{text}");
 
         let wrong_type = HairPreset::from_ron("(mesh: (hair_resolution: \"many\"))").unwrap_err();

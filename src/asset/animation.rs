@@ -8,9 +8,7 @@ use bevy::asset::{AssetLoader, AssetPath, LoadContext};
 use bevy::math::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
 use bevy::prelude::*;
 
-use super::error::{
-    BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text, whole_file,
-};
+use super::error::{BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text};
 use super::groom::{GroomLoaderSettings, HEADER_BYTES, HairGroom, MAX_PARTICLES};
 use super::xml::Xml;
 
@@ -240,17 +238,18 @@ impl HairAnimation {
         duration: f32,
     ) -> Result<Self, HairAssetError> {
         let Some(first) = keys.first() else {
-            return Err(whole_file("<code>", "an animation needs at least one key"));
+            return Err(HairAssetError::in_code(
+                "an animation needs at least one key",
+            ));
         };
         for (i, key) in keys.iter().enumerate().skip(1) {
             if let Some(msg) = topology_mismatch(&first.pose, &key.pose) {
-                return Err(whole_file("<code>", format!("key {i}: {msg}")));
+                return Err(HairAssetError::in_code(format!("key {i}: {msg}")));
             }
             if key.time <= keys[i - 1].time || !key.time.is_finite() {
-                return Err(whole_file(
-                    "<code>",
-                    format!("key {i}: times must increase"),
-                ));
+                return Err(HairAssetError::in_code(format!(
+                    "key {i}: times must increase"
+                )));
             }
         }
         let last = keys.last().map_or(0.0, |k| k.time);
@@ -405,7 +404,7 @@ impl AssetLoader for HairAnimationLoader {
         let mut particles = 0usize;
         for (i, key) in desc.keys.iter().enumerate() {
             let at = |message: String| HairAssetError {
-                file: file.clone(),
+                file: Some(file.clone()),
                 line: key.line,
                 column: key.column,
                 message,
@@ -443,7 +442,7 @@ impl AssetLoader for HairAnimationLoader {
             });
         }
         HairAnimation::new(keys, desc.looping, desc.duration).map_err(|mut e| {
-            e.file = file.clone();
+            e.file = Some(file.clone());
             e
         })
     }

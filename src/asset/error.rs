@@ -1,14 +1,17 @@
 //! Errors of the hair asset loaders: always the file, the line and column, and what is wrong.
 
-use std::fmt;
-
 use super::xml::{Element, Xml, line_column};
 
-/// A hair asset could not be loaded. Displays as `file:line:column: message`.
-#[derive(Debug, Clone, PartialEq, Eq)]
+/// A hair asset could not be loaded (or built). Displays as `file:line:column: message`,
+/// `file: message` when it concerns the whole file, or just the message for a value built in
+/// code.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}", self.located())]
 pub struct HairAssetError {
-    /// The asset path (or file name) that failed.
-    pub file: String,
+    /// The asset path (or file name) that failed; `None` for a value built in code
+    /// ([`HairGroom::from_strands`](super::HairGroom::from_strands),
+    /// [`HairAnimation::new`](super::HairAnimation::new)).
+    pub file: Option<String>,
     /// 1-based line of the offending element or number; `0` when it concerns the whole file.
     pub line: u32,
     /// 1-based column; `0` when it concerns the whole file.
@@ -17,21 +20,25 @@ pub struct HairAssetError {
     pub message: String,
 }
 
-impl fmt::Display for HairAssetError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        if self.line == 0 {
-            write!(f, "{}: {}", self.file, self.message)
-        } else {
-            write!(
-                f,
-                "{}:{}:{}: {}",
-                self.file, self.line, self.column, self.message
-            )
+impl HairAssetError {
+    /// An error in a value built in code, not read from a file.
+    pub(crate) fn in_code(message: impl Into<String>) -> Self {
+        Self {
+            file: None,
+            line: 0,
+            column: 0,
+            message: message.into(),
+        }
+    }
+
+    fn located(&self) -> String {
+        match (&self.file, self.line) {
+            (None, _) => self.message.clone(),
+            (Some(file), 0) => format!("{file}: {}", self.message),
+            (Some(file), line) => format!("{file}:{line}:{}: {}", self.column, self.message),
         }
     }
 }
-
-impl std::error::Error for HairAssetError {}
 
 /// Bytes a collision or animation file may take per element (`<sphere>`, `<key>`).
 pub const BYTES_PER_ELEMENT: usize = 256;
@@ -287,7 +294,7 @@ pub(crate) fn decode_utf8(file: &str, bytes: Vec<u8>) -> Result<String, HairAsse
         let prefix = std::str::from_utf8(&bytes[..good]).unwrap_or("");
         let (line, column) = line_column(prefix, good);
         HairAssetError {
-            file: file.to_string(),
+            file: Some(file.to_string()),
             line,
             column,
             message: format!(
@@ -301,7 +308,7 @@ pub(crate) fn decode_utf8(file: &str, bytes: Vec<u8>) -> Result<String, HairAsse
 /// An error about the whole file.
 pub(crate) fn whole_file(file: &str, message: impl Into<String>) -> HairAssetError {
     HairAssetError {
-        file: file.to_string(),
+        file: Some(file.to_string()),
         line: 0,
         column: 0,
         message: message.into(),

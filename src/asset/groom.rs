@@ -80,21 +80,17 @@ impl HairGroom {
             offsets: vec![0],
         };
         for (i, strand) in strands.into_iter().enumerate() {
-            check_strand(&strand, i).map_err(|m| super::error::whole_file("<code>", m))?;
+            check_strand(&strand, i).map_err(HairAssetError::in_code)?;
             if groom.points.len() + strand.len() > MAX_PARTICLES {
-                return Err(super::error::whole_file(
-                    "<code>",
-                    format!("more than {MAX_PARTICLES} particles in all"),
-                ));
+                return Err(HairAssetError::in_code(format!(
+                    "more than {MAX_PARTICLES} particles in all"
+                )));
             }
             groom.points.extend(strand);
             groom.offsets.push(groom.points.len() as u32);
         }
         if groom.strand_count() == 0 {
-            return Err(super::error::whole_file(
-                "<code>",
-                "a groom needs at least one strand",
-            ));
+            return Err(HairAssetError::in_code("a groom needs at least one strand"));
         }
         Ok(groom)
     }

@@ -1,6 +1,10 @@
 //! The hostile-files suite: every bad file an attacker or a broken exporter can write, each with
 //! the error it must produce; memory bounds measured with a counting allocator; and a bounded
 //! mutation fuzzer over all three parsers.
+#![expect(
+    unsafe_code,
+    reason = "a counting global allocator measures the loaders' memory"
+)]
 
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;

@@ -34,7 +34,7 @@ fn malformed_xml_names_file_line_and_column() {
         "bad.hair.xml",
         "<groom version=\"1\">\n  <strand>0 0 0</grom>",
     ));
-    assert_eq!(e.file, "bad.hair.xml");
+    assert_eq!(e.file.as_deref(), Some("bad.hair.xml"));
     assert_eq!(e.line, 2);
     assert!(e.column > 1, "{e}");
     assert!(e.to_string().starts_with("bad.hair.xml:2:"), "{e}");

@@ -76,7 +76,7 @@ impl<'a> Xml<'a> {
     pub fn error(&self, offset: usize, message: impl Into<String>) -> HairAssetError {
         let (line, column) = line_column(self.input, offset);
         HairAssetError {
-            file: self.file.to_string(),
+            file: Some(self.file.to_string()),
             line,
             column,
             message: message.into(),

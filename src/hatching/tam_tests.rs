@@ -359,7 +359,7 @@ fn tiny_settings_generate_and_report_progress() {
     };
     let mut calls = Vec::new();
     let map = generate(&stroke(), &settings, |done, total| {
-        calls.push((done, total))
+        calls.push((done, total));
     })
     .expect("valid settings");
     assert_eq!(map.resolution(), 64);

@@ -172,7 +172,11 @@ impl HighlightBuilder {
 /// Rebuilds every hair's highlight strips for the first active 3D camera and the first
 /// directional light.
 // A Bevy system: its parameters are its queries.
-#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+#[expect(
+    clippy::type_complexity,
+    clippy::too_many_arguments,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub fn build_specular_quads(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,

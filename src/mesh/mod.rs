@@ -148,7 +148,10 @@ fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
 
 /// Rebuilds each hair's mesh from its strands' particles: topology when resolutions or the strand
 /// count change, positions and normals every frame.
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub fn rebuild_strand_meshes(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,

@@ -13,6 +13,7 @@ use bevy::shader::ShaderRef;
 /// What indexes the ramp texture's y axis (its x axis is always the light intensity
 /// `max(N.L, 0)`, X-Toon style).
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum RampMode {
     /// A constant row ([`ToonHairMaterial::ramp_row`]): a plain 1D cartoon ramp.
     #[default]
@@ -27,6 +28,7 @@ pub enum RampMode {
 
 /// Hatching with a tonal art map (see [`crate::hatching`]).
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum HatchingMode {
     /// No hatching.
     #[default]

@@ -32,8 +32,6 @@
 //! assert!(chains.get(0).unwrap().closed, "one closed loop");
 //! ```
 
-use std::fmt;
-
 use bevy::math::{Vec3, Vec3A};
 
 /// An edge of a closed, consistently wound triangle mesh, with its two triangles.
@@ -56,14 +54,17 @@ pub struct EdgeAdjacency {
 }
 
 /// Why a triangle list has no [`EdgeAdjacency`].
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum AdjacencyError {
     /// The index count is not a multiple of three.
+    #[error("{len} indices are not a triangle list")]
     NotTriangleList {
         /// The index count.
         len: usize,
     },
     /// A triangle uses one vertex twice.
+    #[error("triangle {face} {vertices:?} repeats a vertex")]
     DegenerateTriangle {
         /// The triangle's index.
         face: usize,
@@ -71,6 +72,7 @@ pub enum AdjacencyError {
         vertices: [u32; 3],
     },
     /// An edge does not belong to exactly two triangles: the mesh is open or non-manifold.
+    #[error("edge {edge:?} belongs to {faces} triangles, not 2: the mesh is not closed")]
     NonManifoldEdge {
         /// The edge's vertices, lower first.
         edge: [u32; 2],
@@ -78,6 +80,7 @@ pub enum AdjacencyError {
         faces: usize,
     },
     /// Both triangles of an edge run along it in the same direction: inconsistent winding.
+    #[error("triangles {faces:?} both run along edge {edge:?} the same way: inconsistent winding")]
     InconsistentWinding {
         /// The edge's vertices, lower first.
         edge: [u32; 2],
@@ -85,29 +88,6 @@ pub enum AdjacencyError {
         faces: [u32; 2],
     },
 }
-
-impl fmt::Display for AdjacencyError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Self::NotTriangleList { len } => {
-                write!(f, "{len} indices are not a triangle list")
-            }
-            Self::DegenerateTriangle { face, vertices } => {
-                write!(f, "triangle {face} {vertices:?} repeats a vertex")
-            }
-            Self::NonManifoldEdge { edge, faces } => write!(
-                f,
-                "edge {edge:?} belongs to {faces} triangles, not 2: the mesh is not closed"
-            ),
-            Self::InconsistentWinding { edge, faces } => write!(
-                f,
-                "triangles {faces:?} both run along edge {edge:?} the same way: inconsistent winding"
-            ),
-        }
-    }
-}
-
-impl std::error::Error for AdjacencyError {}
 
 impl EdgeAdjacency {
     /// The adjacency of a closed, consistently wound triangle list; the first offending edge (in

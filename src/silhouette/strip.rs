@@ -3,6 +3,13 @@
 //! angle, depth and stroke scaling, stroke limit and E-curve fade, unprojected back to world
 //! space so that an ordinary mesh pipeline draws it. An AVX2 kernel projects and offsets runs of
 //! points where the CPU has it; the portable path gives the same result.
+#![cfg_attr(
+    target_arch = "x86_64",
+    expect(
+        unsafe_code,
+        reason = "AVX2 kernels, chosen after runtime feature detection"
+    )
+)]
 
 use bevy::math::{Mat4, Vec2, Vec3, Vec4};
 

@@ -215,7 +215,10 @@ impl StrokeWorker {
 }
 
 /// Finds each strand's silhouette edges for the camera, chains them, and rebuilds the stroke mesh.
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub fn extract_silhouettes(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
@@ -445,7 +448,9 @@ impl StrokeBuilder {
                 let range = (b * chunk * per).min(strands * per)
                     ..((b + 1) * chunk * per).min(strands * per);
                 // Each block is taken once: the lock is never contended.
-                let mut worker = block.lock().unwrap_or_else(|e| e.into_inner());
+                let mut worker = block
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
                 worker.clear();
                 for strand in positions[range].chunks_exact(per) {
                     worker.add_strand(tube, strand, along, camera, params);

@@ -14,6 +14,13 @@
 //!
 //! The facing test is the same arithmetic, in the same order, as the general path, so both give
 //! the same edges, oriented the same way (tested on random tubes and viewers).
+#![cfg_attr(
+    target_arch = "x86_64",
+    expect(
+        unsafe_code,
+        reason = "AVX2 kernels, chosen after runtime feature detection"
+    )
+)]
 
 use bevy::math::Vec3A;
 
@@ -201,7 +208,6 @@ fn bits(values: &[f32]) -> u64 {
 /// The arithmetic of [`Viewer::faces`] on triangle `(a, b, c)`, with the viewer given as
 /// `(point, v)`: an eye point `v` when `point`, else a direction `v`. Positive: front-facing.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn facing(
     (ax, ay, az): (f32, f32, f32),
     (bx, by, bz): (f32, f32, f32),

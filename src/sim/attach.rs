@@ -408,8 +408,8 @@ pub(crate) fn build_hair_strands(
     head_colliders: Query<(Entity, &HeadColliderOf)>,
 ) {
     for (entity, hair, settings, mut global, computed, strands, status, search) in &mut hairs {
-        let anim_id = hair.animation.as_ref().map(|h| h.id());
-        let collision_id = hair.collision.as_ref().map(|h| h.id());
+        let anim_id = hair.animation.as_ref().map(bevy::prelude::Handle::id);
+        let collision_id = hair.collision.as_ref().map(bevy::prelude::Handle::id);
         let offset = settings.structure_offset();
         // The hair may have been parented to its bone this frame, after transform propagation:
         // compute its pose from the hierarchy so it appears on the bone, not at the origin.

@@ -17,6 +17,7 @@ use super::events::BoneNotFound;
 /// Which bone of a character a hair hangs on.
 #[derive(Clone, Debug, Reflect)]
 #[reflect(Clone, Debug)]
+#[non_exhaustive]
 pub enum BoneRef {
     /// The character's descendant (or the root itself) with this [`Name`]: a glTF node name such
     /// as `"head"` or `"mixamorig:Head"`.
@@ -113,6 +114,7 @@ impl AttachToBone {
 /// searches again.
 #[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
 #[reflect(Component, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum BoneSearch {
     /// The character's scene has not spawned yet.
     Waiting,
@@ -138,7 +140,10 @@ pub(crate) fn mark_spawned_characters(ready: On<WorldInstanceReady>, mut command
 const LISTED_BONES: usize = 40;
 
 /// Resolves [`AttachToBone`]: parents the hair to its bone, or reports the bone missing.
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub(crate) fn attach_to_bones(
     mut commands: Commands,
     hairs: Query<(

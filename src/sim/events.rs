@@ -40,6 +40,7 @@ pub struct HairRebuilt {
 
 /// Which of a hair's assets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Reflect)]
+#[non_exhaustive]
 pub enum HairAssetKind {
     /// [`Hair::groom`](super::Hair::groom): without it there is no hair.
     Groom,

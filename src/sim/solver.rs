@@ -25,10 +25,19 @@
 //! different strands overlap (a one-strand-at-a-time solver is latency-bound; see
 //! `PERF_NOTES.md`). A batch runs all of a frame's substeps before the next batch starts, so its
 //! nodes stay in L1.
-
+#![cfg_attr(
+    target_arch = "x86_64",
+    expect(
+        unsafe_code,
+        reason = "the AVX2 variant of the solver, chosen after runtime feature detection"
+    )
+)]
 // Lane loops index several arrays with the same counter on purpose: that is the shape the
 // compiler vectorises across strands.
-#![allow(clippy::needless_range_loop)]
+#![expect(
+    clippy::needless_range_loop,
+    reason = "lane loops index several arrays at once, which the compiler vectorises"
+)]
 
 use std::f32::consts::FRAC_PI_2;
 

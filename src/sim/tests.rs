@@ -413,7 +413,7 @@ fn margins_are_redrawn_at_runtime() {
 #[test]
 fn teleports_long_frames_and_bad_bones_never_produce_nan() {
     let mut groom_strands: Vec<Vec<Vec3>> =
-        spiky_groom(10, 6).strands().map(|s| s.to_vec()).collect();
+        spiky_groom(10, 6).strands().map(<[Vec3]>::to_vec).collect();
     groom_strands.push(vec![Vec3::new(0.0, 0.11, 0.0), Vec3::new(0.0, 0.2, 0.0)]); // 2 particles
     let groom = HairGroom::from_strands("head", groom_strands).unwrap();
     for stiff in [0.0, 1.0] {

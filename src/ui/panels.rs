@@ -280,7 +280,10 @@ fn color_row(ui: &mut egui::Ui, label: &str, color: &mut Color) {
 
 /// The Effects window.
 // A Bevy system: its parameters are its queries.
-#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub(super) fn effects_window(
     mut contexts: EguiContexts,
     tuning: Res<HairTuningUi>,

@@ -176,7 +176,7 @@ fn blender_export_round_trips_through_the_loader() -> Result<(), Failed> {
     for (s, line) in lines.iter().enumerate() {
         let v: Vec<f32> = line
             .split_whitespace()
-            .map(|t| t.parse::<f32>())
+            .map(str::parse::<f32>)
             .collect::<Result<_, _>>()?;
         let strand = groom.strand(s);
         if v.len() != strand.len() * 3 {

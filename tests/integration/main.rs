@@ -48,7 +48,9 @@ fn main() {
         let test = *test;
         trials.push(
             Trial::test(format!("render::{name}"), move || {
-                let _guard = RENDER_LOCK.lock().unwrap_or_else(|p| p.into_inner());
+                let _guard = RENDER_LOCK
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
                 test()
             })
             .with_ignored_flag(skip_render),

@@ -190,7 +190,7 @@ fn ink_stats(reference: &CapturedFrame, outlined: &CapturedFrame) -> InkStats {
                     reference.pixel(x as u32, y as u32),
                     outlined.pixel(x as u32, y as u32),
                 );
-                if (0..3).any(|c| (a[c] as i32 - b[c] as i32).abs() > 2) {
+                if (0..3).any(|c| (i32::from(a[c]) - i32::from(b[c])).abs() > 2) {
                     s.interior_changed += 1;
                 }
             }

@@ -133,7 +133,7 @@ pub(crate) fn distinct_shades(
     for p in pixels {
         match clusters
             .iter_mut()
-            .find(|(c, _)| (0..3).all(|i| (c[i] as i32 - p[i] as i32).abs() <= tolerance))
+            .find(|(c, _)| (0..3).all(|i| (i32::from(c[i]) - i32::from(p[i])).abs() <= tolerance))
         {
             Some(c) => c.1 += 1,
             None => clusters.push((*p, 1)),
@@ -144,7 +144,7 @@ pub(crate) fn distinct_shades(
 }
 
 fn luminance(p: [u8; 4]) -> f32 {
-    0.299 * p[0] as f32 + 0.587 * p[1] as f32 + 0.114 * p[2] as f32
+    0.299 * f32::from(p[0]) + 0.587 * f32::from(p[1]) + 0.114 * f32::from(p[2])
 }
 
 pub(crate) fn save(frame: &CapturedFrame, name: &str) -> Result<(), Failed> {

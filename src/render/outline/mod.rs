@@ -53,6 +53,7 @@ pub const MAX_OUTLINE_DILATION: u32 = 32;
 /// Which flat buffer the edges are detected in. Each choice is its own pipeline (shader defs
 /// `EDGE_DEPTH`, `EDGE_NORMALS`), and adds only the prepasses it reads.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum OutlineSource {
     /// Depth and normals: silhouettes against the background and against objects behind
     /// (depth), and creases where a strand crosses another at the same depth (normals).

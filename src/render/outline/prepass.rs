@@ -14,7 +14,10 @@ pub(super) struct OutlinePrepasses {
 
 /// Keeps the prepasses an outline reads on its camera while it is enabled, and removes those it
 /// added when it is disabled or removed. Prepasses the user added stay.
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub(super) fn sync_outline_prepasses(
     mut commands: Commands,
     cameras: Query<(

@@ -51,7 +51,10 @@ fn head_collider(
 }
 
 /// The world's rapier colliders, for the hairs that opted in.
-#[allow(clippy::type_complexity)]
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 fn gather(
     mut world: ResMut<WorldColliders>,
     hairs: Query<(Entity, &HairCollisionGroups)>,
