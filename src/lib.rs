@@ -167,6 +167,7 @@ pub mod render;
 pub mod schedule;
 pub mod silhouette;
 pub mod sim;
+mod simd;
 #[cfg(feature = "ui")]
 pub mod ui;
 

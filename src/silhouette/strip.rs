@@ -427,8 +427,8 @@ fn merge_duplicates(run: &mut Run, start: usize, end: usize) -> usize {
 /// position along the strand into alpha.
 fn project(run: &mut Run, n: usize, camera: &StrokeCamera, params: &StrokeParams) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked just above.
+    if crate::simd::avx2() {
+        // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
         unsafe { project_avx2(run, n, camera, params) };
         return;
     }
@@ -515,8 +515,8 @@ fn emit_run(
     }
     let closed = closed && m > 2;
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU supports AVX2, checked just above.
+    if crate::simd::avx2() {
+        // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
         unsafe { emit_run_avx2(run, start, m, closed, camera, params, out) };
         return;
     }

@@ -239,8 +239,8 @@ fn facing_values(
     values: [&mut Vec<f32>; 3],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        // SAFETY: the CPU has AVX2.
+    if crate::simd::avx2() {
+        // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
         unsafe { facing_values_avx2(ring_vertices, centres, sides, viewer, rows, values) };
         return;
     }

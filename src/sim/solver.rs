@@ -341,8 +341,8 @@ impl Batch {
     /// bit-identical results.
     pub fn step(&mut self, input: &StepInput) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, checked just above.
+        if crate::simd::avx2() {
+            // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
             unsafe { self.step_avx2(input) };
             return;
         }

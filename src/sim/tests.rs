@@ -6,7 +6,7 @@ use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 
-use super::solver::{Batch, build_chain};
+use super::solver::{Batch, LANES, PINNED, build_chain};
 use super::*;
 use crate::asset::{
     CollisionSphere, HairAnimation, HairAssetPlugin, HairGroom, HairKeyframe, HeadCollision,
@@ -140,13 +140,18 @@ impl Harness {
         self.strands().iter().flatten().all(|p| p.is_finite())
     }
 
+    /// FNV-1a over the bits of every particle, in strand order: stable across Rust versions,
+    /// so a golden value can be stored.
     fn hash(&mut self) -> u64 {
-        use std::hash::{Hash, Hasher};
-        let mut h = std::collections::hash_map::DefaultHasher::new();
+        let mut h = 0xcbf2_9ce4_8422_2325u64;
         for p in self.strands().iter().flatten() {
-            p.to_array().map(f32::to_bits).hash(&mut h);
+            for v in p.to_array() {
+                for byte in v.to_bits().to_le_bytes() {
+                    h = (h ^ u64::from(byte)).wrapping_mul(0x0100_0000_01b3);
+                }
+            }
         }
-        h.finish()
+        h
     }
 }
 
@@ -504,6 +509,10 @@ fn non_finite_strands_are_reset_not_propagated() {
     assert_eq!(b.non_finite_lanes(), 0);
 }
 
+/// The state hash of [`state_after_500_fixed_steps_is_deterministic`] on this crate's
+/// reference platform (x86-64, Linux); a change to the solver's arithmetic changes it.
+const GOLDEN_500_STEPS: u64 = 0x7045_96cc_f829_155a;
+
 #[test]
 fn state_after_500_fixed_steps_is_deterministic() {
     let run = |amplitude: f32| {
@@ -518,10 +527,110 @@ fn state_after_500_fixed_steps_is_deterministic() {
         }
         h.hash()
     };
-    let first = run(2.0);
-    println!("state hash after 500 steps: {first:016x}");
-    assert_eq!(first, run(2.0), "same input, different state");
-    assert_ne!(first, run(2.001), "the hash does not see the state");
+    let (portable, vector) = crate::simd::on_both_paths(|| run(2.0));
+    println!("state hash after 500 steps: {portable:#018x} portable, {vector:x?} AVX2");
+    assert_eq!(
+        vector.unwrap_or(portable),
+        portable,
+        "AVX2 and portable paths differ"
+    );
+    assert_eq!(portable, run(2.0), "same input, different state");
+    assert_ne!(portable, run(2.001), "the hash does not see the state");
+    #[cfg(target_arch = "x86_64")]
+    assert_eq!(
+        portable, GOLDEN_500_STEPS,
+        "the solver's results changed: if that was meant, store the new hash"
+    );
+}
+
+/// A small deterministic generator for random inputs.
+struct Rng(u64);
+
+impl Rng {
+    /// Uniform in `[-1, 1)`.
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+
+    fn vec3(&mut self, scale: f32) -> Vec3 {
+        Vec3::new(self.next(), self.next(), self.next()) * scale
+    }
+}
+
+#[test]
+fn solver_avx2_and_portable_paths_agree_bit_for_bit() {
+    let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+    let mut compared = 0usize;
+    for trial in 0..24 {
+        let particles = 3 + trial % 9;
+        let lanes = 1 + trial % LANES;
+        // Random wavy strands hanging from a random root.
+        let chains: Vec<Vec<Vec3>> = (0..lanes)
+            .map(|_| {
+                let root = rng.vec3(0.1);
+                let points: Vec<Vec3> = (0..particles)
+                    .map(|i| root + Vec3::new(0.0, -0.03 * i as f32, 0.0) + rng.vec3(0.01))
+                    .collect();
+                let mut chain = Vec::new();
+                build_chain(&points, 0.3 + 0.2 * rng.next(), None, &mut chain);
+                chain
+            })
+            .collect();
+        let ids: Vec<u32> = (0..lanes as u32).collect();
+        let refs: Vec<&[Vec3]> = chains.iter().map(Vec::as_slice).collect();
+        let margins: Vec<f32> = (0..lanes).map(|_| 0.005 + 0.005 * rng.next()).collect();
+        let mut batch = Batch::new(&ids, &refs, &[], &margins);
+        let start = bevy::math::Affine3A::from_translation(rng.vec3(0.2));
+        batch.reset(&start);
+        let nodes = batch.nodes.len();
+        let substeps = 1 + trial % 4;
+        let spheres_per = trial % 3;
+        let h = 1.0 / 240.0;
+        let input = super::solver::StepInput {
+            h,
+            bones: (0..substeps)
+                .map(|s| {
+                    bevy::math::Affine3A::from_rotation_translation(
+                        Quat::from_rotation_y(0.3 * rng.next() * s as f32),
+                        start.translation.into(),
+                    )
+                })
+                .collect(),
+            spheres: (0..substeps * spheres_per)
+                .map(|_| (rng.vec3(0.1).into(), 0.02 + 0.05 * rng.next().abs()))
+                .collect(),
+            sphere_count: spheres_per,
+            gravity_h2: Vec3::new(0.0, -9.81, 0.0) * h * h,
+            damping: 0.99,
+            alpha: [0.0, 1e-3 * rng.next().abs(), f32::INFINITY],
+            anchor_factor: (0..nodes)
+                .map(|k| if k < PINNED { 0.0 } else { rng.next().abs() })
+                .collect(),
+            ..default()
+        };
+        let run = || {
+            let mut b = batch.clone();
+            for _ in 0..20 {
+                b.step(&input);
+            }
+            b.nodes
+                .iter()
+                .flat_map(|n| n.x.iter().chain(&n.p).flatten().map(|v| v.to_bits()))
+                .collect::<Vec<u32>>()
+        };
+        let (portable, vector) = crate::simd::on_both_paths(run);
+        if let Some(vector) = vector {
+            assert_eq!(portable, vector, "trial {trial}: the paths differ");
+            compared += portable.len();
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        assert!(compared > 10_000, "only {compared} values compared");
+    }
 }
 
 #[test]
