@@ -118,7 +118,7 @@ fn settings_topology(s: &HairMeshSettings) -> (usize, usize) {
 }
 
 /// Creates a mesh with `strands` copies of the topology (positions and normals zeroed).
-fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
+pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
     let per = topology.vertex_count();
     let mut indices = Vec::with_capacity(topology.indices.len() * strands);
     let mut uvs = Vec::with_capacity(per * strands);

@@ -1,12 +1,5 @@
 #define_import_path bevy_cartoon_hair::curves
 
-// value = a*x^2 + b*x + c with x clamped to [0, 1]; coefficients packed as (a, b, c).
-// Mirrors `QuadraticCurve::eval` on the CPU.
-fn quadratic(abc: vec3<f32>, x: f32) -> f32 {
-    let t = clamp(x, 0.0, 1.0);
-    return (abc.x * t + abc.y) * t + abc.z;
-}
-
 // Depth detail (Barla et al. 2006): D = 1 - log(z / zmin) / log(zmax / zmin), clamped to [0, 1].
 fn depth_detail(z: f32, zmin: f32, zmax: f32) -> f32 {
     let lo = max(zmin, 1e-4);

@@ -188,7 +188,7 @@ impl ToonHairMaterialKey {
         match self.hatching {
             HatchingMode::None => {}
             HatchingMode::Screen => defs.extend(["HATCHING", "HATCH_SCREEN"]),
-            HatchingMode::Surface => defs.extend(["HATCHING", "HATCH_SURFACE"]),
+            HatchingMode::Surface => defs.push("HATCHING"),
         }
         defs
     }

@@ -5,7 +5,8 @@
 //   RAMP_DEPTH | RAMP_BACK_LIGHT | RAMP_SPECULAR  the ramp's y axis (none: constant, a 1D ramp)
 //   BLINN_SPECULAR                                 add (N.H)^shininess on top
 //   BACK_LIGHT                                     add a rim: strength * (1 - |N.V|^r)
-//   HATCH_SCREEN | HATCH_SURFACE                   ink from a tonal art map
+//   HATCHING                                       ink from a tonal art map, on the strand's
+//                                                  surface, or on the screen with HATCH_SCREEN
 
 #import bevy_pbr::{forward_io::VertexOutput, mesh_view_bindings::{view, lights}}
 #import bevy_cartoon_hair::curves::{depth_detail, back_light}
@@ -57,7 +58,8 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
 
     var y = material.params2.w;
 #ifdef RAMP_DEPTH
-    // Distance along the view direction; D = 1 at z_min, 0 at z_min * z_scale.
+    // Distance from the eye (not depth along the view axis, so detail does not change as the
+    // head turns in view); D = 1 at z_min, 0 at z_min * z_scale.
     let z_min = max(material.params.x, 1e-3);
     y = depth_detail(length(to_eye), z_min, z_min * max(material.params.y, 1.0001));
 #endif

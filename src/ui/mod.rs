@@ -5,21 +5,20 @@
 //! |--------|---------------|
 //! | **Debug** | draw particles, springs, anchors and head colliders ([`HairDebugDraw`]); pause and step ([`HairSimControl`](crate::sim::HairSimControl)); milliseconds per stage ([`HairStageTimings`]); the hair's step counters. |
 //! | **Hair properties** | the H curve, hair and shape resolution with *Rebuild mesh*, the S curve, edge, bend and torsion stiffness, gravity, damping, margins with *Alter margins*; presets (save and load). |
-//! | **Effects** | the toon material: ramp mode and ramp, depth detail (Zmin, Zscale), back lighting, specular, hatching and HScale. |
+//! | **Effects** | the toon material: ramp mode and ramp, depth detail (Zmin, Zscale), back lighting, specular, hatching and HScale; the outline method (object-space strokes, image-space edges, both or none) with the thesis's stroke parameters and the E curve; the specular sampling quads. |
 //!
 //! Every control edits the plugin's own types: [`HairSimSettings`](crate::sim::HairSimSettings)
 //! and [`HairMeshSettings`](crate::mesh::HairMeshSettings) on the hair entity, the
 //! [`ToonHairMaterial`](crate::render::ToonHairMaterial) asset behind its
-//! [`HairMaterial`](crate::render::HairMaterial). There is no copy to keep in sync: an edit takes
+//! [`HairMaterial`](crate::render::HairMaterial), [`SilhouetteSettings`](crate::silhouette::SilhouetteSettings)
+//! and [`SpecularQuads`](crate::mesh::highlights::SpecularQuads) on the hair, and the camera's
+//! [`ImageSpaceOutline`](crate::render::ImageSpaceOutline). There is no copy to keep in sync: an edit takes
 //! effect on the next frame, and a change made by game code shows in the panel. Values are
 //! written back only when a control changed them, so an open panel does not mark settings or
 //! materials as changed every frame. The one exception is the resolution pair, which the thesis
 //! applies with *Rebuild mesh*: it is edited as a pending copy and applied by the button.
 //!
 //! The panel edits one hair at a time ([`HairTuningUi::hair`]; the first hair when unset).
-//!
-//! The E curve (silhouette fade) and the silhouette controls of the thesis's effects window are
-//! not here yet: silhouettes have no settings component to edit.
 
 mod debug;
 mod outlines;
