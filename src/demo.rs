@@ -30,7 +30,7 @@ use crate::headless::{CaptureSettings, HeadlessError, HeadlessRenderer};
 use crate::mesh::ComputedHairMesh;
 use crate::plugins::CartoonHairPlugins;
 use crate::preset::HairPreset;
-use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps};
+use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps, ToonShading};
 use crate::sim::{AttachToBone, ComputedHair, Hair, HairAssetFailed, HairSimSettings};
 
 /// The demo hair's colour (orange).
@@ -159,15 +159,17 @@ fn spawn_ninja_scene(
         animation: Some(assets.load("ninja/ninja.hairanim.xml")),
         collision: Some(assets.load("ninja/ninja.collision.xml")),
     };
-    let mut material = ToonHairMaterial {
-        base_color: HAIR_COLOR,
-        ramp: ramps.three_tone.clone(),
-        specular_strength: 0.35,
-        shininess: 60.0,
-        back_light_strength: 0.25,
-        back_light_power: 0.6,
-        ..default()
-    };
+    let mut material = ToonHairMaterial::new(
+        ToonShading {
+            base_color: HAIR_COLOR,
+            specular_strength: 0.35,
+            shininess: 60.0,
+            back_light_strength: 0.25,
+            back_light_power: 0.6,
+            ..default()
+        },
+        ramps.three_tone.clone(),
+    );
     let mut settings = HairSimSettings::default();
     if let Some(preset) = &config.preset {
         preset.material.apply(&mut material, &ramps);

@@ -186,6 +186,7 @@ pub mod prelude {
     #[cfg(feature = "render")]
     pub use crate::render::{
         HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
+        ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};

@@ -4,15 +4,15 @@
 //!
 //! A [`HairPreset`] holds the same settings types the plugins use ([`HairSimSettings`],
 //! [`HairMeshSettings`], [`SilhouetteSettings`] for the object-space strokes and the camera's
-//! [`ImageSpaceOutline`]) and the tunable scalars and modes of a [`ToonHairMaterial`]
-//! ([`ToonMaterialPreset`]). It is written with Bevy reflection (no serde derives), so a preset
+//! [`ImageSpaceOutline`]) and the [`ToonShading`] of a [`ToonHairMaterial`] with its ramp by
+//! name ([`ToonMaterialPreset`]). It is written with Bevy reflection (no serde derives), so a preset
 //! file reads like the structs:
 //!
 //! ```text
 //! (
 //!     simulation: (edge_stiffness: 1.0, bend_stiffness: 0.8, ...),
 //!     mesh: (hair_resolution: 16, shape_resolution: 8, ...),
-//!     material: (ramp: ThreeTone, ramp_mode: Constant, ...),
+//!     material: (ramp: ThreeTone, shading: (ramp_mode: Constant, ...)),
 //!     silhouettes: Some((enabled: true, width_px: 3.0, ...)),
 //!     outline: Some((enabled: false, threshold: 0.3, ...)),
 //! )
@@ -38,7 +38,7 @@ use bevy::reflect::serde::{TypedReflectDeserializer, TypedReflectSerializer};
 use bevy::reflect::{FromReflect, GetTypeRegistration, TypeRegistry};
 
 use crate::mesh::HairMeshSettings;
-use crate::render::{HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps};
+use crate::render::{ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps, ToonShading};
 use crate::silhouette::SilhouetteSettings;
 use crate::sim::HairSimSettings;
 
@@ -123,48 +123,17 @@ impl RampKind {
     }
 }
 
-/// The tunable part of a [`ToonHairMaterial`]: everything but the textures, which are named
-/// ([`ToonMaterialPreset::ramp`]) or generated (the tonal art map) instead. Each field means
-/// what the material's field of the same name means.
-#[derive(Reflect, Clone, Debug, PartialEq)]
+/// The tunable part of a [`ToonHairMaterial`]: its [`ToonShading`] as it is, and its ramp by
+/// name ([`ToonMaterialPreset::ramp`]); the tonal art map is generated, not saved. Its shading's
+/// fields are reached directly through `Deref`.
+#[derive(Reflect, Clone, Debug, Default, PartialEq, Deref, DerefMut)]
 #[reflect(Default, Debug, PartialEq)]
 pub struct ToonMaterialPreset {
-    /// [`ToonHairMaterial::base_color`]. Default: `srgb(0.95, 0.55, 0.15)`.
-    pub base_color: Color,
     /// Which default ramp to use. Default: [`RampKind::ThreeTone`].
     pub ramp: RampKind,
-    /// [`ToonHairMaterial::ramp_mode`]. Default: [`RampMode::Constant`].
-    pub ramp_mode: RampMode,
-    /// [`ToonHairMaterial::ramp_row`]. Default: `0.5`.
-    pub ramp_row: f32,
-    /// [`ToonHairMaterial::z_min`]. Default: `1.0`.
-    pub z_min: f32,
-    /// [`ToonHairMaterial::z_scale`]. Default: `6.0`.
-    pub z_scale: f32,
-    /// [`ToonHairMaterial::back_light_power`]. Default: `2.0`.
-    pub back_light_power: f32,
-    /// [`ToonHairMaterial::back_light_strength`]. Default: `0.0`.
-    pub back_light_strength: f32,
-    /// [`ToonHairMaterial::back_light_color`]. Default: white.
-    pub back_light_color: Color,
-    /// [`ToonHairMaterial::specular_strength`]. Default: `0.0`.
-    pub specular_strength: f32,
-    /// [`ToonHairMaterial::shininess`]. Default: `40.0`.
-    pub shininess: f32,
-    /// [`ToonHairMaterial::specular_color`]. Default: white.
-    pub specular_color: Color,
-    /// [`ToonHairMaterial::hatching`]; hatching also needs a tonal art map, which the tuning
-    /// panel's plugin generates when a material asks for hatching without one.
-    /// Default: [`HatchingMode::None`].
-    pub hatching: HatchingMode,
-    /// [`ToonHairMaterial::hatch_scale`]. Default: `1.0`.
-    pub hatch_scale: f32,
-}
-
-impl Default for ToonMaterialPreset {
-    fn default() -> Self {
-        Self::from_material(&ToonHairMaterial::default(), None)
-    }
+    /// [`ToonHairMaterial::shading`]. Default: [`ToonShading::default`].
+    #[deref]
+    pub shading: ToonShading,
 }
 
 impl ToonMaterialPreset {
@@ -172,42 +141,18 @@ impl ToonMaterialPreset {
     /// ([`RampKind::ThreeTone`] when `ramps` is `None`).
     pub fn from_material(material: &ToonHairMaterial, ramps: Option<&ToonRamps>) -> Self {
         Self {
-            base_color: material.base_color,
             ramp: ramps.map_or(RampKind::ThreeTone, |r| RampKind::of(&material.ramp, r)),
-            ramp_mode: material.ramp_mode,
-            ramp_row: material.ramp_row,
-            z_min: material.z_min,
-            z_scale: material.z_scale,
-            back_light_power: material.back_light_power,
-            back_light_strength: material.back_light_strength,
-            back_light_color: material.back_light_color,
-            specular_strength: material.specular_strength,
-            shininess: material.shininess,
-            specular_color: material.specular_color,
-            hatching: material.hatching,
-            hatch_scale: material.hatch_scale,
+            shading: material.shading.clone(),
         }
     }
 
-    /// Writes these fields into `material`, and its ramp from `ramps` unless the ramp is
+    /// Writes the shading into `material`, and its ramp from `ramps` unless the ramp is
     /// [`RampKind::Custom`]. The tonal art map is left as it is.
     pub fn apply(&self, material: &mut ToonHairMaterial, ramps: &ToonRamps) {
         if let Some(ramp) = self.ramp.handle(ramps) {
             material.ramp = ramp;
         }
-        material.base_color = self.base_color;
-        material.ramp_mode = self.ramp_mode;
-        material.ramp_row = self.ramp_row;
-        material.z_min = self.z_min;
-        material.z_scale = self.z_scale;
-        material.back_light_power = self.back_light_power;
-        material.back_light_strength = self.back_light_strength;
-        material.back_light_color = self.back_light_color;
-        material.specular_strength = self.specular_strength;
-        material.shininess = self.shininess;
-        material.specular_color = self.specular_color;
-        material.hatching = self.hatching;
-        material.hatch_scale = self.hatch_scale;
+        material.shading.clone_from(&self.shading);
     }
 }
 
@@ -407,6 +352,7 @@ impl HairPreset {
 mod tests {
     use super::*;
     use crate::curve::QuadraticCurve;
+    use crate::render::HatchingMode;
 
     fn tuned() -> HairPreset {
         HairPreset {
@@ -424,13 +370,15 @@ mod tests {
                 ..default()
             },
             material: ToonMaterialPreset {
-                base_color: Color::srgb(0.98, 0.62, 0.12),
                 ramp: RampKind::Specular,
-                ramp_mode: RampMode::Specular,
-                hatching: HatchingMode::Surface,
-                hatch_scale: 2.5,
-                specular_color: Color::linear_rgba(0.2, 0.3, 0.4, 1.0),
-                ..default()
+                shading: ToonShading {
+                    base_color: Color::srgb(0.98, 0.62, 0.12),
+                    ramp_mode: RampMode::Specular,
+                    hatching: HatchingMode::Surface,
+                    hatch_scale: 2.5,
+                    specular_color: Color::linear_rgba(0.2, 0.3, 0.4, 1.0),
+                    ..default()
+                },
             },
             silhouettes: Some(SilhouetteSettings {
                 width_px: 4.5,

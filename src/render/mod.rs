@@ -24,7 +24,9 @@ pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
 };
 pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
-pub use toon::{HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform};
+pub use toon::{
+    HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform, ToonShading,
+};
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
 pub const SHADER_LIBRARY: &[(&str, &str)] =

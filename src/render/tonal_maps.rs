@@ -84,6 +84,7 @@ pub fn assign_tonal_art_maps(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::render::ToonShading;
 
     #[test]
     fn hatching_materials_get_one_shared_generated_map() {
@@ -97,10 +98,13 @@ mod tests {
         let mut materials = app.world_mut().resource_mut::<Assets<ToonHairMaterial>>();
         let plain = materials.add(ToonHairMaterial::default());
         let hatched = [HatchingMode::Screen, HatchingMode::Surface].map(|hatching| {
-            materials.add(ToonHairMaterial {
-                hatching,
-                ..default()
-            })
+            materials.add(ToonHairMaterial::new(
+                ToonShading {
+                    hatching,
+                    ..default()
+                },
+                Handle::default(),
+            ))
         });
         app.update();
         let materials = app.world().resource::<Assets<ToonHairMaterial>>();

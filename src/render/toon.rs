@@ -40,20 +40,46 @@ pub enum HatchingMode {
     Surface,
 }
 
-/// Toon shading for hair. Every field's change takes effect live; changing a mode switches to
-/// another pipeline variant (shader defs), not a branch in the shader.
-#[derive(Asset, AsBindGroup, Reflect, Clone, Debug)]
+/// Toon shading for hair: the tunable [`ToonShading`] (reached directly through `Deref`, so
+/// `material.base_color` works) and its textures. Every change takes effect live; changing a
+/// mode switches to another pipeline variant (shader defs), not a branch in the shader.
+#[derive(Asset, AsBindGroup, Reflect, Clone, Debug, Default, Deref, DerefMut)]
 #[bind_group_data(ToonHairMaterialKey)]
 #[uniform(0, ToonHairUniform)]
 #[reflect(Debug)]
 pub struct ToonHairMaterial {
-    /// Hair colour, multiplied by the ramp. Default: orange `srgb(0.95, 0.55, 0.15)`.
-    pub base_color: Color,
-    /// The ramp: x = light intensity, y = see [`ToonHairMaterial::ramp_mode`]. Use a nearest
+    /// Colours, ramp use, depth detail, back light, specular and hatching settings (presets
+    /// store this as it is).
+    #[deref]
+    pub shading: ToonShading,
+    /// The ramp: x = light intensity, y = see [`ToonShading::ramp_mode`]. Use a nearest
     /// sampler for hard bands. Default: none (set one from [`crate::render::ToonRamps`]).
     #[texture(1)]
     #[sampler(2)]
     pub ramp: Handle<Image>,
+    /// Tonal art map (2D array, layer per tone); required when hatching.
+    #[texture(3, dimension = "2d_array")]
+    #[sampler(4)]
+    pub tonal_art_map: Option<Handle<Image>>,
+}
+
+impl ToonHairMaterial {
+    /// A material with this shading and `ramp`.
+    pub fn new(shading: ToonShading, ramp: Handle<Image>) -> Self {
+        Self {
+            shading,
+            ramp,
+            tonal_art_map: None,
+        }
+    }
+}
+
+/// The tunable part of a [`ToonHairMaterial`]: everything but its textures.
+#[derive(Reflect, Clone, Debug, PartialEq)]
+#[reflect(Default, Debug, PartialEq)]
+pub struct ToonShading {
+    /// Hair colour, multiplied by the ramp. Default: orange `srgb(0.95, 0.55, 0.15)`.
+    pub base_color: Color,
     /// What indexes the ramp's y axis. Default: [`RampMode::Constant`].
     pub ramp_mode: RampMode,
     /// Ramp row used with [`RampMode::Constant`], 0 (bottom) to 1 (top). Default: `0.5`.
@@ -65,8 +91,8 @@ pub struct ToonHairMaterial {
     /// Back lighting exponent `r >= 0` in `|N.V|^r`: below 1 widens the lit rim, above 1 narrows
     /// it. Default: `2.0`.
     pub back_light_power: f32,
-    /// Adds a rim of [`ToonHairMaterial::back_light_color`] (thesis: "mixed in like the
-    /// specular"). Default: `0.0` (off).
+    /// Adds a rim of [`ToonShading::back_light_color`] (thesis: "mixed in like the specular").
+    /// Default: `0.0` (off).
     pub back_light_strength: f32,
     /// Rim colour. Default: white.
     pub back_light_color: Color,
@@ -77,21 +103,17 @@ pub struct ToonHairMaterial {
     pub shininess: f32,
     /// Specular colour. Default: white.
     pub specular_color: Color,
-    /// Hatching mode. Default: [`HatchingMode::None`].
+    /// Hatching mode; hatching also needs [`ToonHairMaterial::tonal_art_map`] (the render plugin
+    /// generates one for materials that ask). Default: [`HatchingMode::None`].
     pub hatching: HatchingMode,
-    /// Tonal art map (2D array, layer per tone); required when hatching.
-    #[texture(3, dimension = "2d_array")]
-    #[sampler(4)]
-    pub tonal_art_map: Option<Handle<Image>>,
     /// Hatching scale (HScale): larger gives bigger strokes. Default: `1.0`.
     pub hatch_scale: f32,
 }
 
-impl Default for ToonHairMaterial {
+impl Default for ToonShading {
     fn default() -> Self {
         Self {
             base_color: Color::srgb(0.95, 0.55, 0.15),
-            ramp: Handle::default(),
             ramp_mode: RampMode::Constant,
             ramp_row: 0.5,
             z_min: 1.0,
@@ -103,7 +125,6 @@ impl Default for ToonHairMaterial {
             shininess: 40.0,
             specular_color: Color::WHITE,
             hatching: HatchingMode::None,
-            tonal_art_map: None,
             hatch_scale: 1.0,
         }
     }

@@ -59,7 +59,10 @@ fn wear(glb: &str, bone: &str, groom: &str, collision: &str) -> Result<Worn, Fai
     let material = world
         .resource_mut::<Assets<ToonHairMaterial>>()
         .add(ToonHairMaterial {
-            base_color: Color::srgb(0.98, 0.62, 0.12),
+            shading: ToonShading {
+                base_color: Color::srgb(0.98, 0.62, 0.12),
+                ..default()
+            },
             ..default()
         });
     let character = world

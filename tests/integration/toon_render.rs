@@ -184,13 +184,15 @@ fn toon_bands_no_more_than_ramp_tones() -> Result<(), Failed> {
 fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
     let mut r = scene(Vec3::new(1.0, 0.2, 0.3), Vec3::new(0.0, 0.0, 4.0))?;
     let ramp = ramps(&r).depth;
-    let material = ToonHairMaterial {
+    let material = ToonHairMaterial::new(
+        ToonShading {
+            ramp_mode: RampMode::Depth,
+            z_min: 3.0,
+            z_scale: 3.0,
+            ..default()
+        },
         ramp,
-        ramp_mode: RampMode::Depth,
-        z_min: 3.0,
-        z_scale: 3.0,
-        ..default()
-    };
+    );
     // Near (left, 1 m from the camera) and far (right, 9 m away, scaled up to look as large).
     spawn_strand(
         &mut r,
@@ -240,13 +242,15 @@ fn blinn_specular_peaks_where_n_dot_h_is_highest() -> Result<(), Failed> {
         Vec3::new(-1.2, 0.0, 0.0),
         Vec3::new(1.2, 0.0, 0.0),
         radius,
-        ToonHairMaterial {
+        ToonHairMaterial::new(
+            ToonShading {
+                base_color: Color::srgb(0.4, 0.1, 0.1),
+                specular_strength: 1.0,
+                shininess: 80.0,
+                ..default()
+            },
             ramp,
-            base_color: Color::srgb(0.4, 0.1, 0.1),
-            specular_strength: 1.0,
-            shininess: 80.0,
-            ..default()
-        },
+        ),
     );
     let frame = r.capture()?;
     save(&frame, "blinn_specular")?;
@@ -321,12 +325,14 @@ fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
             Vec3::new(1.2, 0.0, 0.0),
             0.6,
             ToonHairMaterial {
+                shading: ToonShading {
+                    base_color: Color::WHITE,
+                    hatching: mode,
+                    hatch_scale: 0.5,
+                    ..default()
+                },
                 ramp: flat,
-                base_color: Color::WHITE,
-                hatching: mode,
                 tonal_art_map: Some(tam),
-                hatch_scale: 0.5,
-                ..default()
             },
         );
         let frame = r.capture()?;
@@ -380,11 +386,13 @@ fn specular_quads_show_on_the_lit_side() -> Result<(), Failed> {
             Vec3::new(-1.2, 0.0, 0.0),
             Vec3::new(1.2, 0.0, 0.0),
             0.4,
-            ToonHairMaterial {
+            ToonHairMaterial::new(
+                ToonShading {
+                    base_color: Color::srgb(0.4, 0.1, 0.1),
+                    ..default()
+                },
                 ramp,
-                base_color: Color::srgb(0.4, 0.1, 0.1),
-                ..default()
-            },
+            ),
         );
         let mut q = r.app.world_mut().query_filtered::<Entity, With<Hair>>();
         let hair = q.single(r.app.world()).map_err(|e| e.to_string())?;
