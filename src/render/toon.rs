@@ -15,7 +15,7 @@ use bevy::shader::ShaderRef;
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum RampMode {
-    /// A constant row ([`ToonHairMaterial::ramp_row`]): a plain 1D cartoon ramp.
+    /// A constant row ([`ToonShading::ramp_row`]): a plain 1D cartoon ramp.
     #[default]
     Constant,
     /// Depth detail: `D = 1 - log(z/zmin) / log(zmax/zmin)`, near strands vivid, far washed out.
