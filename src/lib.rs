@@ -60,12 +60,13 @@
 //!
 //! | module | stage |
 //! |--------|-------|
+//! | [`schedule`] | when hair runs: the [`HairSystems`] sets in `PostUpdate` and their order |
 //! | [`asset`] | XML grooms, collision shapes and hair animations, and their loaders (`docs/formats.md`) |
-//! | [`sim`] | bone attachment, strand entities, the XPBD solver with Selle's structural springs, anchors, collisions |
+//! | [`sim`] | bone attachment, strand entities, the XPBD solver with Selle's structural springs, anchors, collisions (own colliders; rapier's and avian's behind features) |
 //! | [`mesh`] | tapered tubes swept along a spline through each strand; specular sampling quads |
-//! | [`silhouette`] | object-space silhouette strokes (edge map, chains, screen-space strips) |
-//! | `render` | toon material, ramps, image-space outlines, the WGSL library (feature `render`) |
-//! | [`hatching`] | the tonal art map generator and its texture |
+//! | [`silhouette`] | object-space silhouette strokes: edge adjacency of any closed mesh, tube edges, chains, screen-space strips |
+//! | `render` | toon material (`toon`), ramps, image-space outlines (`outline/`: component, prepasses, pipelines, pass), the WGSL library (feature `render`) |
+//! | [`hatching`] | the tonal art map generator (settings, stroke image, rasteriser, generator) and its texture |
 //! | `headless` | rendering without a window into an image, reading pixels back (feature `demo`) |
 //! | [`curve`] | the quadratic curves (H, S, E) shared by all stages |
 //! | [`debug`](mod@debug) | debug drawing (gizmos) and stage timings in Bevy's `DiagnosticsStore`, no egui needed |
@@ -168,6 +169,8 @@ pub mod schedule;
 pub mod silhouette;
 pub mod sim;
 mod simd;
+#[cfg(test)]
+mod test_support;
 #[cfg(feature = "ui")]
 pub mod ui;
 

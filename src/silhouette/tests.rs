@@ -608,13 +608,8 @@ fn degenerate_strokes_are_skipped_not_nan() {
 /// depth scaling and fades).
 #[test]
 fn strip_avx2_and_portable_paths_agree_bit_for_bit() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut next = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        ((seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-    };
+    let mut rng = crate::test_support::Rng(0x9e37_79b9_7f4a_7c15);
+    let mut next = move || rng.next();
     let camera = camera();
     let mut compared = 0usize;
     for trial in 0..200 {

@@ -391,21 +391,8 @@ fn facing_values_body(
 mod tests {
     use super::*;
     use crate::silhouette::adjacency::{EdgeAdjacency, SilhouetteScratch, silhouette_edges};
+    use crate::test_support::Rng;
     use bevy::math::Vec3;
-
-    /// A small deterministic generator (xorshift).
-    struct Rng(u64);
-    impl Rng {
-        fn next(&mut self) -> f32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 40) as f32 / (1u64 << 24) as f32
-        }
-        fn vec(&mut self, scale: f32) -> Vec3 {
-            Vec3::new(self.next() - 0.5, self.next() - 0.5, self.next() - 0.5) * 2.0 * scale
-        }
-    }
 
     #[test]
     fn tube_edges_equal_the_general_path() {
@@ -422,18 +409,18 @@ mod tests {
             for trial in 0..40 {
                 // Random bumpy tubes (self-intersecting ones too) and random viewers, including
                 // degenerate rings (every vertex of a ring in one point).
-                let centre = rng.vec(0.3);
+                let centre = rng.vec3(0.3);
                 let mut positions: Vec<[f32; 3]> = (0..topology.vertex_count())
-                    .map(|_| (centre + rng.vec(0.05)).to_array())
+                    .map(|_| (centre + rng.vec3(0.05)).to_array())
                     .collect();
                 if trial % 7 == 3 {
                     let p = positions[0];
                     positions[..sides].fill(p);
                 }
                 let viewer = if trial % 2 == 0 {
-                    Viewer::Point(rng.vec(2.0))
+                    Viewer::Point(rng.vec3(2.0))
                 } else {
-                    Viewer::Direction(rng.vec(1.0))
+                    Viewer::Direction(rng.vec3(1.0))
                 };
                 silhouette_edges(
                     &adjacency,
@@ -459,10 +446,10 @@ mod tests {
         for sides in [3, 8, 12, 17] {
             let rings = 5;
             let ring_vertices: Vec<[f32; 3]> = (0..rings * sides)
-                .map(|_| rng.vec(1.0).to_array())
+                .map(|_| rng.vec3(1.0).to_array())
                 .collect();
-            let centres = [rng.vec(1.0).to_array(), rng.vec(1.0).to_array()];
-            let viewer = Viewer::Point(rng.vec(3.0));
+            let centres = [rng.vec3(1.0).to_array(), rng.vec3(1.0).to_array()];
+            let viewer = Viewer::Point(rng.vec3(3.0));
             let run = |portable: bool| {
                 let len = rings * (sides + 1) + 1;
                 let mut rows = [vec![0.0; len], vec![0.0; len], vec![0.0; len]];

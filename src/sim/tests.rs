@@ -11,6 +11,7 @@ use super::*;
 use crate::asset::{
     CollisionSphere, HairAnimation, HairAssetPlugin, HairGroom, HairKeyframe, HeadCollision,
 };
+use crate::test_support::Rng;
 use crate::{curve::QuadraticCurve, schedule::HairSchedulePlugin};
 
 const HEAD_RADIUS: f32 = 0.1;
@@ -541,23 +542,6 @@ fn state_after_500_fixed_steps_is_deterministic() {
         portable, GOLDEN_500_STEPS,
         "the solver's results changed: if that was meant, store the new hash"
     );
-}
-
-/// A small deterministic generator for random inputs.
-struct Rng(u64);
-
-impl Rng {
-    /// Uniform in `[-1, 1)`.
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-    }
-
-    fn vec3(&mut self, scale: f32) -> Vec3 {
-        Vec3::new(self.next(), self.next(), self.next()) * scale
-    }
 }
 
 #[test]

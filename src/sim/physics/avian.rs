@@ -65,18 +65,12 @@ fn gather(
     if hairs.is_empty() {
         return;
     }
-    let mut seen = Vec::new();
     for (entity, collider, global, layers) in &colliders {
-        seen.clear();
-        seen.extend(
-            hairs
-                .iter()
-                .filter(|(_, hair)| hair.0.interacts_with(*layers))
-                .map(|(e, _)| e),
-        );
-        // avian's shape is already scaled (`shape_scaled`): the pose must not scale it again.
-        let (_, r, t) = global.to_scale_rotation_translation();
-        let pose = bevy::math::Affine3A::from_rotation_translation(r, t);
+        let seen = hairs
+            .iter()
+            .filter(|(_, hair)| hair.0.interacts_with(*layers))
+            .map(|(e, _)| e);
+        // avian's shape is already scaled (`shape_scaled`).
         let scaled = collider.shape_scaled();
         let shape = if let Some(ball) = scaled.as_ball() {
             WorldShape::Spheres(vec![(Vec3A::ZERO, ball.radius)])
@@ -87,6 +81,6 @@ fn gather(
                 Quat::IDENTITY,
             ))
         };
-        world.push(entity, pose, shape, &seen);
+        world.push(entity, global, shape, seen);
     }
 }

@@ -88,23 +88,29 @@ pub(crate) struct WorldColliders {
 
 impl WorldColliders {
     /// Adds a collider that `hairs` see (nothing when none does).
+    /// The engines scale their shapes themselves, so the pose keeps only the collider's
+    /// rotation and translation.
     pub(crate) fn push(
         &mut self,
         entity: Entity,
-        now: Affine3A,
+        global: &GlobalTransform,
         shape: WorldShape,
-        hairs: &[Entity],
+        hairs: impl IntoIterator<Item = Entity>,
     ) {
-        if hairs.is_empty() {
+        let index = self.colliders.len();
+        let mut seen = false;
+        for hair in hairs {
+            self.seen_by.entry(hair).or_default().push(index);
+            seen = true;
+        }
+        if !seen {
             return;
         }
+        let (_, rotation, translation) = global.to_scale_rotation_translation();
+        let now = Affine3A::from_rotation_translation(rotation, translation);
         let prev = self.poses.get(&entity).copied().unwrap_or(now);
         self.next_poses.insert(entity, now);
-        let index = self.colliders.len();
         self.colliders.push(WorldCollider { prev, now, shape });
-        for hair in hairs {
-            self.seen_by.entry(*hair).or_default().push(index);
-        }
     }
 }
 

@@ -71,16 +71,13 @@ fn gather(
     if hairs.is_empty() {
         return;
     }
-    let mut seen = Vec::new();
     for (entity, collider, global, groups) in &colliders {
         let groups = groups.copied().unwrap_or_default();
-        seen.clear();
-        seen.extend(
-            hairs
-                .iter()
-                .filter(|(_, hair)| groups_match(&hair.0, &groups))
-                .map(|(e, _)| e),
-        );
+        let seen = hairs
+            .iter()
+            .filter(|(_, hair)| groups_match(&hair.0, &groups))
+            .map(|(e, _)| e);
+        // rapier's shape is already scaled (`Collider::raw`).
         let shape = &collider.raw;
         let shape = if let Some(ball) = shape.as_ball() {
             WorldShape::Spheres(vec![(Vec3A::ZERO, ball.radius)])
@@ -100,9 +97,6 @@ fn gather(
         } else {
             WorldShape::Other(ShapeKind::Rapier(shape.clone(), Default::default()))
         };
-        // rapier's shape is already scaled (`Collider::raw`): the pose must not scale it again.
-        let (_, r, t) = global.to_scale_rotation_translation();
-        let pose = bevy::math::Affine3A::from_rotation_translation(r, t);
-        world.push(entity, pose, shape, &seen);
+        world.push(entity, global, shape, seen);
     }
 }
