@@ -188,8 +188,8 @@ pub mod prelude {
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
-        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonRamps,
-        ToonShading,
+        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonLighting,
+        ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};

@@ -15,8 +15,8 @@ use bevy::transform::TransformSystems;
 ///
 /// The whole chain runs after [`TransformSystems::Propagate`], which itself runs after Bevy's
 /// animation systems, so bones already carry this frame's animated pose; and before Bevy's
-/// visibility systems ([`VisibilitySystems`]), so meshes spawned, rebuilt, shown or hidden here
-/// are bounded and culled in the same frame.
+/// visibility propagation and culling ([`VisibilitySystems`]), so meshes spawned, shown or
+/// hidden here are culled in the same frame.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum HairSystems {
@@ -50,9 +50,9 @@ impl Plugin for HairSchedulePlugin {
                 .chain()
                 // Bones must hold this frame's animated, propagated pose before hair reads them.
                 .after(TransformSystems::Propagate)
-                // Hair, stroke and highlight meshes are rebuilt, spawned and shown or hidden
-                // here: Bevy must bound, propagate and cull them after that, in this frame.
-                .before(VisibilitySystems::CalculateBounds)
+                // Stroke and highlight meshes are spawned and shown or hidden here: Bevy must
+                // propagate and cull that in this frame. (Bounds may come a frame later: a mesh
+                // without bounds is never culled.)
                 .before(VisibilitySystems::VisibilityPropagate)
                 .before(VisibilitySystems::CheckVisibility),
         );
@@ -78,7 +78,6 @@ mod tests {
             (
                 mark("propagate").in_set(TransformSystems::Propagate),
                 mark("visibility").in_set(VisibilitySystems::VisibilityPropagate),
-                mark("bounds").in_set(VisibilitySystems::CalculateBounds),
                 mark("check").in_set(VisibilitySystems::CheckVisibility),
                 mark("attach").in_set(HairSystems::Attach),
                 mark("materials").in_set(HairSystems::Materials),
@@ -88,7 +87,6 @@ mod tests {
         let order = &app.world().resource::<Order>().0;
         let at = |name| order.iter().position(|n| *n == name).unwrap();
         assert!(at("propagate") < at("attach"), "{order:?}");
-        assert!(at("materials") < at("bounds"), "{order:?}");
         assert!(at("materials") < at("check"), "{order:?}");
         assert!(at("materials") < at("visibility"), "{order:?}");
     }

@@ -257,7 +257,7 @@ fn every_toon_material_variant_composes_and_validates() {
             "variant {key:?} lost its entry point"
         );
     }
-    assert_eq!(variants.len(), 48);
+    assert_eq!(variants.len(), 96);
 }
 
 #[test]

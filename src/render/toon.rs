@@ -26,6 +26,23 @@ pub enum RampMode {
     Specular,
 }
 
+/// Which light the toon ramp is lit by.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ToonLighting {
+    /// The thesis's model: `N.L` of the first directional light's direction only (its colour,
+    /// illuminance and shadows are ignored; no other light counts).
+    #[default]
+    FirstDirectional,
+    /// Every light Bevy gives a PBR material (directional, point and spot lights with their
+    /// colour and intensity, ambient and environment light, and the shadows they cast), measured
+    /// on a white, rough surface: its brightness indexes the ramp's x axis (full at
+    /// [`ToonShading::full_light_lux`]) and its hue tints the hair. Hair in a game scene then
+    /// matches the characters next to it. Hair always receives shadows here
+    /// (`NotShadowReceiver` is not read).
+    Scene,
+}
+
 /// Hatching with a tonal art map (see [`crate::hatching`]).
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -108,6 +125,12 @@ pub struct ToonShading {
     pub hatching: HatchingMode,
     /// Hatching scale (HScale): larger gives bigger strokes. Default: `1.0`.
     pub hatch_scale: f32,
+    /// Which light indexes the ramp. Default: [`ToonLighting::FirstDirectional`] (the thesis).
+    pub lighting: ToonLighting,
+    /// With [`ToonLighting::Scene`]: the illuminance (lux, as Bevy's lights measure it) that
+    /// reaches the right end of the ramp; less light walks left along it. Default: `10000.0`
+    /// (Bevy's default directional light, full daylight).
+    pub full_light_lux: f32,
 }
 
 impl Default for ToonShading {
@@ -126,6 +149,8 @@ impl Default for ToonShading {
             specular_color: Color::WHITE,
             hatching: HatchingMode::None,
             hatch_scale: 1.0,
+            lighting: ToonLighting::FirstDirectional,
+            full_light_lux: 10_000.0,
         }
     }
 }
@@ -138,6 +163,7 @@ pub struct ToonHairUniform {
     back_light_color: Vec4,
     params: Vec4,
     params2: Vec4,
+    params3: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
@@ -161,6 +187,12 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 finite_or(self.hatch_scale, 1.0).max(1e-3),
                 finite_or(self.ramp_row, 0.5).clamp(0.0, 1.0),
             ),
+            params3: Vec4::new(
+                finite_or(self.full_light_lux, 10_000.0).max(1e-3),
+                0.0,
+                0.0,
+                0.0,
+            ),
         }
     }
 }
@@ -172,6 +204,7 @@ pub struct ToonHairMaterialKey {
     blinn: bool,
     back_light: bool,
     hatching: HatchingMode,
+    scene_lights: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -186,6 +219,7 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
             } else {
                 HatchingMode::None
             },
+            scene_lights: m.lighting == ToonLighting::Scene,
         }
     }
 }
@@ -211,6 +245,9 @@ impl ToonHairMaterialKey {
             HatchingMode::Screen => defs.extend(["HATCHING", "HATCH_SCREEN"]),
             HatchingMode::Surface => defs.push("HATCHING"),
         }
+        if self.scene_lights {
+            defs.push("SCENE_LIGHTS");
+        }
         defs
     }
 
@@ -230,12 +267,15 @@ impl ToonHairMaterialKey {
             ] {
                 for blinn in [false, true] {
                     for back_light in [false, true] {
-                        v.push(Self {
-                            ramp_mode,
-                            blinn,
-                            back_light,
-                            hatching,
-                        });
+                        for scene_lights in [false, true] {
+                            v.push(Self {
+                                ramp_mode,
+                                blinn,
+                                back_light,
+                                hatching,
+                                scene_lights,
+                            });
+                        }
                     }
                 }
             }

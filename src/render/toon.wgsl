@@ -5,11 +5,16 @@
 //   RAMP_DEPTH | RAMP_BACK_LIGHT | RAMP_SPECULAR  the ramp's y axis (none: constant, a 1D ramp)
 //   BLINN_SPECULAR                                 add (N.H)^shininess on top
 //   BACK_LIGHT                                     add a rim: strength * (1 - |N.V|^r)
+//   SCENE_LIGHTS                                   the ramp's x from every Bevy light (colour,
+//                                                  intensity, shadows, ambient), not N.L
 //   HATCHING                                       ink from a tonal art map, on the strand's
 //                                                  surface, or on the screen with HATCH_SCREEN
 
 #import bevy_pbr::{forward_io::VertexOutput, mesh_view_bindings::{view, lights}}
 #import bevy_cartoon_hair::curves::{depth_detail, back_light}
+#ifdef SCENE_LIGHTS
+#import bevy_pbr::{pbr_types, pbr_functions, mesh_types::MESH_FLAGS_SHADOW_RECEIVER_BIT}
+#endif
 
 struct ToonHairUniform {
     base_color: vec4<f32>,
@@ -19,6 +24,8 @@ struct ToonHairUniform {
     params: vec4<f32>,
     // x: specular strength, y: back light strength, z: hatching scale, w: ramp y when constant
     params2: vec4<f32>,
+    // x: illuminance (lux) at the right end of the ramp (SCENE_LIGHTS)
+    params3: vec4<f32>,
 };
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> material: ToonHairUniform;
@@ -46,12 +53,42 @@ fn hatch(uv: vec2<f32>, light: f32) -> f32 {
 fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let n = normalize(in.world_normal);
     let to_eye = view.world_position - in.world_position.xyz;
-    let v = normalize(to_eye);
+    // Toward the viewer: the camera's axis for an orthographic projection.
+    let orthographic = view.clip_from_view[3].w == 1.0;
+    var v = normalize(to_eye);
+    if orthographic {
+        v = normalize(vec3<f32>(view.clip_from_world[0].z, view.clip_from_world[1].z,
+            view.clip_from_world[2].z));
+    }
     var l = normalize(vec3<f32>(0.3, 1.0, 0.5));
     if lights.n_directional_lights > 0u {
         l = normalize(lights.directional_lights[0].direction_to_light);
     }
-    let intensity = max(dot(n, l), 0.0);
+    var intensity = max(dot(n, l), 0.0);
+    var tint = vec3<f32>(1.0);
+#ifdef SCENE_LIGHTS
+    // The light reaching this point from every light Bevy gives a PBR material (colour,
+    // intensity, shadows, ambient and environment light), measured on a white, rough,
+    // non-metallic surface. A white Lambert surface under E lux gives E * exposure / pi.
+    var probe = pbr_types::pbr_input_new();
+    probe.material.base_color = vec4<f32>(1.0);
+    probe.material.perceptual_roughness = 1.0;
+    probe.material.metallic = 0.0;
+    probe.material.reflectance = vec3<f32>(0.0);
+    probe.frag_coord = in.position;
+    probe.world_position = in.world_position;
+    probe.world_normal = n;
+    probe.is_orthographic = orthographic;
+    probe.N = n;
+    probe.V = v;
+    // Hair always receives shadows (the head's, the bangs', its own).
+    probe.flags = MESH_FLAGS_SHADOW_RECEIVER_BIT;
+    let light_in = pbr_functions::apply_pbr_lighting(probe).rgb;
+    let luminance = dot(light_in, vec3<f32>(0.2126, 0.7152, 0.0722));
+    intensity = clamp(luminance * 3.14159265 / (view.exposure * material.params3.x), 0.0, 1.0);
+    // The light's hue, at the brightness the ramp gives.
+    tint = light_in / max(luminance, 1e-6);
+#endif
     let h = normalize(l + v);
     let n_dot_h = max(dot(n, h), 0.0);
     let shininess = max(material.params.w, 1.0);
@@ -72,7 +109,8 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // Row 0 of the texture is y = 0 at the bottom: flip for texture space.
     let ramp = textureSample(ramp_texture, ramp_sampler, vec2<f32>(intensity, 1.0 - clamp(y, 0.0, 1.0)));
     // RGB multiplies the hair colour; 1 - alpha adds the specular colour (drawn highlights).
-    var color = material.base_color.rgb * ramp.rgb + material.specular_color.rgb * (1.0 - ramp.a);
+    var color = material.base_color.rgb * ramp.rgb * tint
+        + material.specular_color.rgb * (1.0 - ramp.a);
 
 #ifdef BLINN_SPECULAR
     color += material.specular_color.rgb * material.params2.x * pow(n_dot_h, shininess)

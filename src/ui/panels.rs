@@ -13,7 +13,8 @@ use crate::mesh::HairMeshSettings;
 use crate::mesh::highlights::SpecularQuads;
 use crate::preset::{HairPreset, RampKind, ToonMaterialPreset};
 use crate::render::{
-    HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps,
+    HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonLighting,
+    ToonRamps,
 };
 use crate::silhouette::SilhouetteSettings;
 use crate::sim::{Hair, HairSimSettings};
@@ -237,6 +238,11 @@ const RAMP_MODES: [(RampMode, &str); 4] = [
     (RampMode::Specular, "specular"),
 ];
 
+const LIGHTING_MODES: [(ToonLighting, &str); 2] = [
+    (ToonLighting::FirstDirectional, "first sun (thesis)"),
+    (ToonLighting::Scene, "every scene light + shadows"),
+];
+
 const HATCHING_MODES: [(HatchingMode, &str); 3] = [
     (HatchingMode::None, "none"),
     (HatchingMode::Screen, "simple (screen)"),
@@ -354,6 +360,12 @@ pub(super) fn effects_window(
 /// Every control of the material; a change of ramp mode picks the ramp made for it.
 fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
     color_row(ui, "Hair colour", &mut m.base_color);
+    combo_row(ui, "Lit by", &mut m.lighting, &LIGHTING_MODES);
+    if m.lighting == ToonLighting::Scene {
+        ui.label("Full light (lux)");
+        ui.add(egui::Slider::new(&mut m.full_light_lux, 10.0..=100_000.0).logarithmic(true));
+        ui.end_row();
+    }
     let mode = m.ramp_mode;
     combo_row(ui, "Ramp mode", &mut m.ramp_mode, &RAMP_MODES);
     if m.ramp_mode != mode {

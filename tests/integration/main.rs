@@ -11,6 +11,7 @@
 mod assets;
 mod character_render;
 mod clip;
+mod lighting_render;
 mod outline_render;
 mod render_smoke;
 mod silhouette_render;
@@ -44,6 +45,7 @@ fn main() {
         .chain(outline_render::RENDER_TESTS)
         .chain(clip::RENDER_TESTS)
         .chain(character_render::RENDER_TESTS)
+        .chain(lighting_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

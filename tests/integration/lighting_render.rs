@@ -1,0 +1,185 @@
+//! Render tests of `ToonLighting::Scene`: the toon ramp lit by every Bevy light, with shadows.
+
+use bevy::prelude::*;
+use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::ToonLighting;
+use libtest_mimic::Failed;
+
+use crate::toon_render::{BACKGROUND, ramps, save, scene, spawn_strand};
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "scene_lighting_ignores_a_far_light_and_sees_a_near_one",
+        scene_lighting_ignores_a_far_light_and_sees_a_near_one,
+    ),
+    (
+        "scene_lighting_darkens_where_a_shadow_falls",
+        scene_lighting_darkens_where_a_shadow_falls,
+    ),
+    (
+        "scene_lighting_takes_the_light_colour",
+        scene_lighting_takes_the_light_colour,
+    ),
+];
+
+/// A thick horizontal strand across the view, shaded by every light of the scene.
+fn lit_strand(r: &mut HeadlessRenderer) {
+    let ramp = ramps(r).three_tone;
+    spawn_strand(
+        r,
+        Vec3::new(-1.2, 0.0, 0.0),
+        Vec3::new(1.2, 0.0, 0.0),
+        0.35,
+        ToonHairMaterial::new(
+            ToonShading {
+                lighting: ToonLighting::Scene,
+                full_light_lux: 5_000.0,
+                ..default()
+            },
+            ramp,
+        ),
+    );
+}
+
+/// The hair's pixels in columns `x0..x1`.
+fn hair(frame: &CapturedFrame, x0: u32, x1: u32) -> Vec<[u8; 4]> {
+    let mut v = Vec::new();
+    for y in 0..frame.height {
+        for x in x0..x1.min(frame.width) {
+            let p = frame.pixel(x, y);
+            if p != BACKGROUND {
+                v.push(p);
+            }
+        }
+    }
+    v
+}
+
+fn mean(pixels: &[[u8; 4]], channel: usize) -> f32 {
+    pixels.iter().map(|p| f32::from(p[channel])).sum::<f32>() / pixels.len().max(1) as f32
+}
+
+fn mean_luma(pixels: &[[u8; 4]]) -> f32 {
+    0.299 * mean(pixels, 0) + 0.587 * mean(pixels, 1) + 0.114 * mean(pixels, 2)
+}
+
+/// Pixels that differ by more than 2 levels in any channel.
+fn changed(a: &CapturedFrame, b: &CapturedFrame) -> usize {
+    a.rgba
+        .chunks_exact(4)
+        .zip(b.rgba.chunks_exact(4))
+        .filter(|(p, q)| (0..3).any(|i| p[i].abs_diff(q[i]) > 2))
+        .count()
+}
+
+/// A point light 200 m away (beyond its range, and far too weak there) leaves the picture as
+/// it was; the same light 1 m in front of the strand changes it.
+fn scene_lighting_ignores_a_far_light_and_sees_a_near_one() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+    lit_strand(&mut r);
+    let before = r.capture()?;
+    let hair_pixels = hair(&before, 0, before.width).len();
+    if hair_pixels < 2000 {
+        return Err(format!("only {hair_pixels} hair pixels rendered").into());
+    }
+    let light = r
+        .app
+        .world_mut()
+        .spawn((PointLight::default(), Transform::from_xyz(200.0, 0.0, 0.0)))
+        .id();
+    let far = r.capture()?;
+    save(&far, "scene_lighting_far_light")?;
+    let far_changed = changed(&before, &far);
+    r.app
+        .world_mut()
+        .entity_mut(light)
+        .insert(Transform::from_xyz(0.3, -0.6, 1.0));
+    let near = r.capture()?;
+    save(&near, "scene_lighting_near_light")?;
+    let near_changed = changed(&before, &near);
+    println!(
+        "scene lighting: {far_changed} of {hair_pixels} hair pixels changed by a light 200 m \
+         away, {near_changed} by the same light 1 m away"
+    );
+    if far_changed != 0 {
+        return Err(format!("a light 200 m away changed {far_changed} pixels").into());
+    }
+    if near_changed < hair_pixels / 10 {
+        return Err(format!("a light 1 m away changed only {near_changed} pixels").into());
+    }
+    Ok(())
+}
+
+/// A board above the left half of the strand, out of view, shadows it from the light overhead:
+/// the left half turns darker than the right, which it was not before.
+fn scene_lighting_darkens_where_a_shadow_falls() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 3.0))?;
+    {
+        let world = r.app.world_mut();
+        let mut lights = world.query::<&mut DirectionalLight>();
+        for mut light in lights.iter_mut(world) {
+            light.shadow_maps_enabled = true;
+        }
+    }
+    lit_strand(&mut r);
+    let open = r.capture()?;
+    save(&open, "scene_lighting_no_shadow")?;
+    let w = open.width;
+    let (left, right) = (hair(&open, 0, w / 2 - 20), hair(&open, w / 2 + 20, w));
+    let open_gap = mean_luma(&right) - mean_luma(&left);
+    {
+        let world = r.app.world_mut();
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Cuboid::new(1.6, 0.05, 1.6));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial::default());
+        world.spawn((
+            Mesh3d(mesh),
+            MeshMaterial3d(material),
+            Transform::from_xyz(-0.9, 2.5, 0.0),
+        ));
+    }
+    let shaded = r.capture()?;
+    save(&shaded, "scene_lighting_shadow")?;
+    let (left, right) = (hair(&shaded, 0, w / 2 - 20), hair(&shaded, w / 2 + 20, w));
+    let shaded_gap = mean_luma(&right) - mean_luma(&left);
+    println!(
+        "scene lighting: right minus left half, mean luma: {open_gap:.1} without the board, \
+         {shaded_gap:.1} with its shadow on the left"
+    );
+    if open_gap.abs() > 3.0 {
+        return Err(format!("the halves differ by {open_gap} before any shadow").into());
+    }
+    if shaded_gap < 15.0 {
+        return Err(format!("the shadow darkened the left half by only {shaded_gap}").into());
+    }
+    Ok(())
+}
+
+/// A red light makes the hair redder than a white light of the same illuminance does.
+fn scene_lighting_takes_the_light_colour() -> Result<(), Failed> {
+    let ratio = |color: Color| -> Result<f32, Failed> {
+        let mut r = scene(Vec3::new(0.0, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+        {
+            let world = r.app.world_mut();
+            let mut lights = world.query::<&mut DirectionalLight>();
+            for mut light in lights.iter_mut(world) {
+                light.color = color;
+            }
+        }
+        lit_strand(&mut r);
+        let frame = r.capture()?;
+        let pixels = hair(&frame, 0, frame.width);
+        Ok(mean(&pixels, 0) / mean(&pixels, 1).max(1.0))
+    };
+    let white = ratio(Color::WHITE)?;
+    let red = ratio(Color::srgb(1.0, 0.55, 0.55))?;
+    println!("scene lighting: red / green of the hair {white:.2} under white, {red:.2} under red");
+    if red < white * 1.2 {
+        return Err(format!("red light: red/green {red} vs {white} under white").into());
+    }
+    Ok(())
+}
