@@ -57,8 +57,11 @@ MATERIALS = [  # name, base colour (linear), roughness, metallic
     ("headband", (0.60, 0.025, 0.03), 0.7, 0.0),
     ("dark", (0.01, 0.01, 0.012), 0.5, 0.0),
     ("metal", (0.55, 0.57, 0.60), 0.35, 1.0),
+    # The hair's own shadow tone (its colour, srgb(0.98, 0.62, 0.12), at the ramp's dark band),
+    # so the scalp that shows between spiky locks reads as hair, not skin.
+    ("scalp", (0.43, 0.15, 0.006), 0.8, 0.0),
 ]
-M_SKIN, M_NAVY, M_RED, M_DARK, M_METAL = range(5)
+M_SKIN, M_NAVY, M_RED, M_DARK, M_METAL, M_SCALP = range(6)
 
 
 # ============================================================================================
@@ -222,7 +225,12 @@ def build_character():
     mb = MeshBuilder()
     # --- head, face
     v, f = ellipsoid(HEAD_C, HEAD_R, 32, 18)
-    mb.add(v, f, M_SKIN, "head")
+    # Above the headband the head is scalp (hair-coloured); below it, skin.
+    def above_band(face):
+        c = np.mean([v[i] for i in face], axis=0) - HEAD_C
+        return c[2] > band_center_z(c[1]) + 0.006
+    mb.add(v, [face for face in f if not above_band(face)], M_SKIN, "head")
+    mb.add(v, [face for face in f if above_band(face)], M_SCALP, "head")
     # Hood/mask: covers the lower face, and the back and sides of the head up under the
     # headband, leaving the eyes free (open at the top edge).
     v, f = hood(HEAD_C + [0, -0.002, 0], HEAD_R * [1.04, 1.05, 1.03], 32, 18)

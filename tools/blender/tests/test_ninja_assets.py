@@ -98,6 +98,7 @@ class NinjaAssets(unittest.TestCase):
         t = helpers.read_accessor(gltf, binary, sampler["input"]).ravel()
         self.assertAlmostEqual(float(t.min()), 0.0, places=4)
         self.assertAlmostEqual(float(t.max()), 4.0, places=3)
+
         q = helpers.read_accessor(gltf, binary, sampler["output"])
         np.testing.assert_allclose(np.abs(q[0]), np.abs(q[-1]), atol=1e-4)  # loops
         self.assertGreater(np.abs(q - q[0]).max(), 0.1)  # the head actually turns
@@ -115,6 +116,25 @@ class NinjaAssets(unittest.TestCase):
                 plate = helpers.read_accessor(gltf, binary, p["attributes"]["POSITION"])
                 self.assertGreater(float(plate[:, 2].min()), 0.1)
         self.assertLess(tris, 20000)
+
+    def test_scalp_is_hair_coloured(self):
+        """Between the locks the scalp shows: it is the hair's shadow tone, not skin (the top of
+        the head is drawn with the scalp material)."""
+        gltf, binary = helpers.read_glb(ninja("ninja.glb"))
+        materials = [m.get("name") for m in gltf["materials"]]
+        self.assertIn("scalp", materials)
+        scalp = materials.index("scalp")
+        colour = gltf["materials"][scalp]["pbrMetallicRoughness"]["baseColorFactor"][:3]
+        # Orange-brown like the hair (red > green > blue), not the skin's pink.
+        self.assertGreater(colour[0], 2.0 * colour[1])
+        self.assertGreater(colour[1], 5.0 * colour[2])
+        # The highest vertex of the character mesh belongs to a scalp primitive.
+        top = {}
+        for mesh in gltf["meshes"]:
+            for prim in mesh["primitives"]:
+                pos = helpers.read_accessor(gltf, binary, prim["attributes"]["POSITION"])
+                top[prim.get("material")] = float(pos[:, 1].max())
+        self.assertEqual(max(top, key=top.get), scalp, top)
 
 
 if __name__ == "__main__":
