@@ -10,7 +10,8 @@
 //!
 //! Flags:
 //! - `--screenshot FILE`: save the window at frame 150 and exit.
-//! - `--preset FILE`: start from a hair preset (saved from the panel's Preset section).
+//! - `--preset FILE|LOOK`: start from a hair preset (saved from the panel's Preset section), or
+//!   one of the shipped looks by name (`thesis`, `clean_anime`, `sketch`; `assets/presets/`).
 //! - `--no-ui`: start with the tuning panel hidden.
 //! - `--headless --frames N --out DIR`: no window; render N consecutive frames at 1/30 s each
 //!   to `DIR/frame_0000.png`, ... (any Vulkan adapter, lavapipe included), then exit.
@@ -72,7 +73,9 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let preset = match args.preset.as_deref().map(HairPreset::load).transpose() {
+    // A shipped look by name, else a file.
+    let load = |p: &str| HairPreset::look(p).unwrap_or_else(|| HairPreset::load(p));
+    let preset = match args.preset.as_deref().map(load).transpose() {
         Ok(p) => p,
         Err(e) => {
             eprintln!("ninja_head: {e}");

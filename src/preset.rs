@@ -219,6 +219,26 @@ fn file_label(file: &Option<String>) -> String {
     file.as_ref().map_or_else(String::new, |f| format!("{f}: "))
 }
 
+/// The looks shipped in `assets/presets/` (built into the crate too), by name: the thesis's
+/// user-study defaults (depth detail, Blinn specular, thick unfaded strokes), a clean anime look
+/// lit by the scene's own lights and shadows ([`ToonLighting::Scene`](crate::render::ToonLighting)),
+/// and a pen sketch with surface hatching. Load one with [`HairPreset::look`]; the tuning panel
+/// and the `ninja_head` example (`--preset NAME`) offer them.
+pub const LOOKS: &[(&str, &str)] = &[
+    (
+        "thesis",
+        include_str!("../assets/presets/thesis.preset.ron"),
+    ),
+    (
+        "clean_anime",
+        include_str!("../assets/presets/clean_anime.preset.ron"),
+    ),
+    (
+        "sketch",
+        include_str!("../assets/presets/sketch.preset.ron"),
+    ),
+];
+
 /// A registry holding just the preset's types.
 fn preset_registry() -> TypeRegistry {
     let mut registry = TypeRegistry::new();
@@ -286,6 +306,17 @@ impl HairPreset {
         ron::ser::to_string_pretty(&serializer, config).map_err(|e| HairPresetError::Serialize {
             file: file.map(str::to_owned),
             message: e.to_string(),
+        })
+    }
+
+    /// One of the shipped [`LOOKS`] by name; `None` for an unknown name.
+    ///
+    /// # Errors
+    ///
+    /// [`HairPresetError::Parse`] if the shipped file does not parse (a test checks they all do).
+    pub fn look(name: &str) -> Option<Result<Self, HairPresetError>> {
+        LOOKS.iter().find(|(n, _)| *n == name).map(|(n, text)| {
+            Self::from_ron_named(Some(&format!("assets/presets/{n}.preset.ron")), text)
         })
     }
 
@@ -481,5 +512,24 @@ mod tests {
             .with_silhouettes(preset.silhouettes.as_ref())
             .with_outline(preset.outline.as_ref());
         assert_eq!(back, preset);
+    }
+
+    #[test]
+    fn the_shipped_looks_load_and_differ() {
+        use crate::render::{HatchingMode, ToonLighting};
+        let look = |name| HairPreset::look(name).expect("shipped").unwrap();
+        let (thesis, anime, sketch) = (look("thesis"), look("clean_anime"), look("sketch"));
+        assert!(HairPreset::look("nope").is_none());
+        // The thesis's user study: depth detail on, Blinn specular on, back light off,
+        // thick unfaded strokes.
+        assert_eq!(thesis.material.ramp_mode, RampMode::Depth);
+        assert!(thesis.material.specular_strength > 0.0);
+        assert_eq!(thesis.material.back_light_strength, 0.0);
+        let strokes = thesis.silhouettes.clone().unwrap();
+        assert!(strokes.width_px >= 4.0);
+        assert_eq!(strokes.fade, QuadraticCurve::constant(1.0));
+        assert_eq!(anime.material.lighting, ToonLighting::Scene);
+        assert_eq!(sketch.material.hatching, HatchingMode::Surface);
+        assert!(thesis != anime && anime != sketch && sketch != thesis);
     }
 }

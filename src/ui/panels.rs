@@ -11,7 +11,7 @@ use bevy_egui::{EguiContexts, egui};
 use super::{HairTuningUi, PanelState, curve_row, drag_row, slider_row};
 use crate::mesh::HairMeshSettings;
 use crate::mesh::highlights::SpecularQuads;
-use crate::preset::{HairPreset, RampKind, ToonMaterialPreset};
+use crate::preset::{HairPreset, LOOKS, RampKind, ToonMaterialPreset};
 use crate::render::{
     HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonLighting,
     ToonRamps,
@@ -104,6 +104,7 @@ pub(super) fn properties_window(
                         tuning.preset_path = edited;
                     }
                     let path = tuning.preset_path.clone();
+                    let mut loaded = None;
                     ui.horizontal(|ui| {
                         if ui.button("Save").clicked() {
                             let fallback = ToonHairMaterial::default();
@@ -119,32 +120,42 @@ pub(super) fn properties_window(
                             }
                         }
                         if ui.button("Load").clicked() {
-                            match HairPreset::load(&path) {
-                                Ok(preset) => {
-                                    sim.set_if_neq(preset.simulation.clone());
-                                    mesh.set_if_neq(preset.mesh.clone());
-                                    if let Some(mut m) =
-                                        material.and_then(|m| materials.get_mut(&m.0))
-                                    {
-                                        preset.material.apply(&mut m, &ramps);
-                                    }
-                                    if let (Some(want), Some(have)) =
-                                        (&preset.silhouettes, silhouettes.as_mut())
-                                    {
-                                        have.set_if_neq(want.clone());
-                                    }
-                                    if let Some(want) = &preset.outline {
-                                        for mut have in &mut outlines {
-                                            have.set_if_neq(want.clone());
-                                        }
-                                    }
-                                    panel.pending_mesh = None;
-                                    panel.report(format!("loaded {path}"), false);
-                                }
-                                Err(e) => panel.report(e.to_string(), true),
+                            loaded = Some((path.clone(), HairPreset::load(&path)));
+                        }
+                    });
+                    ui.horizontal(|ui| {
+                        ui.label("Looks");
+                        for (name, _) in LOOKS {
+                            if ui.button(*name).clicked()
+                                && let Some(preset) = HairPreset::look(name)
+                            {
+                                loaded = Some((format!("look {name}"), preset));
                             }
                         }
                     });
+                    match loaded {
+                        Some((what, Ok(preset))) => {
+                            sim.set_if_neq(preset.simulation.clone());
+                            mesh.set_if_neq(preset.mesh.clone());
+                            if let Some(mut m) = material.and_then(|m| materials.get_mut(&m.0)) {
+                                preset.material.apply(&mut m, &ramps);
+                            }
+                            if let (Some(want), Some(have)) =
+                                (&preset.silhouettes, silhouettes.as_mut())
+                            {
+                                have.set_if_neq(want.clone());
+                            }
+                            if let Some(want) = &preset.outline {
+                                for mut have in &mut outlines {
+                                    have.set_if_neq(want.clone());
+                                }
+                            }
+                            panel.pending_mesh = None;
+                            panel.report(format!("loaded {what}"), false);
+                        }
+                        Some((_, Err(e))) => panel.report(e.to_string(), true),
+                        None => {}
+                    }
                     panel.show_message(ui);
                 });
         });
