@@ -32,7 +32,6 @@ pub enum RampMode {
 pub enum ToonLighting {
     /// The thesis's model: `N.L` of the first directional light's direction only (its colour,
     /// illuminance and shadows are ignored; no other light counts).
-    #[default]
     FirstDirectional,
     /// Every light Bevy gives a PBR material (directional, point and spot lights with their
     /// colour and intensity, ambient and environment light, and the shadows they cast), measured
@@ -40,6 +39,7 @@ pub enum ToonLighting {
     /// [`ToonShading::full_light_lux`]) and its hue tints the hair. Hair in a game scene then
     /// matches the characters next to it. Hair always receives shadows here
     /// (`NotShadowReceiver` is not read).
+    #[default]
     Scene,
 }
 
@@ -125,7 +125,8 @@ pub struct ToonShading {
     pub hatching: HatchingMode,
     /// Hatching scale (HScale): larger gives bigger strokes. Default: `1.0`.
     pub hatch_scale: f32,
-    /// Which light indexes the ramp. Default: [`ToonLighting::FirstDirectional`] (the thesis).
+    /// Which light indexes the ramp. Default: [`ToonLighting::Scene`] (every light of the
+    /// game's scene, with shadows).
     pub lighting: ToonLighting,
     /// With [`ToonLighting::Scene`]: the illuminance (lux, as Bevy's lights measure it) that
     /// reaches the right end of the ramp; less light walks left along it. Default: `10000.0`
@@ -149,7 +150,7 @@ impl Default for ToonShading {
             specular_color: Color::WHITE,
             hatching: HatchingMode::None,
             hatch_scale: 1.0,
-            lighting: ToonLighting::FirstDirectional,
+            lighting: ToonLighting::Scene,
             full_light_lux: 10_000.0,
         }
     }

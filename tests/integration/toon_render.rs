@@ -329,6 +329,8 @@ fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
                     base_color: Color::WHITE,
                     hatching: mode,
                     hatch_scale: 0.5,
+                    // The scene's light is the full light: its lit side gets the lightest tones.
+                    full_light_lux: 5_000.0,
                     ..default()
                 },
                 ramp: flat,
