@@ -15,13 +15,16 @@ pub struct HatchingMapSettings(pub TamSettings);
 
 impl Default for HatchingMapSettings {
     fn default() -> Self {
+        // Thin pen strokes (2 px), the darkest tone half ink: strokes, not bars.
         Self(TamSettings {
             tones: 6,
-            resolution: 128,
+            resolution: 256,
             mip_levels: 3,
-            strokes_per_tone: 60,
+            strokes_per_tone: 120,
             candidates: 4,
             stroke_length: 0.45,
+            stroke_width_px: 2.0,
+            darkest_tone: 0.5,
             ..default()
         })
     }
@@ -117,6 +120,38 @@ mod tests {
         assert_eq!(
             image.texture_descriptor.size.depth_or_array_layers as usize,
             settings.tones
+        );
+    }
+}
+
+#[cfg(test)]
+mod look {
+    use super::*;
+
+    /// The map materials get by default: pen strokes, not bars. Thin strokes, a light first tone
+    /// and a darkest tone that still reads as hatching (paper between the strokes).
+    #[test]
+    fn the_default_map_is_thin_light_pen_strokes() {
+        let settings = HatchingMapSettings::default().0;
+        let map = generate(&StrokeImage::default(), &settings, |_, _| {}).unwrap();
+        let inks: Vec<f32> = (0..map.tones).map(|t| map.levels[0].mean_ink(t)).collect();
+        println!(
+            "default hatching map: {} px strokes, mean ink per tone {inks:.3?}",
+            settings.stroke_width_px
+        );
+        assert!(settings.stroke_width_px <= 2.5, "strokes read as bars");
+        assert!(
+            inks[0] <= 0.12,
+            "the lightest tone is already dark: {inks:?}"
+        );
+        let darkest = inks[map.tones - 1];
+        assert!(
+            (0.35..=0.65).contains(&darkest),
+            "the darkest tone must read as hatching, not ink: {darkest}"
+        );
+        assert!(
+            inks.windows(2).all(|w| w[1] > w[0]),
+            "tones darken: {inks:?}"
         );
     }
 }
