@@ -21,6 +21,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "scene_lighting_takes_the_light_colour",
         scene_lighting_takes_the_light_colour,
     ),
+    (
+        "scene_lighting_darkens_under_a_point_light_shadow",
+        scene_lighting_darkens_under_a_point_light_shadow,
+    ),
 ];
 
 /// A thick horizontal strand across the view, shaded by every light of the scene.
@@ -180,6 +184,65 @@ fn scene_lighting_takes_the_light_colour() -> Result<(), Failed> {
     println!("scene lighting: red / green of the hair {white:.2} under white, {red:.2} under red");
     if red < white * 1.2 {
         return Err(format!("red light: red/green {red} vs {white} under white").into());
+    }
+    Ok(())
+}
+
+/// The same with a point light (cube shadow maps) instead of the sun: a board between the lamp
+/// and the left half of the strand darkens that half.
+fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 3.0))?;
+    {
+        let world = r.app.world_mut();
+        let mut suns = world.query::<&mut DirectionalLight>();
+        for mut sun in suns.iter_mut(world) {
+            sun.illuminance = 0.0;
+        }
+        // About 5,000 lux on the strand's top, 3.65 m below: 4 pi * 5,000 * 3.65^2 lumens.
+        world.spawn((
+            PointLight {
+                intensity: 4.0 * std::f32::consts::PI * 5_000.0 * 3.65 * 3.65,
+                range: 10.0,
+                shadow_maps_enabled: true,
+                ..default()
+            },
+            Transform::from_xyz(0.0, 4.0, 0.0),
+        ));
+    }
+    lit_strand(&mut r);
+    let open = r.capture()?;
+    let w = open.width;
+    let gap =
+        |f: &CapturedFrame| mean_luma(&hair(f, w / 2 + 20, w)) - mean_luma(&hair(f, 0, w / 2 - 20));
+    let open_gap = gap(&open);
+    {
+        let world = r.app.world_mut();
+        let mesh = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Cuboid::new(0.7, 0.05, 1.0));
+        let material = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial::default());
+        // Above the top of the view; its shadow from the lamp falls on x = -1.17..-0.15.
+        world.spawn((
+            Mesh3d(mesh),
+            MeshMaterial3d(material),
+            Transform::from_xyz(-0.45, 1.5, 0.0),
+        ));
+    }
+    let shaded = r.capture()?;
+    save(&shaded, "scene_lighting_point_shadow")?;
+    let shaded_gap = gap(&shaded);
+    println!(
+        "scene lighting, point light: right minus left half, mean luma: {open_gap:.1} without \
+         the board, {shaded_gap:.1} with its shadow on the left"
+    );
+    if shaded_gap < open_gap + 10.0 {
+        return Err(format!(
+            "the point light's shadow darkened the left half by only {}",
+            shaded_gap - open_gap
+        )
+        .into());
     }
     Ok(())
 }
