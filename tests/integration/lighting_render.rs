@@ -68,6 +68,28 @@ fn mean_luma(pixels: &[[u8; 4]]) -> f32 {
     0.299 * mean(pixels, 0) + 0.587 * mean(pixels, 1) + 0.114 * mean(pixels, 2)
 }
 
+/// Mean luma of the hair's right half minus its left half (a 20 px strip in the middle left out).
+fn halves_gap(frame: &CapturedFrame) -> f32 {
+    let w = frame.width;
+    mean_luma(&hair(frame, w / 2 + 20, w)) - mean_luma(&hair(frame, 0, w / 2 - 20))
+}
+
+/// A grey board (a flat box of `size`) at `at`: a shadow caster.
+fn spawn_board(r: &mut HeadlessRenderer, size: Vec3, at: Vec3) {
+    let world = r.app.world_mut();
+    let mesh = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::from_size(size));
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial::default());
+    world.spawn((
+        Mesh3d(mesh),
+        MeshMaterial3d(material),
+        Transform::from_translation(at),
+    ));
+}
+
 /// Pixels that differ by more than 2 levels in any channel.
 fn changed(a: &CapturedFrame, b: &CapturedFrame) -> usize {
     a.rgba
@@ -129,27 +151,11 @@ fn scene_lighting_darkens_where_a_shadow_falls() -> Result<(), Failed> {
     lit_strand(&mut r);
     let open = r.capture()?;
     save(&open, "scene_lighting_no_shadow")?;
-    let w = open.width;
-    let (left, right) = (hair(&open, 0, w / 2 - 20), hair(&open, w / 2 + 20, w));
-    let open_gap = mean_luma(&right) - mean_luma(&left);
-    {
-        let world = r.app.world_mut();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(1.6, 0.05, 1.6));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial::default());
-        world.spawn((
-            Mesh3d(mesh),
-            MeshMaterial3d(material),
-            Transform::from_xyz(-0.9, 2.5, 0.0),
-        ));
-    }
+    let open_gap = halves_gap(&open);
+    spawn_board(&mut r, Vec3::new(1.6, 0.05, 1.6), Vec3::new(-0.9, 2.5, 0.0));
     let shaded = r.capture()?;
     save(&shaded, "scene_lighting_shadow")?;
-    let (left, right) = (hair(&shaded, 0, w / 2 - 20), hair(&shaded, w / 2 + 20, w));
-    let shaded_gap = mean_luma(&right) - mean_luma(&left);
+    let shaded_gap = halves_gap(&shaded);
     println!(
         "scene lighting: right minus left half, mean luma: {open_gap:.1} without the board, \
          {shaded_gap:.1} with its shadow on the left"
@@ -211,28 +217,16 @@ fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
     }
     lit_strand(&mut r);
     let open = r.capture()?;
-    let w = open.width;
-    let gap =
-        |f: &CapturedFrame| mean_luma(&hair(f, w / 2 + 20, w)) - mean_luma(&hair(f, 0, w / 2 - 20));
-    let open_gap = gap(&open);
-    {
-        let world = r.app.world_mut();
-        let mesh = world
-            .resource_mut::<Assets<Mesh>>()
-            .add(Cuboid::new(0.7, 0.05, 1.0));
-        let material = world
-            .resource_mut::<Assets<StandardMaterial>>()
-            .add(StandardMaterial::default());
-        // Above the top of the view; its shadow from the lamp falls on x = -1.17..-0.15.
-        world.spawn((
-            Mesh3d(mesh),
-            MeshMaterial3d(material),
-            Transform::from_xyz(-0.45, 1.5, 0.0),
-        ));
-    }
+    let open_gap = halves_gap(&open);
+    // Above the top of the view; its shadow from the lamp falls on x = -1.17..-0.15.
+    spawn_board(
+        &mut r,
+        Vec3::new(0.7, 0.05, 1.0),
+        Vec3::new(-0.45, 1.5, 0.0),
+    );
     let shaded = r.capture()?;
     save(&shaded, "scene_lighting_point_shadow")?;
-    let shaded_gap = gap(&shaded);
+    let shaded_gap = halves_gap(&shaded);
     println!(
         "scene lighting, point light: right minus left half, mean luma: {open_gap:.1} without \
          the board, {shaded_gap:.1} with its shadow on the left"
