@@ -34,7 +34,10 @@ pub const SHADER_LIBRARY: &[(&str, &str)] =
     &[("bevy_cartoon_hair::curves", include_str!("curves.wgsl"))];
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
-pub const MATERIAL_SHADERS: &[(&str, &str)] = &[("toon.wgsl", include_str!("toon.wgsl"))];
+pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
+    ("toon.wgsl", include_str!("toon.wgsl")),
+    ("hair_prepass.wgsl", include_str!("hair_prepass.wgsl")),
+];
 
 /// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
 pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wgsl", include_str!("outline/outline.wgsl"))];
@@ -58,6 +61,7 @@ pub struct ToonHairMaterialPlugin;
 impl Plugin for ToonHairMaterialPlugin {
     fn build(&self, app: &mut App) {
         bevy::asset::embedded_asset!(app, "toon.wgsl");
+        bevy::asset::embedded_asset!(app, "hair_prepass.wgsl");
         app.add_plugins(MaterialPlugin::<ToonHairMaterial>::default())
             .register_type::<ToonHairMaterial>();
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());

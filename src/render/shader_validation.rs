@@ -297,5 +297,50 @@ fn every_outline_variant_composes_and_validates() {
             "variant {key:?}: {globals:?}"
         );
     }
-    assert_eq!(variants.len(), 6);
+    assert_eq!(variants.len(), 8);
+}
+
+#[test]
+fn every_hair_prepass_variant_composes_and_validates() {
+    use super::MATERIAL_SHADERS;
+    let bevy_modules = bevy_shader_sources();
+    let values = bevy_value_defs();
+    let (name, source) = MATERIAL_SHADERS
+        .iter()
+        .find(|(n, _)| *n == "hair_prepass.wgsl")
+        .expect("hair_prepass.wgsl is listed");
+    let hair_mesh = crate::mesh::new_hair_mesh(&crate::mesh::tube::TubeTopology::new(4, 4), 2);
+    let mut checked = 0;
+    // As Bevy's prepass pipeline sets them: which targets the view has, and whether a
+    // directional shadow emulates unclipped depth.
+    for normals in [false, true] {
+        for motion in [false, true] {
+            for unclipped in [false, true] {
+                // With no target and no depth to write, Bevy runs no prepass fragment.
+                if !(normals || motion || unclipped) {
+                    continue;
+                }
+                let mut defs = mesh_pipeline_vertex_defs(&hair_mesh);
+                defs.retain(|d| *d != "MESH_PIPELINE");
+                defs.extend(["PREPASS_PIPELINE", "PREPASS_FRAGMENT"]);
+                if normals {
+                    defs.extend(["NORMAL_PREPASS", "NORMAL_PREPASS_OR_DEFERRED_PREPASS"]);
+                }
+                if motion {
+                    defs.push("MOTION_VECTOR_PREPASS");
+                }
+                if unclipped {
+                    defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
+                }
+                let module = compose_with(&bevy_modules, name, source, &defs, &values)
+                    .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
+                assert!(
+                    module.entry_points.iter().any(|e| e.name == "fragment"),
+                    "defs {defs:?}: no fragment entry point"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 7);
 }

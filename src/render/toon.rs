@@ -293,6 +293,15 @@ impl Material for ToonHairMaterial {
         )
     }
 
+    /// The hair's prepass marks hair in the normal target's alpha, for the
+    /// [`OutlineSource::Mass`](crate::render::OutlineSource::Mass) outline.
+    fn prepass_fragment_shader() -> ShaderRef {
+        ShaderRef::Path(
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("hair_prepass.wgsl"))
+                .with_source("embedded"),
+        )
+    }
+
     fn specialize(
         _pipeline: &MaterialPipeline,
         descriptor: &mut RenderPipelineDescriptor,

@@ -7,7 +7,7 @@ use bevy_egui::egui;
 
 use super::{curve_row, drag_row, slider_row};
 use crate::mesh::highlights::SpecularQuads;
-use crate::render::ImageSpaceOutline;
+use crate::render::{ImageSpaceOutline, OutlineSource};
 use crate::silhouette::SilhouetteSettings;
 
 /// Which outline the hair and camera draw.
@@ -96,6 +96,34 @@ pub(super) fn outline_controls(
                 slider_row(ui, "X dilation", &mut x, 0.0..=8.0);
                 slider_row(ui, "Y dilation", &mut y, 0.0..=8.0);
                 slider_row(ui, "Edge threshold", &mut c.threshold, 0.01..=2.0);
+                ui.label("Edges from");
+                egui::ComboBox::from_id_salt("outline source")
+                    .selected_text(format!("{:?}", c.source))
+                    .show_ui(ui, |ui| {
+                        for source in [
+                            OutlineSource::Mass,
+                            OutlineSource::DepthAndNormals,
+                            OutlineSource::Depth,
+                            OutlineSource::Normals,
+                        ] {
+                            ui.selectable_value(&mut c.source, source, format!("{source:?}"));
+                        }
+                    });
+                ui.end_row();
+                if c.source == OutlineSource::Mass {
+                    let mut inner = c.inner_threshold.is_some();
+                    ui.label("Inner lines");
+                    ui.checkbox(&mut inner, "normal creases");
+                    ui.end_row();
+                    c.inner_threshold = match (inner, c.inner_threshold) {
+                        (false, _) => None,
+                        (true, t) => {
+                            let mut t = t.unwrap_or(0.3);
+                            slider_row(ui, "Inner threshold", &mut t, 0.05..=2.0);
+                            Some(t)
+                        }
+                    };
+                }
                 c.dilation_x = x.round() as u32;
                 c.dilation_y = y.round() as u32;
                 camera.set_if_neq(c);

@@ -27,6 +27,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "outline_sees_hair_in_depth_and_normal_prepasses",
         hair_is_in_depth_and_normal_prepasses,
     ),
+    (
+        "outline_mass_inks_the_hair_not_its_strands",
+        mass_outline_inks_the_hair_not_its_strands,
+    ),
 ];
 
 /// Magenta: neither the orange hair, the grey sphere nor the black background.
@@ -97,9 +101,18 @@ fn magenta(edit: impl FnOnce(&mut ImageSpaceOutline)) -> ImageSpaceOutline {
 /// Chessboard distance of every pixel to the silhouette of `reference` (object pixels touching
 /// the background), by breadth-first search; `u32::MAX` where there is no object at all.
 fn silhouette_distance(reference: &CapturedFrame) -> (Vec<bool>, Vec<u32>) {
+    distance_from_edge(reference, |p| p != BACKGROUND)
+}
+
+/// Chessboard distance of every pixel of the kind `is_object` picks to the nearest pixel of
+/// another kind (0 on the object's edge); `u32::MAX` elsewhere.
+fn distance_from_edge(
+    reference: &CapturedFrame,
+    is_object: impl Fn([u8; 4]) -> bool,
+) -> (Vec<bool>, Vec<u32>) {
     let (w, h) = (reference.width as i32, reference.height as i32);
     let object: Vec<bool> = (0..w * h)
-        .map(|i| reference.pixel((i % w) as u32, (i / w) as u32) != BACKGROUND)
+        .map(|i| is_object(reference.pixel((i % w) as u32, (i / w) as u32)))
         .collect();
     let at = |x: i32, y: i32| -> bool {
         x < 0 || y < 0 || x >= w || y >= h || object[(y * w + x) as usize]
@@ -248,7 +261,7 @@ fn outline_inks_silhouette_not_toon_bands() -> Result<(), Failed> {
     let stats = ink_stats(&reference, &outlined);
     eprintln!("outline on: {stats:?}, {} bands", bands.len());
     // Sobel marks one pixel each side of a step, dilation 1 one more, normals at the rim one more.
-    check_silhouette_ink(&stats, 4, "depth and normals")
+    check_silhouette_ink(&stats, 4, "mass (the default)")
 }
 
 /// A disabled outline draws nothing and adds no prepass to the camera.
@@ -380,6 +393,134 @@ fn hair_is_in_depth_and_normal_prepasses() -> Result<(), Failed> {
         let stats = ink_stats(&reference, &frame);
         eprintln!("{source:?}: {stats:?}");
         check_silhouette_ink(&stats, 4, &format!("{source:?}"))?;
+    }
+    Ok(())
+}
+
+/// Orange toon hair, not the grey box, the black background or magenta ink.
+fn is_hair(p: [u8; 4]) -> bool {
+    i32::from(p[0]) - i32::from(p[2]) > 40 && !is_ink(p)
+}
+
+/// Ink on the edge of the hair and inside it: (fraction of the hair's edge pixels with ink within
+/// 1 px, fraction of the pixels deeper than [`INTERIOR`] inside the hair that are ink).
+fn hair_ink(reference: &CapturedFrame, outlined: &CapturedFrame) -> (f32, f32, usize) {
+    let (_, dist) = distance_from_edge(reference, is_hair);
+    let (w, h) = (outlined.width as i32, outlined.height as i32);
+    let ink_at = |x: i32, y: i32| {
+        x >= 0 && y >= 0 && x < w && y < h && is_ink(outlined.pixel(x as u32, y as u32))
+    };
+    let (mut edge, mut edge_inked, mut inside, mut inside_ink) = (0, 0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            match dist[(y * w + x) as usize] {
+                0 => {
+                    edge += 1;
+                    if (-1..=1).any(|dy| (-1..=1).any(|dx| ink_at(x + dx, y + dy))) {
+                        edge_inked += 1;
+                    }
+                }
+                d if d != u32::MAX && d > INTERIOR => {
+                    inside += 1;
+                    inside_ink += usize::from(ink_at(x, y));
+                }
+                _ => {}
+            }
+        }
+    }
+    (
+        edge_inked as f32 / f32::max(edge as f32, 1.0),
+        inside_ink as f32 / f32::max(inside as f32, 1.0),
+        inside,
+    )
+}
+
+/// A mass of seven overlapping strands lying on a grey box (a head): the default outline
+/// ([`OutlineSource::Mass`]) inks nearly all of the mass's edge, the edge against the box
+/// included although the depth barely steps there, and almost nothing inside it; Sobel on depth
+/// and normals inks the strands inside; depth alone misses the edge against the box; inner
+/// lines come back with `inner_threshold`.
+fn mass_outline_inks_the_hair_not_its_strands() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.3, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    for i in 0..7 {
+        let y = -0.55 + 0.17 * i as f32;
+        let z = if i % 2 == 0 { 0.0 } else { -0.04 };
+        spawn_strand(
+            &mut r,
+            Vec3::new(-0.9, y, z),
+            Vec3::new(0.9, y + 0.1, z),
+            0.12,
+            ToonHairMaterial {
+                ramp: ramp.clone(),
+                ..default()
+            },
+        );
+    }
+    let world = r.app.world_mut();
+    let mesh = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Cuboid::new(2.6, 0.7, 0.2).mesh());
+    let material = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(Color::srgb(0.6, 0.6, 0.6));
+    // Its front face 0.04 behind the back strands: a depth step of 1.03x at 3 m.
+    world.spawn((
+        Mesh3d(mesh),
+        MeshMaterial3d(material),
+        Transform::from_xyz(0.0, 0.45, -0.26),
+    ));
+    let camera = camera(&mut r)?;
+    r.app
+        .world_mut()
+        .entity_mut(camera)
+        .insert(magenta(|o| o.enabled = false));
+    let reference = r.capture()?;
+    save(&reference, "outline_mass_reference")?;
+    let hair = reference.count(is_hair);
+    if hair < 5000 {
+        return Err(format!("only {hair} hair pixels").into());
+    }
+    let mut measured = Vec::new();
+    for (source, inner) in [
+        (OutlineSource::Mass, None),
+        (OutlineSource::DepthAndNormals, None),
+        (OutlineSource::Depth, None),
+        (OutlineSource::Mass, Some(0.3)),
+    ] {
+        edit_outline(&mut r, |o| {
+            o.enabled = true;
+            o.source = source;
+            o.inner_threshold = inner;
+        });
+        let frame = r.capture()?;
+        save(
+            &frame,
+            &format!("outline_mass_{source:?}_{}", inner.unwrap_or(0.0)),
+        )?;
+        let (edge, inside, n) = hair_ink(&reference, &frame);
+        eprintln!(
+            "{source:?} inner {inner:?}: {:.1}% of the hair's edge inked, {:.1}% of {n} inside pixels ink",
+            edge * 100.0,
+            inside * 100.0
+        );
+        measured.push((edge, inside));
+    }
+    let [mass, depth_normals, depth, inner] = measured[..] else {
+        unreachable!()
+    };
+    let fail = |m: &str| -> Result<(), Failed> { Err(format!("{m}: {measured:?}").into()) };
+    if mass.0 < 0.9 || mass.1 > 0.05 {
+        return fail("the mass outline does not ink the edge and spare the inside");
+    }
+    if depth_normals.1 < 2.0 * mass.1 + 0.02 {
+        return fail("depth and normals should ink the strands inside the mass");
+    }
+    if depth.0 > mass.0 - 0.10 {
+        return fail("depth alone should miss the edge against the box");
+    }
+    if inner.1 < mass.1 + 0.05 || inner.0 < mass.0 - 0.02 {
+        return fail("inner lines did not come back with inner_threshold");
     }
     Ok(())
 }

@@ -7,7 +7,11 @@
 //! (`outline.wgsl`):
 //!
 //! 1. `detect`: Sobel (both kernels, magnitude `sqrt(gx^2 + gy^2)`) on the prepass depth and/or
-//!    normals, thresholded with [`ImageSpaceOutline::threshold`] into an edge mask;
+//!    normals, thresholded with [`ImageSpaceOutline::threshold`] into an edge mask. The default
+//!    source, [`OutlineSource::Mass`], finds the edges of the hair as one mass: a hair mask the
+//!    hair's own prepass writes (the normal target's alpha), coverage, and large relative depth
+//!    steps; the inside of the hair stays clean unless
+//!    [`ImageSpaceOutline::inner_threshold`] asks for inner lines;
 //! 2. `dilate_x`: a pixel becomes edge if an edge lies within
 //!    [`ImageSpaceOutline::dilation_x`] pixels horizontally;
 //! 3. `composite`: the same vertically with [`ImageSpaceOutline::dilation_y`], then the
@@ -50,14 +54,27 @@ use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 /// larger values are clamped to it (the shader's loops are bounded).
 pub const MAX_OUTLINE_DILATION: u32 = 32;
 
+/// [`GpuImageSpaceOutline::inner_threshold`] when there are no inner lines: above any Sobel
+/// magnitude of unit normals (at most 4).
+const NO_INNER_LINES: f32 = 1.0e9;
+
 /// Which flat buffer the edges are detected in. Each choice is its own pipeline (shader defs
 /// `EDGE_DEPTH`, `EDGE_NORMALS`), and adds only the prepasses it reads.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum OutlineSource {
-    /// Depth and normals: silhouettes against the background and against objects behind
-    /// (depth), and creases where a strand crosses another at the same depth (normals).
+    /// The outline of the hair as one mass, the thesis's own idea (Sobel on a solid-shaded
+    /// render): an edge where hair meets anything else (a hair mask the hair's prepass writes
+    /// into the normal target's alpha), where anything meets the background, and where the
+    /// depth steps by more than [`ImageSpaceOutline::threshold`] relative to the nearer surface
+    /// (0.3: the far side is 1.43x as far). Strands lying on other strands are not edges, so
+    /// the inside of the hair stays clean; [`ImageSpaceOutline::inner_threshold`] adds inner
+    /// lines from the normals. Reads the depth and normal prepasses.
     #[default]
+    Mass,
+    /// Depth and normals: silhouettes against the background and against objects behind
+    /// (depth), and creases where a strand crosses another at the same depth (normals). On
+    /// hair this inks nearly every strand.
     DepthAndNormals,
     /// Depth only (`DepthPrepass`): silhouettes, no creases; the cheapest.
     Depth,
@@ -69,12 +86,12 @@ pub enum OutlineSource {
 impl OutlineSource {
     /// Reads the depth prepass.
     pub fn uses_depth(self) -> bool {
-        matches!(self, Self::DepthAndNormals | Self::Depth)
+        matches!(self, Self::Mass | Self::DepthAndNormals | Self::Depth)
     }
 
     /// Reads the normal prepass.
     pub fn uses_normals(self) -> bool {
-        matches!(self, Self::DepthAndNormals | Self::Normals)
+        matches!(self, Self::Mass | Self::DepthAndNormals | Self::Normals)
     }
 }
 
@@ -101,8 +118,12 @@ pub struct ImageSpaceOutline {
     pub dilation_y: u32,
     /// Ink colour; its alpha is the ink's opacity over the frame. Default: black.
     pub color: Color,
-    /// The flat buffer edges are found in. Default: [`OutlineSource::DepthAndNormals`].
+    /// The flat buffer edges are found in. Default: [`OutlineSource::Mass`].
     pub source: OutlineSource,
+    /// Inner lines, with [`OutlineSource::Mass`] only: a pixel whose Sobel magnitude on the
+    /// prepass normals exceeds this is also an edge (about 0.3 inks most strands' creases, 1.0
+    /// only sharp folds). `None`: the mass's outline alone. Default: `None`.
+    pub inner_threshold: Option<f32>,
 }
 
 impl Default for ImageSpaceOutline {
@@ -113,7 +134,8 @@ impl Default for ImageSpaceOutline {
             dilation_x: 1,
             dilation_y: 1,
             color: Color::BLACK,
-            source: OutlineSource::DepthAndNormals,
+            source: OutlineSource::Mass,
+            inner_threshold: None,
         }
     }
 }
@@ -130,6 +152,9 @@ pub struct GpuImageSpaceOutline {
     pub dilation_x: u32,
     /// Vertical dilation in pixels, clamped.
     pub dilation_y: u32,
+    /// Normal Sobel magnitude above which [`OutlineSource::Mass`] draws inner lines; a huge
+    /// value when there are none.
+    pub inner_threshold: f32,
 }
 
 /// Which detection pipeline a view needs: its [`OutlineSource`], on the render world's view
@@ -167,6 +192,10 @@ impl ExtractComponent for ImageSpaceOutline {
                 threshold,
                 dilation_x: outline.dilation_x.min(MAX_OUTLINE_DILATION),
                 dilation_y: outline.dilation_y.min(MAX_OUTLINE_DILATION),
+                inner_threshold: outline
+                    .inner_threshold
+                    .filter(|t| t.is_finite())
+                    .map_or(NO_INNER_LINES, |t| t.max(0.0)),
             },
             OutlineSourceKey(outline.source),
         ))

@@ -10,6 +10,9 @@
 // Shader defs (selected by the view's key, one pipeline each):
 //   EDGE_DEPTH     Sobel on the prepass depth, relative to the nearest surface around
 //   EDGE_NORMALS   Sobel on the prepass world normals
+//   EDGE_MASS      (with both) the mass's outline: Sobel on the hair mask (normal alpha 0 on
+//                  hair, hair_prepass.wgsl) and on coverage (depth > 0), plus the relative depth
+//                  step; the normals only draw inner lines above inner_threshold
 //   MULTISAMPLED   the prepass textures are multisampled (MSAA on); sample 0 is read
 
 #import bevy_core_pipeline::fullscreen_vertex_shader::FullscreenVertexOutput
@@ -20,6 +23,7 @@ struct ImageSpaceOutline {
     threshold: f32,
     dilation_x: u32,
     dilation_y: u32,
+    inner_threshold: f32,
 };
 
 // Each pass binds only what its entry point uses; bindings are numbered apart so that the passes
@@ -72,6 +76,13 @@ fn load_normal(p: vec2<i32>) -> vec3<f32> {
     }
     return encoded * 2.0 - 1.0;
 }
+
+// 1 where hair was drawn: the hair's prepass writes alpha 0, everything else (and the clear) 1.
+fn load_hair(p: vec2<i32>) -> f32 {
+    let size = vec2<i32>(textureDimensions(normal_texture));
+    let alpha = textureLoad(normal_texture, clamp(p, vec2<i32>(0), size - 1), 0).a;
+    return select(0.0, 1.0, alpha < 0.5);
+}
 #endif
 
 // Sobel (both kernels) on the flat buffer, magnitude sqrt(gx^2 + gy^2) summed over its channels,
@@ -84,6 +95,7 @@ fn detect(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     var nearest = 0.0;
     var normal_gx = vec3<f32>(0.0);
     var normal_gy = vec3<f32>(0.0);
+    var mask_g = vec4<f32>(0.0);
     for (var j = -1; j <= 1; j += 1) {
         for (var i = -1; i <= 1; i += 1) {
             // Gx = [-1 0 1; -2 0 2; -1 0 1], Gy its transpose.
@@ -101,6 +113,12 @@ fn detect(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
             normal_gx += wx * n;
             normal_gy += wy * n;
 #endif
+#ifdef EDGE_MASS
+            // (hair, covered) stepped in x and y.
+            let covered = select(0.0, 1.0, d > 0.0);
+            let hair = load_hair(q) * covered;
+            mask_g += vec4<f32>(wx * hair, wy * hair, wx * covered, wy * covered);
+#endif
         }
     }
     var magnitude2 = 0.0;
@@ -111,11 +129,20 @@ fn detect(in: FullscreenVertexOutput) -> @location(0) vec4<f32> {
     let scale = select(0.0, 1.0 / nearest, nearest > 0.0);
     magnitude2 += (depth_gx * depth_gx + depth_gy * depth_gy) * scale * scale;
 #endif
+#ifdef EDGE_MASS
+    // A step of the hair mask or of coverage is an edge at any threshold below 1; the normals
+    // only give inner lines, against their own threshold.
+    let mask_magnitude = 0.25 * length(mask_g);
+    let inner = 0.25 * sqrt(dot(normal_gx, normal_gx) + dot(normal_gy, normal_gy));
+    let mass_edge = mask_magnitude > 0.5 || inner > outline.inner_threshold;
+#else
 #ifdef EDGE_NORMALS
     magnitude2 += dot(normal_gx, normal_gx) + dot(normal_gy, normal_gy);
 #endif
+    let mass_edge = false;
+#endif
     let magnitude = 0.25 * sqrt(magnitude2);
-    let edge = select(0.0, 1.0, magnitude > outline.threshold);
+    let edge = select(0.0, 1.0, mass_edge || magnitude > outline.threshold);
     return vec4<f32>(edge, 0.0, 0.0, 1.0);
 }
 

@@ -36,6 +36,9 @@ impl OutlinePipelineKey {
         if self.source.uses_normals() {
             defs.push("EDGE_NORMALS");
         }
+        if self.source == OutlineSource::Mass {
+            defs.push("EDGE_MASS");
+        }
         if self.multisampled {
             defs.push("MULTISAMPLED");
         }
@@ -47,6 +50,7 @@ impl OutlinePipelineKey {
     pub(crate) fn all() -> Vec<Self> {
         let mut keys = Vec::new();
         for source in [
+            OutlineSource::Mass,
             OutlineSource::DepthAndNormals,
             OutlineSource::Depth,
             OutlineSource::Normals,
