@@ -9,7 +9,10 @@
 //! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006).
 
 pub mod highlights;
+mod mass;
 pub mod tube;
+
+pub use mass::HairMassShape;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::visibility::NoFrustumCulling;
@@ -40,6 +43,16 @@ pub struct HairMeshSettings {
     /// cartoon look. Default: `QuadraticCurve { a: -0.4, b: -0.5, c: 1.0 }` (full at the root, a
     /// point at the tip, fuller in the middle than a cone).
     pub taper: QuadraticCurve,
+    /// Hair-mass normals: how far each vertex normal leans from the tube's own normal (0)
+    /// toward the normal of [`HairMeshSettings::mass_shape`] at that point (1). Above 0, light
+    /// and shadow run across the whole hair as one shape instead of one band per strand, as
+    /// anime hair is shaded; the strands' own shading fades as it nears 1. Clamped to
+    /// `[0, 1]`. Default: `0.8` (the strands' own shading still shows
+    /// inside the mass's light and shadow).
+    pub mass_normals: f32,
+    /// The smooth shape the normals lean toward. Default: [`HairMassShape::Fitted`], an
+    /// ellipsoid around the groom's rest shape.
+    pub mass_shape: HairMassShape,
 }
 
 impl Default for HairMeshSettings {
@@ -49,6 +62,8 @@ impl Default for HairMeshSettings {
             shape_resolution: 8,
             radius: 0.016,
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
+            mass_normals: 0.8,
+            mass_shape: HairMassShape::Fitted,
         }
     }
 }
@@ -268,6 +283,12 @@ pub fn rebuild_strand_meshes(
                 },
             }
         };
+        let mass = sim.bone_pose().and_then(|bone| {
+            let ellipsoid = settings
+                .mass_shape
+                .ellipsoid(sim.rest_bounds(), sim.bone_scale())?;
+            mass::MassField::new(&bone, ellipsoid, settings.mass_normals)
+        });
         let per = computed.vertices_per_strand();
         if mesh.count_vertices() != per * scratch.len() {
             continue;
@@ -291,6 +312,9 @@ pub fn rebuild_strand_meshes(
             {
                 let params = params_for(*index);
                 tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
+                if let Some(mass) = &mass {
+                    mass.apply(p, n);
+                }
             }
         });
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);

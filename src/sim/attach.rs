@@ -106,6 +106,8 @@ pub struct ComputedHair {
     pub(crate) size: f32,
     /// Last frame's bone pose without its scale.
     pub(crate) last_bone: Option<Affine3A>,
+    /// The rest shape's bounding box in the bone's rigid space (see [`ComputedHair::rest_bounds`]).
+    pub(crate) rest_bounds: Option<(Vec3, Vec3)>,
     pub(crate) accumulator: f32,
     pub(crate) animation_time: f32,
     /// What happened last frame, for the debug panel and tests.
@@ -132,6 +134,24 @@ impl ComputedHair {
     /// radius) are multiplied by it.
     pub fn size(&self) -> f32 {
         self.size
+    }
+
+    /// The bounding box `(min, max)` of the strands' rest shape (every chain node of the
+    /// styled pose) in the bone's space without its scale, in metres: the groom as it sits on
+    /// the bone. `None` for a hair without strands.
+    pub fn rest_bounds(&self) -> Option<(Vec3, Vec3)> {
+        self.rest_bounds
+    }
+
+    /// Last frame's bone pose without its scale (rotation and translation), the space of
+    /// [`ComputedHair::rest_bounds`]; `None` before the first step.
+    pub fn bone_pose(&self) -> Option<Affine3A> {
+        self.last_bone
+    }
+
+    /// The bone's world scale the hair was built at.
+    pub fn bone_scale(&self) -> Vec3 {
+        self.scale
     }
 
     /// Number of strands.
@@ -609,7 +629,9 @@ pub(crate) fn build_hair_strands(
         let strand_count = groom.strand_count();
         let (last_bone, accumulator, animation_time) =
             kept.unwrap_or((bone_ok.then_some(bone), 0.0, 0.0));
+        let rest_bounds = rest_bounds(&batches, &lane_of);
         commands.entity(entity).insert(ComputedHair {
+            rest_bounds,
             batches,
             lane_of,
             groom: hair.groom.id(),
@@ -634,6 +656,23 @@ pub(crate) fn build_hair_strands(
             Some(reason) => commands.trigger(HairRebuilt { entity, reason }),
         }
     }
+}
+
+/// The bounding box of every used lane's rest nodes.
+fn rest_bounds(batches: &[Batch], lane_of: &[(u32, u8)]) -> Option<(Vec3, Vec3)> {
+    let mut bounds: Option<(Vec3, Vec3)> = None;
+    for &(b, l) in lane_of {
+        let Some(batch) = batches.get(b as usize) else {
+            continue;
+        };
+        for k in 0..batch.local.len() {
+            let p = batch.rest(l as usize, k);
+            if p.is_finite() {
+                bounds = Some(bounds.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))));
+            }
+        }
+    }
+    bounds
 }
 
 /// Whether two builds hold the same strands in the same lanes with the same node counts.

@@ -329,6 +329,11 @@ impl Batch {
         get3(&self.nodes[k].anchor, l)
     }
 
+    /// Rest position (the styled pose in the bone's rigid space) of chain node `k` of lane `l`.
+    pub fn rest(&self, l: usize, k: usize) -> Vec3 {
+        get3(&self.local[k], l)
+    }
+
     /// Position of any chain node of lane `l`.
     pub fn node(&self, l: usize, k: usize) -> Vec3 {
         get3(&self.nodes[k].x, l)

@@ -12,6 +12,7 @@ mod assets;
 mod character_render;
 mod clip;
 mod lighting_render;
+mod mass_render;
 mod outline_render;
 mod render_smoke;
 mod silhouette_render;
@@ -46,6 +47,7 @@ fn main() {
         .chain(clip::RENDER_TESTS)
         .chain(character_render::RENDER_TESTS)
         .chain(lighting_render::RENDER_TESTS)
+        .chain(mass_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -70,6 +70,9 @@ fn spawn(r: &mut HeadlessRenderer, points: Vec<Vec3>, radius: f32) -> Entity {
                 taper: QuadraticCurve::constant(1.0),
                 hair_resolution: 48,
                 shape_resolution: 24,
+                // The strand's own normals: these tests look at one tube.
+                mass_normals: 0.0,
+                ..default()
             },
             SilhouetteSettings {
                 width_px: 4.0,

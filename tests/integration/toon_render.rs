@@ -89,6 +89,9 @@ pub(crate) fn spawn_strand(
             taper: QuadraticCurve::constant(1.0),
             hair_resolution: 24,
             shape_resolution: 32,
+            // The strand's own normals: these tests look at one tube.
+            mass_normals: 0.0,
+            ..default()
         },
         HairMaterial(material),
         // These tests look at the material alone.
