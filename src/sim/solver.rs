@@ -8,7 +8,9 @@
 //! tetrahedron, so distance springs between nodes one apart (**edge**), two apart (**bending**;
 //! but particle to particle, the strand's own segment, is an **edge**) and three apart
 //! (**torsion**) hold the strand's styled shape in 3D, bends and twist included, without angle
-//! terms. Rest lengths come from the styled
+//! terms. Distances alone also admit the style's mirror image (every tetrahedron inside out), a
+//! second rest state a fast motion can knock a strand into, so each tetrahedron's **signed
+//! volume** is held too: the styled shape is the only rest state. Rest lengths come from the styled
 //! (already bent) groom, so hair keeps its style rather than straightening. `g`, `p0` and `s0` are
 //! pinned to the bone: three non-collinear points fix the root's position and orientation.
 //!
@@ -125,6 +127,9 @@ pub struct Node {
     pub p: [Lane; 3],
     /// Rest distance to the node 1, 2 and 3 places before this one (edge, bend, torsion).
     pub rest: [Lane; 3],
+    /// Six times the signed rest volume of the tetrahedron this node closes with the three
+    /// before it (see [`signed_volume`]); 0 for the first three nodes.
+    pub volume: Lane,
     /// Anchor position for this frame, bone space.
     pub anchor: [Lane; 3],
 }
@@ -223,6 +228,9 @@ impl Batch {
                     } else {
                         0.0
                     };
+                }
+                if k >= 3 {
+                    node.volume[l] = signed_volume(c[k - 3], c[k - 2], c[k - 1], c[k]);
                 }
             }
             out.push(node);
@@ -418,6 +426,19 @@ impl Batch {
                 let wj = if j < PINNED { 0.0 } else { 1.0 };
                 solve_distance(&mut head[j].x, &mut xk, &nk.rest[s], wj, alpha);
             }
+            // Distances alone also hold the mirror image of the style: hold the tetrahedron's
+            // signed volume too, so the style is the only rest state.
+            if k >= 3 {
+                let w = |j: usize| if j < PINNED { 0.0 } else { 1.0 };
+                let [a, b, c] = &mut head[k - 3..k] else {
+                    unreachable!()
+                };
+                solve_volume(
+                    [&mut a.x, &mut b.x, &mut c.x, &mut xk],
+                    [w(k - 3), w(k - 2), w(k - 1), 1.0],
+                    &nk.volume,
+                );
+            }
             nk.x = xk;
             // Node k-3 is touched by no later spring this substep: its anchor can go now.
             if k >= PINNED + 3 {
@@ -510,6 +531,63 @@ impl Batch {
             }
         }
     }
+}
+
+/// Six times the signed volume of the tetrahedron `(a, b, c, d)`: `(b - a) x (c - a) . (d - a)`.
+/// Its sign is the tetrahedron's orientation, which a mirror image flips.
+pub(crate) fn signed_volume(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f32 {
+    (b - a).cross(c - a).dot(d - a)
+}
+
+/// Restores each lane's signed tetrahedron volume `(x0, x1, x2, x3)` toward `rest` (six times
+/// the rest volume), moving every node whose inverse mass `w` is 1 along its gradient (PBD, full
+/// correction). Distance springs alone keep only `|volume|`, so without this a strand can settle
+/// in the mirror image of its style and stay there.
+#[inline(always)]
+fn solve_volume(x: [&mut [Lane; 3]; 4], w: [f32; 4], rest: &Lane) {
+    let [x0, x1, x2, x3] = x;
+    for l in 0..LANES {
+        let p0 = [x0[0][l], x0[1][l], x0[2][l]];
+        let e1 = [x1[0][l] - p0[0], x1[1][l] - p0[1], x1[2][l] - p0[2]];
+        let e2 = [x2[0][l] - p0[0], x2[1][l] - p0[1], x2[2][l] - p0[2]];
+        let e3 = [x3[0][l] - p0[0], x3[1][l] - p0[1], x3[2][l] - p0[2]];
+        let g1 = cross(e2, e3);
+        let g2 = cross(e3, e1);
+        let g3 = cross(e1, e2);
+        let g0 = [
+            -(g1[0] + g2[0] + g3[0]),
+            -(g1[1] + g2[1] + g3[1]),
+            -(g1[2] + g2[2] + g3[2]),
+        ];
+        let volume = dot(g3, e3);
+        let denom =
+            w[0] * dot(g0, g0) + w[1] * dot(g1, g1) + w[2] * dot(g2, g2) + w[3] * dot(g3, g3);
+        let lambda = if denom > 1e-30 {
+            (rest[l] - volume) / denom
+        } else {
+            0.0
+        };
+        for c in 0..3 {
+            x0[c][l] += lambda * w[0] * g0[c];
+            x1[c][l] += lambda * w[1] * g1[c];
+            x2[c][l] += lambda * w[2] * g2[c];
+            x3[c][l] += lambda * w[3] * g3[c];
+        }
+    }
+}
+
+#[inline(always)]
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+#[inline(always)]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// XPBD distance constraint between positions `xj` (inverse mass `wj`) and `xk` (inverse mass 1)
