@@ -545,7 +545,9 @@ pub(crate) fn signed_volume(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> f32 {
 /// in the mirror image of its style and stay there.
 #[inline(always)]
 fn solve_volume(x: [&mut [Lane; 3]; 4], w: [f32; 4], rest: &Lane) {
-    let [x0, x1, x2, x3] = x;
+    let [r0, r1, r2, r3] = x;
+    // Local copies: the compiler then knows the four never alias, and vectorises across lanes.
+    let (mut x0, mut x1, mut x2, mut x3) = (*r0, *r1, *r2, *r3);
     for l in 0..LANES {
         let p0 = [x0[0][l], x0[1][l], x0[2][l]];
         let e1 = [x1[0][l] - p0[0], x1[1][l] - p0[1], x1[2][l] - p0[2]];
@@ -562,18 +564,17 @@ fn solve_volume(x: [&mut [Lane; 3]; 4], w: [f32; 4], rest: &Lane) {
         let volume = dot(g3, e3);
         let denom =
             w[0] * dot(g0, g0) + w[1] * dot(g1, g1) + w[2] * dot(g2, g2) + w[3] * dot(g3, g3);
-        let lambda = if denom > 1e-30 {
-            (rest[l] - volume) / denom
-        } else {
-            0.0
-        };
+        // Where every gradient is zero (a flat, degenerate tetrahedron) the correction is zero
+        // whatever lambda is.
+        let lambda = (rest[l] - volume) / denom.max(1e-30);
         for c in 0..3 {
-            x0[c][l] += lambda * w[0] * g0[c];
-            x1[c][l] += lambda * w[1] * g1[c];
-            x2[c][l] += lambda * w[2] * g2[c];
-            x3[c][l] += lambda * w[3] * g3[c];
+            x0[c][l] += lambda * (g0[c] * w[0]);
+            x1[c][l] += lambda * (g1[c] * w[1]);
+            x2[c][l] += lambda * (g2[c] * w[2]);
+            x3[c][l] += lambda * (g3[c] * w[3]);
         }
     }
+    (*r0, *r1, *r2, *r3) = (x0, x1, x2, x3);
 }
 
 #[inline(always)]
