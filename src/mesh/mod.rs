@@ -4,7 +4,10 @@
 //! own in world space ([`HairMeshOf`]). The triangle topology and UVs are shared by every strand
 //! and rebuilt only when a resolution in [`HairMeshSettings`] changes (the thesis's "Rebuild
 //! mesh" button, done automatically); positions and normals are rebuilt every frame, in parallel
-//! over strands, from [`StrandParticles`].
+//! over strands, from [`StrandParticles`]. The mesh's tangent attribute holds each vertex's
+//! strand direction (root to tip, `w = 1`), not Bevy's normal-map convention: the toon
+//! material's angel ring runs across it. Normals lean toward the hair's mass
+//! ([`HairMeshSettings::mass_normals`]).
 //!
 //! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006).
 
@@ -156,6 +159,10 @@ pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
         Mesh::ATTRIBUTE_NORMAL,
         vec![[0.0f32, 1.0, 0.0]; per * strands],
     )
+    .with_inserted_attribute(
+        Mesh::ATTRIBUTE_TANGENT,
+        vec![[0.0f32, 1.0, 0.0, 1.0]; per * strands],
+    )
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, uvs_b)
     .with_inserted_indices(Indices::U32(indices))
@@ -296,29 +303,57 @@ pub fn rebuild_strand_meshes(
         let mut positions = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_POSITION);
         let mut normals = take_f32x3(&mut mesh, Mesh::ATTRIBUTE_NORMAL);
         normals.resize(positions.len(), [0.0, 1.0, 0.0]);
+        let mut tangents = match mesh.remove_attribute(Mesh::ATTRIBUTE_TANGENT) {
+            Some(VertexAttributeValues::Float32x4(v)) => v,
+            _ => Vec::new(),
+        };
+        tangents.resize(positions.len(), [0.0, 1.0, 0.0, 1.0]);
         let chunk = scratch.len().div_ceil(parallel::workers(pool)).max(1);
         let topology = &computed.topology;
         let parts = positions
             .chunks_mut(per * chunk)
             .zip(normals.chunks_mut(per * chunk))
+            .zip(tangents.chunks_mut(per * chunk))
             .zip(scratch.chunks(chunk));
-        parallel::run_parts(pool, parts, &|((pos, nrm), group): (
-            (&mut [[f32; 3]], &mut [[f32; 3]]),
+        #[expect(
+            clippy::type_complexity,
+            reason = "one part of the mesh per worker: its three buffers and its strands"
+        )]
+        let build = |(((pos, nrm), tan), group): (
+            ((&mut [[f32; 3]], &mut [[f32; 3]]), &mut [[f32; 4]]),
             &[(u32, Vec<Vec3>)],
         )| {
             let mut tmp = TubeScratch::default();
-            for ((p, n), (index, particles)) in
-                pos.chunks_mut(per).zip(nrm.chunks_mut(per)).zip(group)
+            for (((p, n), t), (index, particles)) in pos
+                .chunks_mut(per)
+                .zip(nrm.chunks_mut(per))
+                .zip(tan.chunks_mut(per))
+                .zip(group)
             {
                 let params = params_for(*index);
-                tube::build_tube(topology, particles, &params, &mut tmp, p, n, None);
+                tube::build_tube(topology, particles, &params, &mut tmp, p, n, Some(t));
+                along_strand(n, t);
                 if let Some(mass) = &mass {
                     mass.apply(p, n);
                 }
             }
-        });
+        };
+        parallel::run_parts(pool, parts, &build);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
+        mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
+    }
+}
+
+/// Turns [`tube::build_tube`]'s tangents (around the ring, Bevy's convention) into the strand's
+/// own direction, root to tip (`cross(normal, tangent) * w`), with `w = 1`: the hair mesh's
+/// tangent attribute, which the toon material's angel ring reads. Done before the hair-mass
+/// normals replace the tube's own.
+fn along_strand(normals: &[[f32; 3]], tangents: &mut [[f32; 4]]) {
+    for (n, t) in normals.iter().zip(tangents) {
+        let around = Vec3::new(t[0], t[1], t[2]);
+        let along = Vec3::from_array(*n).cross(around) * t[3];
+        *t = along.extend(1.0).to_array();
     }
 }
 

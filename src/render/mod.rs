@@ -25,8 +25,8 @@ pub use ramps::{
 };
 pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use toon::{
-    HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey, ToonHairUniform, ToonLighting,
-    ToonShading,
+    AngelRingProfile, HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey,
+    ToonHairUniform, ToonLighting, ToonShading,
 };
 
 /// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.

@@ -245,19 +245,31 @@ fn every_toon_material_variant_composes_and_validates() {
         vertex_defs.contains(&"VERTEX_UVS_B"),
         "the hair mesh carries a second UV set: {vertex_defs:?}"
     );
+    assert!(
+        vertex_defs.contains(&"VERTEX_TANGENTS"),
+        "the hair mesh carries strand directions as tangents: {vertex_defs:?}"
+    );
     let (name, source) = MATERIAL_SHADERS[0];
     let variants = ToonHairMaterialKey::all();
+    // The hair mesh, and a mesh without tangents (the angel ring's fallback path).
+    let no_tangents: Vec<&str> = vertex_defs
+        .iter()
+        .copied()
+        .filter(|d| *d != "VERTEX_TANGENTS")
+        .collect();
     for key in &variants {
-        let mut defs = key.shader_defs();
-        defs.extend(&vertex_defs);
-        let module = compose_with(&bevy_modules, name, source, &defs, &values)
-            .unwrap_or_else(|e| panic!("variant {key:?}: {e}"));
-        assert!(
-            module.entry_points.iter().any(|e| e.name == "fragment"),
-            "variant {key:?} lost its entry point"
-        );
+        for vertex in [&vertex_defs, &no_tangents] {
+            let mut defs = key.shader_defs();
+            defs.extend(vertex);
+            let module = compose_with(&bevy_modules, name, source, &defs, &values)
+                .unwrap_or_else(|e| panic!("variant {key:?} {vertex:?}: {e}"));
+            assert!(
+                module.entry_points.iter().any(|e| e.name == "fragment"),
+                "variant {key:?} lost its entry point"
+            );
+        }
     }
-    assert_eq!(variants.len(), 96);
+    assert_eq!(variants.len(), 192);
 }
 
 #[test]

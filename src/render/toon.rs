@@ -57,6 +57,34 @@ pub enum HatchingMode {
     Surface,
 }
 
+/// The shape of the angel ring's band ([`ToonShading::angel_ring`]).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum AngelRingProfile {
+    /// A hard-edged band of even width.
+    Even,
+    /// Hard-edged, thinning toward the sides of the hair (where it turns away from the view),
+    /// as rings are drawn.
+    Tapered,
+    /// Tapered, with saw teeth along the strands ([`ToonShading::angel_ring_teeth`] apart):
+    /// the classic cel-anime ring.
+    #[default]
+    ZigZag,
+    /// Soft edges, fading out from the band's middle.
+    Soft,
+}
+
+impl AngelRingProfile {
+    fn index(self) -> f32 {
+        match self {
+            Self::Even => 0.0,
+            Self::Tapered => 1.0,
+            Self::ZigZag => 2.0,
+            Self::Soft => 3.0,
+        }
+    }
+}
+
 /// Toon shading for hair: the tunable [`ToonShading`] (reached directly through `Deref`, so
 /// `material.base_color` works) and its textures. Every change takes effect live; changing a
 /// mode switches to another pipeline variant (shader defs), not a branch in the shader.
@@ -132,6 +160,25 @@ pub struct ToonShading {
     /// reaches the right end of the ramp; less light walks left along it. Default: `10000.0`
     /// (Bevy's default directional light, full daylight).
     pub full_light_lux: f32,
+    /// Angel ring: a highlight band across the whole hair where the strands run across the
+    /// half vector (Kajiya-Kay on the strand direction), so it sits at a height that follows
+    /// the view and the light, like the ring drawn on anime hair (and Unity Toon Shader's
+    /// Angel Ring). Its opacity over the hair colour; 0 turns it off (and its shader variant).
+    /// Works best with hair-mass normals (`HairMeshSettings::mass_normals`). Default: `0.0`.
+    pub angel_ring: f32,
+    /// Ring colour (linear RGB is multiplied by the light's hue). Default: `srgb(1.0, 0.95, 0.8)`.
+    pub angel_ring_color: Color,
+    /// Band width, 0 (a line) to 1 (everything facing the half vector). Default: `0.25`.
+    pub angel_ring_width: f32,
+    /// Kajiya-Kay exponent: higher gives a tighter, more even band. Default: `60.0`.
+    pub angel_ring_sharpness: f32,
+    /// Moves the band along the strands (the tangent leans by this times the normal): positive
+    /// toward the roots when lit from above. Default: `0.0`.
+    pub angel_ring_shift: f32,
+    /// The band's shape. Default: [`AngelRingProfile::ZigZag`].
+    pub angel_ring_profile: AngelRingProfile,
+    /// Distance between the zig-zag's teeth, metres across the strands. Default: `0.02`.
+    pub angel_ring_teeth: f32,
 }
 
 impl Default for ToonShading {
@@ -152,6 +199,13 @@ impl Default for ToonShading {
             hatch_scale: 1.0,
             lighting: ToonLighting::Scene,
             full_light_lux: 10_000.0,
+            angel_ring: 0.0,
+            angel_ring_color: Color::srgb(1.0, 0.95, 0.8),
+            angel_ring_width: 0.25,
+            angel_ring_sharpness: 60.0,
+            angel_ring_shift: 0.0,
+            angel_ring_profile: AngelRingProfile::ZigZag,
+            angel_ring_teeth: 0.02,
         }
     }
 }
@@ -165,6 +219,8 @@ pub struct ToonHairUniform {
     params: Vec4,
     params2: Vec4,
     params3: Vec4,
+    angel_ring_color: Vec4,
+    angel_ring: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
@@ -190,8 +246,20 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
             ),
             params3: Vec4::new(
                 finite_or(self.full_light_lux, 10_000.0).max(1e-3),
+                finite_or(self.angel_ring_teeth, 0.02).max(1e-4),
+                self.angel_ring_profile.index(),
                 0.0,
-                0.0,
+            ),
+            angel_ring_color: self
+                .angel_ring_color
+                .to_linear()
+                .to_vec4()
+                .truncate()
+                .extend(finite_or(self.angel_ring, 0.0).clamp(0.0, 1.0)),
+            angel_ring: Vec4::new(
+                finite_or(self.angel_ring_width, 0.25).clamp(0.0, 1.0),
+                finite_or(self.angel_ring_sharpness, 60.0).clamp(1.0, 4096.0),
+                finite_or(self.angel_ring_shift, 0.0).clamp(-4.0, 4.0),
                 0.0,
             ),
         }
@@ -206,6 +274,7 @@ pub struct ToonHairMaterialKey {
     back_light: bool,
     hatching: HatchingMode,
     scene_lights: bool,
+    angel_ring: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -221,6 +290,7 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
                 HatchingMode::None
             },
             scene_lights: m.lighting == ToonLighting::Scene,
+            angel_ring: m.angel_ring > 0.0,
         }
     }
 }
@@ -249,6 +319,9 @@ impl ToonHairMaterialKey {
         if self.scene_lights {
             defs.push("SCENE_LIGHTS");
         }
+        if self.angel_ring {
+            defs.push("ANGEL_RING");
+        }
         defs
     }
 
@@ -269,13 +342,16 @@ impl ToonHairMaterialKey {
                 for blinn in [false, true] {
                     for back_light in [false, true] {
                         for scene_lights in [false, true] {
-                            v.push(Self {
-                                ramp_mode,
-                                blinn,
-                                back_light,
-                                hatching,
-                                scene_lights,
-                            });
+                            for angel_ring in [false, true] {
+                                v.push(Self {
+                                    ramp_mode,
+                                    blinn,
+                                    back_light,
+                                    hatching,
+                                    scene_lights,
+                                    angel_ring,
+                                });
+                            }
                         }
                     }
                 }

@@ -9,6 +9,8 @@
 //                                                  intensity, shadows, ambient), not N.L
 //   HATCHING                                       ink from a tonal art map, on the strand's
 //                                                  surface, or on the screen with HATCH_SCREEN
+//   ANGEL_RING                                     a highlight band across the hair where the
+//                                                  strands run across the half vector
 
 #import bevy_pbr::{forward_io::VertexOutput, mesh_view_bindings::{view, lights}}
 #import bevy_cartoon_hair::curves::{depth_detail, back_light}
@@ -24,8 +26,13 @@ struct ToonHairUniform {
     params: vec4<f32>,
     // x: specular strength, y: back light strength, z: hatching scale, w: ramp y when constant
     params2: vec4<f32>,
-    // x: illuminance (lux) at the right end of the ramp (SCENE_LIGHTS)
+    // x: illuminance (lux) at the right end of the ramp (SCENE_LIGHTS), y: angel ring teeth
+    // spacing (m), z: angel ring profile (0 even, 1 tapered, 2 zig-zag, 3 soft)
     params3: vec4<f32>,
+    // rgb: angel ring colour, a: its opacity
+    angel_ring_color: vec4<f32>,
+    // x: band width, y: Kajiya-Kay exponent, z: shift along the normal
+    angel_ring: vec4<f32>,
 };
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> material: ToonHairUniform;
@@ -49,9 +56,50 @@ fn hatch(uv: vec2<f32>, light: f32) -> f32 {
 }
 #endif
 
+#ifdef ANGEL_RING
+// Opacity of the angel ring at a point with normal n, strand direction t (unit, root to tip),
+// toward-light l and toward-eye v: Kajiya-Kay sin(T, H)^p on the shifted tangent, cut into a
+// band by the profile.
+fn angel_ring(n: vec3<f32>, t: vec3<f32>, l: vec3<f32>, v: vec3<f32>, p: vec3<f32>) -> f32 {
+    let h = normalize(l + v);
+    let shifted = normalize(t + n * material.angel_ring.z);
+    let t_dot_h = dot(shifted, h);
+    let kk = pow(sqrt(max(1.0 - t_dot_h * t_dot_h, 0.0)), material.angel_ring.y);
+    var width = material.angel_ring.x;
+    let profile = material.params3.z;
+    if profile > 0.5 {
+        // Tapered: thinner where the hair turns away from the view.
+        width *= smoothstep(0.0, 0.8, dot(n, v));
+    }
+    if profile > 1.5 && profile < 2.5 {
+        // Zig-zag: saw teeth along the strands, a world-space distance apart across them.
+        let across = normalize(cross(t, v) + vec3<f32>(1e-6, 0.0, 0.0));
+        let s = dot(p, across) / max(material.params3.y, 1e-4);
+        width *= 0.35 + 0.65 * abs(fract(s) * 2.0 - 1.0);
+    }
+    let edge = 1.0 - width;
+    var band = smoothstep(edge, edge + 0.02, kk);
+    if profile > 2.5 {
+        band = smoothstep(edge, 1.0, kk);
+    }
+    // Only where the light reaches the hair.
+    return band * smoothstep(-0.05, 0.25, dot(n, l));
+}
+#endif
+
 @fragment
 fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let n = normalize(in.world_normal);
+#ifdef ANGEL_RING
+#ifdef VERTEX_TANGENTS
+    // The hair mesh's tangent is the strand's direction, root to tip.
+    var strand = in.world_tangent.xyz;
+#else
+    // Another mesh: where uv.y grows, from screen derivatives (in uniform control flow).
+    var strand = dpdx(in.world_position.xyz) * dpdx(in.uv.y)
+        + dpdy(in.world_position.xyz) * dpdy(in.uv.y);
+#endif
+#endif
     let to_eye = view.world_position - in.world_position.xyz;
     // Toward the viewer: the camera's axis for an orthographic projection.
     let orthographic = view.clip_from_view[3].w == 1.0;
@@ -119,6 +167,15 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
 #ifdef BACK_LIGHT
     color += material.back_light_color.rgb * material.params2.y
         * (1.0 - back_light(n, v, material.params.z));
+#endif
+
+#ifdef ANGEL_RING
+    strand -= n * dot(n, strand);
+    if dot(strand, strand) > 1e-20 {
+        let ring = angel_ring(n, normalize(strand), l, v, in.world_position.xyz)
+            * material.angel_ring_color.a;
+        color = mix(color, material.angel_ring_color.rgb * tint, ring * step(0.05, intensity));
+    }
 #endif
 
 #ifdef HATCHING

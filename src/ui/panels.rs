@@ -13,8 +13,8 @@ use crate::mesh::HairMeshSettings;
 use crate::mesh::highlights::SpecularQuads;
 use crate::preset::{HairPreset, LOOKS, RampKind, ToonMaterialPreset};
 use crate::render::{
-    HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial, ToonLighting,
-    ToonRamps,
+    AngelRingProfile, HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial,
+    ToonLighting, ToonRamps,
 };
 use crate::silhouette::SilhouetteSettings;
 use crate::sim::{Hair, HairSimSettings};
@@ -255,6 +255,13 @@ const LIGHTING_MODES: [(ToonLighting, &str); 2] = [
     (ToonLighting::Scene, "every scene light + shadows"),
 ];
 
+const RING_PROFILES: [(AngelRingProfile, &str); 4] = [
+    (AngelRingProfile::Even, "even"),
+    (AngelRingProfile::Tapered, "tapered"),
+    (AngelRingProfile::ZigZag, "zig-zag"),
+    (AngelRingProfile::Soft, "soft"),
+];
+
 const HATCHING_MODES: [(HatchingMode, &str); 3] = [
     (HatchingMode::None, "none"),
     (HatchingMode::Screen, "simple (screen)"),
@@ -402,6 +409,25 @@ fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
     ui.label("Shininess");
     ui.add(egui::Slider::new(&mut m.shininess, 1.0..=512.0).logarithmic(true));
     ui.end_row();
+    slider_row(ui, "Angel ring", &mut m.angel_ring, 0.0..=1.0);
+    if m.angel_ring > 0.0 {
+        color_row(ui, "Ring colour", &mut m.angel_ring_color);
+        combo_row(
+            ui,
+            "Ring profile",
+            &mut m.angel_ring_profile,
+            &RING_PROFILES,
+        );
+        slider_row(ui, "Ring width", &mut m.angel_ring_width, 0.0..=1.0);
+        slider_row(ui, "Ring shift", &mut m.angel_ring_shift, -1.0..=1.0);
+        ui.label("Ring sharpness");
+        ui.add(egui::Slider::new(&mut m.angel_ring_sharpness, 1.0..=512.0).logarithmic(true));
+        ui.end_row();
+        if m.angel_ring_profile == AngelRingProfile::ZigZag {
+            drag_row(ui, "Ring teeth (m)", &mut m.angel_ring_teeth, 0.001);
+            m.angel_ring_teeth = m.angel_ring_teeth.max(1e-4);
+        }
+    }
     combo_row(ui, "Hatching", &mut m.hatching, &HATCHING_MODES);
     ui.label("HScale");
     ui.add(egui::Slider::new(&mut m.hatch_scale, 0.1..=10.0).logarithmic(true));

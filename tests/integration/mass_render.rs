@@ -1,18 +1,25 @@
-//! Render tests of hair-mass normals (`HairMeshSettings::mass_normals`): a curtain of strands in
-//! one hair, lit from the side, shades as one shape instead of one band per strand.
+//! Render tests of the anime look of a whole hair: hair-mass normals
+//! (`HairMeshSettings::mass_normals`: a curtain of strands lit from the side shades as one shape
+//! instead of one band per strand) and the angel ring (`ToonShading::angel_ring`).
 
 use bevy::prelude::*;
 use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::ToonLighting;
+use bevy_cartoon_hair::render::{AngelRingProfile, ToonLighting};
 use libtest_mimic::Failed;
 
 use crate::toon_render::{BACKGROUND, ramps, save, scene};
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "mass_normals_merge_the_strands_shadows",
-    mass_normals_merge_the_strands_shadows,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "mass_normals_merge_the_strands_shadows",
+        mass_normals_merge_the_strands_shadows,
+    ),
+    (
+        "angel_ring_crosses_the_hair_and_follows_the_light",
+        angel_ring_crosses_the_hair_and_follows_the_light,
+    ),
+];
 
 /// Nine vertical strands side by side in one hair, held still, each `radius` thick.
 fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) {
@@ -174,6 +181,144 @@ fn mass_normals_merge_the_strands_shadows() -> Result<(), Failed> {
                 "blend {blend}: expected a few large shadow regions on the left"
             ));
         }
+    }
+    Ok(())
+}
+
+/// Cyan: a ring colour no lit orange hair has.
+const RING: Color = Color::srgb(0.0, 1.0, 1.0);
+
+fn is_ring(p: [u8; 4]) -> bool {
+    p[0] < 60 && p[1] > 150 && p[2] > 150
+}
+
+/// A bob: 72 strands from around the crown of a head (radius 0.5 at the origin) down its sides
+/// to below the equator, 2 cm off the scalp, in one hair.
+fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
+    let ramp = ramps(r).three_tone;
+    let world = r.app.world_mut();
+    let strands: Vec<Vec<Vec3>> = (0..72)
+        .map(|i| {
+            let around = std::f32::consts::TAU * i as f32 / 72.0;
+            (0..8)
+                .map(|k| {
+                    // From 15 degrees off the pole to 20 degrees below the equator.
+                    let polar = (15.0 + 95.0 * k as f32 / 7.0).to_radians();
+                    Vec3::new(
+                        polar.sin() * around.sin(),
+                        polar.cos(),
+                        polar.sin() * around.cos(),
+                    ) * 0.52
+                })
+                .collect()
+        })
+        .collect();
+    let groom = HairGroom::from_strands("", strands).unwrap();
+    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+    let material = world
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .add(ToonHairMaterial::new(
+            ToonShading {
+                lighting: ToonLighting::FirstDirectional,
+                angel_ring: 1.0,
+                angel_ring_color: RING,
+                angel_ring_profile: profile,
+                ..default()
+            },
+            ramp,
+        ));
+    world.spawn((
+        Hair { groom, ..default() },
+        HairSimSettings {
+            gravity: Vec3::ZERO,
+            anchor_stiffness: QuadraticCurve::constant(1.0),
+            ..default()
+        },
+        HairMeshSettings {
+            radius: 0.035,
+            taper: QuadraticCurve::constant(1.0),
+            hair_resolution: 24,
+            shape_resolution: 12,
+            ..default()
+        },
+        HairMaterial(material),
+        SilhouetteSettings {
+            enabled: false,
+            ..default()
+        },
+    ));
+}
+
+/// Ring pixels: (count, mean y, leftmost x, rightmost x).
+fn ring_stats(frame: &CapturedFrame) -> (usize, f32, u32, u32) {
+    let (mut n, mut sum_y, mut lo, mut hi) = (0, 0.0, u32::MAX, 0);
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            if is_ring(frame.pixel(x, y)) {
+                n += 1;
+                sum_y += y as f32;
+                lo = lo.min(x);
+                hi = hi.max(x);
+            }
+        }
+    }
+    (n, sum_y / n.max(1) as f32, lo, hi)
+}
+
+/// On a bob seen from the front and lit from the front, the angel ring is a band across the
+/// hair (it spans most of the hair's width) at one height; with the light raised it moves up
+/// the head, with the light lowered down, as a highlight of the view and the light does. Every
+/// profile draws it; the zig-zag's edge is longer than the even band's.
+fn angel_ring_crosses_the_hair_and_follows_the_light() -> Result<(), Failed> {
+    let mut found = Vec::new();
+    for (profile, light) in [
+        (AngelRingProfile::ZigZag, Vec3::new(0.0, 0.3, 1.0)),
+        (AngelRingProfile::ZigZag, Vec3::new(0.0, 1.2, 1.0)),
+        (AngelRingProfile::ZigZag, Vec3::new(0.0, -0.2, 1.0)),
+        (AngelRingProfile::Even, Vec3::new(0.0, 0.3, 1.0)),
+        (AngelRingProfile::Soft, Vec3::new(0.0, 0.3, 1.0)),
+    ] {
+        let mut r = scene(light, Vec3::new(0.0, 0.0, 3.0))?;
+        spawn_bob(&mut r, profile);
+        let frame = r.capture()?;
+        save(&frame, &format!("angel_ring_{profile:?}_{:.1}", light.y))?;
+        let hair = frame.count(|p| p != BACKGROUND);
+        let (n, mean_y, lo, hi) = ring_stats(&frame);
+        // Ring pixels with a non-ring 4-neighbour: the length of the band's edge.
+        let edge = (1..frame.height - 1)
+            .flat_map(|y| (1..frame.width - 1).map(move |x| (x, y)))
+            .filter(|&(x, y)| {
+                is_ring(frame.pixel(x, y))
+                    && [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)]
+                        .iter()
+                        .any(|&(a, b)| !is_ring(frame.pixel(a, b)))
+            })
+            .count();
+        eprintln!(
+            "{profile:?}, light y {:.1}: {n} ring pixels of {hair} hair, mean y {mean_y:.1}, x {lo}..{hi}, edge {edge}",
+            light.y
+        );
+        found.push((n, mean_y, hi.saturating_sub(lo), edge, hair));
+    }
+    let fail = |m: &str| -> Result<(), Failed> { Err(format!("{m}: {found:?}").into()) };
+    let (n, y, span, zig_edge, hair) = found[0];
+    if n < hair / 50 || n > hair / 3 {
+        return fail("the ring is not a band over part of the hair");
+    }
+    // The bob is about 110 px wide at this distance; the band crosses most of it.
+    if span < 60 {
+        return fail("the ring does not cross the hair");
+    }
+    let (up, down) = (found[1].1, found[2].1);
+    if !(up < y - 5.0 && down > y + 5.0) {
+        return fail("the ring does not follow the light up and down the head");
+    }
+    let (even_n, even_edge) = (found[3].0, found[3].3);
+    if even_n < hair / 50 || found[4].0 < hair / 100 {
+        return fail("the even or soft profile draws no ring");
+    }
+    if zig_edge as f32 / (n as f32) <= even_edge as f32 / (even_n as f32) {
+        return fail("the zig-zag's edge is no longer than the even band's");
     }
     Ok(())
 }
