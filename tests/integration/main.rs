@@ -12,6 +12,7 @@ mod assets;
 mod character_render;
 mod clip;
 mod lighting_render;
+mod look_suite;
 mod mass_render;
 mod outline_render;
 mod render_smoke;
@@ -48,6 +49,7 @@ fn main() {
         .chain(character_render::RENDER_TESTS)
         .chain(lighting_render::RENDER_TESTS)
         .chain(mass_render::RENDER_TESTS)
+        .chain(look_suite::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -1,0 +1,238 @@
+//! The look suite: the ninja in every shipped look (`HairPreset::look`) from the front, the side
+//! and the back, with measured properties of the pixels. The frames are the README's pictures
+//! (`HAIR_TEST_PNG_DIR`).
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cartoon_hair::demo::{NinjaOrbit, NinjaScene, NinjaScenePlugin, ninja_scene_ready};
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::preset::LOOKS;
+use bevy_cartoon_hair::render::HatchingMode;
+use bevy_cartoon_hair::sim::ComputedHair;
+use libtest_mimic::Failed;
+
+use crate::toon_render::save;
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
+    "look_suite_every_look_from_three_views",
+    look_suite_every_look_from_three_views,
+)];
+
+const VIEWS: [(&str, f32); 3] = [
+    ("front", 0.0),
+    ("side", std::f32::consts::FRAC_PI_2),
+    ("back", std::f32::consts::PI),
+];
+
+fn luma(p: [u8; 4]) -> f32 {
+    0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
+}
+
+/// The mask render's hair: pure green in any tone.
+fn is_mask_hair([r, g, b, _]: [u8; 4]) -> bool {
+    g > 40 && u32::from(r) * 3 < u32::from(g) && u32::from(b) * 3 < u32::from(g)
+}
+
+/// What the three renders of one view measured.
+#[derive(Debug, Default)]
+struct Measured {
+    /// Hair pixels (from the mask render).
+    hair: usize,
+    /// Luma of the hair's 90th percentile minus its 10th, without outlines.
+    contrast: f32,
+    /// Pure black hair pixels without outlines (what NaN shading gives).
+    black: usize,
+    /// Share of the hair's boundary pixels with ink within 2 px.
+    boundary_inked: f32,
+    /// Share of the hair's inside (4+ px from its boundary) that is ink.
+    interior_inked: f32,
+}
+
+fn measure(mask: &CapturedFrame, plain: &CapturedFrame, shipped: &CapturedFrame) -> Measured {
+    let (w, h) = (mask.width as i32, mask.height as i32);
+    let idx = |x: i32, y: i32| (y * w + x) as usize;
+    let hair: Vec<bool> = (0..w * h)
+        .map(|i| is_mask_hair(mask.pixel((i % w) as u32, (i / w) as u32)))
+        .collect();
+    let at = |x: i32, y: i32| x >= 0 && y >= 0 && x < w && y < h && hair[idx(x, y)];
+    // Ink: dark in the shipped look where the look without outlines was not.
+    let ink: Vec<bool> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as u32, (i / w) as u32);
+            luma(shipped.pixel(x, y)) < 50.0 && luma(plain.pixel(x, y)) >= 50.0
+        })
+        .collect();
+    let ink_near = |x: i32, y: i32, r: i32| {
+        (-r..=r).any(|dy| {
+            (-r..=r).any(|dx| {
+                let (a, b) = (x + dx, y + dy);
+                a >= 0 && b >= 0 && a < w && b < h && ink[idx(a, b)]
+            })
+        })
+    };
+    let mut m = Measured::default();
+    let mut lumas = Vec::new();
+    let (mut boundary, mut boundary_inked, mut inside, mut inside_ink) = (0, 0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if !hair[idx(x, y)] {
+                continue;
+            }
+            m.hair += 1;
+            let p = plain.pixel(x as u32, y as u32);
+            lumas.push(luma(p));
+            m.black += usize::from(p[0] == 0 && p[1] == 0 && p[2] == 0);
+            let edge = [(1, 0), (-1, 0), (0, 1), (0, -1)]
+                .iter()
+                .any(|(dx, dy)| !at(x + dx, y + dy));
+            if edge {
+                boundary += 1;
+                boundary_inked += usize::from(ink_near(x, y, 2));
+            } else if (-4..=4).all(|dy| (-4..=4).all(|dx| at(x + dx, y + dy))) {
+                inside += 1;
+                inside_ink += usize::from(ink[idx(x, y)]);
+            }
+        }
+    }
+    lumas.sort_by(f32::total_cmp);
+    if !lumas.is_empty() {
+        let q = |f: f32| lumas[((lumas.len() - 1) as f32 * f) as usize];
+        m.contrast = q(0.9) - q(0.1);
+    }
+    m.boundary_inked = boundary_inked as f32 / boundary.max(1) as f32;
+    m.interior_inked = inside_ink as f32 / inside.max(1) as f32;
+    m
+}
+
+/// Sets the hair's strokes and the camera's outline on or off (as the look has them when on).
+fn outlines(r: &mut HeadlessRenderer, on: bool, look: &HairPreset) {
+    let world = r.app.world_mut();
+    let mut strokes = world.query::<&mut SilhouetteSettings>();
+    for mut s in strokes.iter_mut(world) {
+        s.enabled = on && look.silhouettes.as_ref().is_some_and(|s| s.enabled);
+    }
+    let mut cameras = world.query::<&mut ImageSpaceOutline>();
+    for mut o in cameras.iter_mut(world) {
+        o.enabled = on && look.outline.as_ref().is_some_and(|o| o.enabled);
+    }
+}
+
+/// Every shipped look, front, side and back, at the same moment (0.67 s into the clip, time
+/// then held): the hair is there (covering 1% of the frame; without hatching, no pixel of it
+/// black, as NaN shading would be), its lit and shadow tones differ (luma p90 - p10 at least
+/// 10; the back of the head, away from the sun, is the least), and:
+/// - with the image-space outline (clean_anime), ink covers at least 80% of the hair's boundary
+///   and at most 15% of its inside (measured: 100% and 0.0%);
+/// - with object-space strokes only (thesis, sketch), ink covers at least 60% of the boundary.
+///   Their inside is not bounded here: strokes outline every strand, so the thesis look inks
+///   45-61% of the inside (issue 13 item 5 asks for stroke defaults that outline the mass).
+fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
+    let mut failures = Vec::new();
+    for (name, _) in LOOKS {
+        let look = HairPreset::look(name).expect("a shipped look")?;
+        let mut r = HeadlessRenderer::new(CaptureSettings {
+            width: 320,
+            height: 240,
+            max_frames: 5_000,
+            ..default()
+        })?;
+        r.app.add_plugins((
+            CartoonHairPlugins,
+            NinjaScenePlugin {
+                target: Some(r.target()),
+                preset: Some(look.clone()),
+            },
+        ));
+        r.app
+            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+        r.warm_up(ninja_scene_ready)?;
+        let world = r.app.world_mut();
+        let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
+        for (bone, mut hair) in hairs.iter_mut(world) {
+            hair.reset(bone);
+        }
+        r.app
+            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
+                1.0 / 30.0,
+            )));
+        for _ in 0..20 {
+            r.app.update();
+        }
+        r.app
+            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+        let handle = r.app.world().resource::<NinjaScene>().hair_material.clone();
+        for (view, yaw) in VIEWS {
+            let world = r.app.world_mut();
+            let mut orbit = world.query::<&mut NinjaOrbit>();
+            for mut o in orbit.iter_mut(world) {
+                o.yaw = yaw;
+            }
+            // The mask: flat green hair, nothing drawn over it.
+            let shipped_material = r
+                .app
+                .world()
+                .resource::<Assets<ToonHairMaterial>>()
+                .get(&handle)
+                .cloned()
+                .ok_or("the hair material is missing")?;
+            let mut mask_material = shipped_material.clone();
+            mask_material.base_color = Color::srgb(0.0, 1.0, 0.0);
+            mask_material.angel_ring = 0.0;
+            mask_material.specular_strength = 0.0;
+            mask_material.back_light_strength = 0.0;
+            mask_material.hatching = HatchingMode::None;
+            let set_material = |r: &mut HeadlessRenderer, m: &ToonHairMaterial| {
+                if let Some(mut slot) = r
+                    .app
+                    .world_mut()
+                    .resource_mut::<Assets<ToonHairMaterial>>()
+                    .get_mut(&handle)
+                {
+                    *slot = m.clone();
+                }
+            };
+            set_material(&mut r, &mask_material);
+            outlines(&mut r, false, &look);
+            let mask = r.capture()?;
+            set_material(&mut r, &shipped_material);
+            let plain = r.capture()?;
+            outlines(&mut r, true, &look);
+            let shipped = r.capture()?;
+            save(&shipped, &format!("look_{name}_{view}"))?;
+            let m = measure(&mask, &plain, &shipped);
+            let outlined = look.silhouettes.as_ref().is_some_and(|s| s.enabled)
+                || look.outline.as_ref().is_some_and(|o| o.enabled);
+            eprintln!(
+                "{name} {view}: {} hair px, contrast {:.0}, {} black, boundary inked {:.0}%, inside inked {:.1}%",
+                m.hair,
+                m.contrast,
+                m.black,
+                100.0 * m.boundary_inked,
+                100.0 * m.interior_inked
+            );
+            let total = (mask.width * mask.height) as usize;
+            let hatched = look.material.shading.hatching != HatchingMode::None;
+            if m.hair < total / 100 || (!hatched && m.black > 0) {
+                failures.push(format!("{name} {view}: hair missing or black: {m:?}"));
+            }
+            if m.contrast < 10.0 {
+                failures.push(format!("{name} {view}: no lit and shadow tones: {m:?}"));
+            }
+            let image_outline = look.outline.as_ref().is_some_and(|o| o.enabled);
+            if image_outline && (m.boundary_inked < 0.8 || m.interior_inked > 0.15) {
+                failures.push(format!("{name} {view}: image-space outline: {m:?}"));
+            }
+            if outlined && !image_outline && m.boundary_inked < 0.6 {
+                failures.push(format!("{name} {view}: strokes: {m:?}"));
+            }
+        }
+    }
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(failures.join("\n").into())
+    }
+}
