@@ -435,6 +435,7 @@ fn bench_solver(c: &mut Criterion) {
         let input = StepInput {
             h,
             bones: vec![bone; 4],
+            max_stretch: settings.max_stretch(),
             gravity_h2: settings.gravity() * h * h,
             damping: settings.damping_factor(),
             alpha: [

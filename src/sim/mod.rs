@@ -51,7 +51,7 @@ pub use events::{
 pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
-pub use settings::{HairSimSettings, compliance_factor};
+pub use settings::{HairSimSettings, MAX_MARGIN, compliance_factor};
 
 use bevy::prelude::*;
 

@@ -45,10 +45,17 @@ pub struct HairSimSettings {
     /// A bone that moves farther than this in one frame (metres) teleported: the hair is carried
     /// with it rigidly instead of whipping. Default: `1.0`.
     pub teleport_distance: f32,
+    /// Strain limit: at the end of every frame no chain edge is longer than this times its rest
+    /// length (follow the leader, root to tip, velocities kept). The springs hold lengths within
+    /// a few percent in ordinary motion; this bounds what a bone moving faster than the solver
+    /// can follow does (a 0.99 m jump in one frame stretched segments 13x without it).
+    /// Clamped to `[1, 100]`. Default: `1.1`.
+    pub max_stretch: f32,
     /// A bone that turns more than this in one frame (radians) teleported, as above.
     /// Default: `PI / 2` (90 degrees).
     pub teleport_angle: f32,
-    /// Smallest collision margin of a strand (metres): distance kept from colliders.
+    /// Smallest collision margin of a strand (metres): distance kept from colliders. Both
+    /// margins are clamped to `[0, MAX_MARGIN]` ([`MAX_MARGIN`]: 0.25 m, at the built size).
     /// Default: `0.005`.
     pub margin_min: f32,
     /// Largest collision margin; each strand draws its margin in `[margin_min, margin_max]`.
@@ -74,6 +81,7 @@ impl Default for HairSimSettings {
             substep_rate: 240.0,
             max_frame_time: 0.1,
             teleport_distance: 1.0,
+            max_stretch: 1.1,
             teleport_angle: std::f32::consts::FRAC_PI_2,
             margin_min: 0.005,
             margin_max: 0.015,
@@ -94,15 +102,20 @@ impl HairSimSettings {
         finite_or(self.max_frame_time, 0.1).clamp(0.001, 0.25)
     }
 
+    /// Strain limit after clamping.
+    pub fn max_stretch(&self) -> f32 {
+        finite_or(self.max_stretch, 1.1).clamp(1.0, 100.0)
+    }
+
     /// Structural offset after clamping.
     pub fn structure_offset(&self) -> f32 {
         finite_or(self.structure_offset, 0.5).clamp(0.05, 2.0)
     }
 
-    /// Margins after clamping: both `>= 0`, ordered.
+    /// Margins after clamping: both in `[0, MAX_MARGIN]`, ordered.
     pub fn margins(&self) -> (f32, f32) {
-        let a = finite_or(self.margin_min, 0.0).max(0.0);
-        let b = finite_or(self.margin_max, a).max(0.0);
+        let a = finite_or(self.margin_min, 0.0).clamp(0.0, MAX_MARGIN);
+        let b = finite_or(self.margin_max, a).clamp(0.0, MAX_MARGIN);
         (a.min(b), a.max(b))
     }
 
@@ -120,6 +133,11 @@ impl HairSimSettings {
         }
     }
 }
+
+/// The largest collision margin (metres, at the character's built size): a margin is a gap of
+/// air between the hair and a collider, and a huge one (a typo, a slider dragged off) would
+/// throw the hair off the head.
+pub const MAX_MARGIN: f32 = 0.25;
 
 /// Maps a stiffness in `[0, 1]` to the fraction of a constraint's error a substep removes for two
 /// unit-mass particles, via XPBD: `alpha~ = compliance / h^2`, correction `w / (w + alpha~)`.
@@ -175,5 +193,11 @@ mod tests {
         assert_eq!(s.damping_factor(), 1.0);
         assert_eq!(s.gravity(), Vec3::ZERO);
         assert_eq!(s.structure_offset(), 2.0);
+        let huge = HairSimSettings {
+            margin_min: 1e9,
+            margin_max: f32::INFINITY,
+            ..default()
+        };
+        assert_eq!(huge.margins(), (MAX_MARGIN, MAX_MARGIN));
     }
 }

@@ -172,6 +172,9 @@ pub struct StepInput {
     pub alpha: [f32; 3],
     /// Anchor correction factor per node (`0` = free, `1` = held on the anchor).
     pub anchor_factor: Vec<f32>,
+    /// Strain limit applied after the last substep: no chain edge (and no particle segment)
+    /// longer than this times its rest length; `inf` or below 1 = none.
+    pub max_stretch: f32,
 }
 
 fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
@@ -385,6 +388,64 @@ impl Batch {
             self.collide_spheres(spheres);
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
+            }
+        }
+        // Once a frame, after the last substep; then the last substep's collisions again, so
+        // nothing the limit pulled in stays inside a collider.
+        let last = input.bones.len();
+        if last > 0 && input.max_stretch.is_finite() && input.max_stretch >= 1.0 {
+            self.limit_stretch(input.max_stretch);
+            let c = input.sphere_count;
+            self.collide_spheres(&input.spheres[(last - 1) * c..last * c]);
+            if !input.shapes.is_empty() {
+                self.collide_shapes(&input.shapes);
+            }
+        }
+    }
+
+    /// Follow the leader (Müller et al. 2012), root to tip: each free node that lies farther than
+    /// `max` times the rest length from the node before it (and, for particles, from the particle
+    /// before) is pulled in along that line; its previous position moves with it, so no velocity
+    /// is made. The rest length is the longer of the styled one and the anchors' (a keyframe may
+    /// stretch the style).
+    #[inline(always)]
+    fn limit_stretch(&mut self, max: f32) {
+        let Self { nodes, local, .. } = self;
+        let n = nodes.len();
+        for k in PINNED..n {
+            let (head, tail) = nodes.split_at_mut(k);
+            let nk = &mut tail[0];
+            // The chain edge, then (particles, odd k) the strand's own segment.
+            let springs: &[usize] = if k % 2 == 1 { &[0, 1] } else { &[0] };
+            for &s in springs {
+                let j = k - s - 1;
+                // Pinned nodes sit on the base pose, not on their anchors.
+                let aj = if j < PINNED {
+                    &local[j]
+                } else {
+                    &head[j].anchor
+                };
+                let xj = &head[j].x;
+                for l in 0..LANES {
+                    let a = [
+                        nk.anchor[0][l] - aj[0][l],
+                        nk.anchor[1][l] - aj[1][l],
+                        nk.anchor[2][l] - aj[2][l],
+                    ];
+                    let rest = nk.rest[s][l].max(dot(a, a).sqrt());
+                    let d = [
+                        nk.x[0][l] - xj[0][l],
+                        nk.x[1][l] - xj[1][l],
+                        nk.x[2][l] - xj[2][l],
+                    ];
+                    let len = dot(d, d).sqrt().max(1e-12);
+                    // The share of d beyond the limit; 0 when within it.
+                    let f = (1.0 - max * rest / len).max(0.0);
+                    for c in 0..3 {
+                        nk.x[c][l] -= f * d[c];
+                        nk.p[c][l] -= f * d[c];
+                    }
+                }
             }
         }
     }

@@ -210,6 +210,7 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
         slider_row(ui, "Edge stiffness", &mut s.edge_stiffness, 0.0..=1.0);
         slider_row(ui, "Bend stiffness", &mut s.bend_stiffness, 0.0..=1.0);
         slider_row(ui, "Torsion stiffness", &mut s.torsion_stiffness, 0.0..=1.0);
+        slider_row(ui, "Max stretch", &mut s.max_stretch, 1.0..=3.0);
         ui.label("Gravity");
         ui.horizontal(|ui| {
             for (name, v) in [
