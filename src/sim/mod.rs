@@ -51,7 +51,7 @@ pub use events::{
 pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
-pub use settings::{HairSimSettings, MAX_MARGIN, compliance_factor};
+pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
 
 use bevy::prelude::*;
 

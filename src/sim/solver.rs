@@ -172,6 +172,10 @@ pub struct StepInput {
     pub alpha: [f32; 3],
     /// Anchor correction factor per node (`0` = free, `1` = held on the anchor).
     pub anchor_factor: Vec<f32>,
+    /// With damping in the bone's frame: the bone's rigid motion over each substep (its pose
+    /// at the substep's end times the inverse of its pose at the start), one per entry of
+    /// `bones`; empty = damping in the world frame.
+    pub bone_motion: Vec<Affine3A>,
     /// Strain limit applied after the last substep: no chain edge (and no particle segment)
     /// longer than this times its rest length; `inf` or below 1 = none.
     pub max_stretch: f32,
@@ -383,7 +387,7 @@ impl Batch {
                 self.nodes[k].x = x;
                 self.nodes[k].p = x;
             }
-            self.integrate_and_solve(input, bone);
+            self.integrate_and_solve(input, bone, input.bone_motion.get(s));
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
             if !input.shapes.is_empty() {
@@ -455,7 +459,12 @@ impl Batch {
     /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
     /// then the anchor spring of the node three back, which no later spring touches this
     /// substep. Fusing them walks each node once per substep.
-    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A) {
+    fn integrate_and_solve(
+        &mut self,
+        input: &StepInput,
+        bone: &Affine3A,
+        bone_motion: Option<&Affine3A>,
+    ) {
         let g = input.gravity_h2.to_array();
         let d = input.damping;
         let n = self.nodes.len();
@@ -464,12 +473,31 @@ impl Batch {
             let nk = &mut tail[0];
             // Node k stays in registers through its prediction and its three springs.
             let mut xk = nk.x;
-            for c in 0..3 {
-                for l in 0..LANES {
-                    let x = xk[c][l];
-                    let v = (x - nk.p[c][l]) * d;
-                    nk.p[c][l] = x;
-                    xk[c][l] = x + v + g[c];
+            match bone_motion {
+                None => {
+                    for c in 0..3 {
+                        for l in 0..LANES {
+                            let x = xk[c][l];
+                            let v = (x - nk.p[c][l]) * d;
+                            nk.p[c][l] = x;
+                            xk[c][l] = x + v + g[c];
+                        }
+                    }
+                }
+                Some(m) => {
+                    // Damping in the bone's frame: only the velocity relative to the point the
+                    // bone carries along is damped, so hair riding a moving bone (a character in
+                    // a vehicle) keeps its velocity.
+                    let carried = transform(m, &xk);
+                    for c in 0..3 {
+                        for l in 0..LANES {
+                            let x = xk[c][l];
+                            let vb = carried[c][l] - x;
+                            let v = vb + (x - nk.p[c][l] - vb) * d;
+                            nk.p[c][l] = x;
+                            xk[c][l] = x + v + g[c];
+                        }
+                    }
                 }
             }
             for s in 0..3 {

@@ -14,7 +14,7 @@ use super::attach::{
 };
 use super::collider::HairCollider;
 use super::physics::{WorldColliders, WorldShape};
-use super::settings::{HairSimSettings, compliance_factor};
+use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
 use super::solver::{Batch, PINNED, StepInput, along};
 use super::{HairSimControl, HairTime};
 
@@ -153,6 +153,21 @@ pub(crate) fn step_hair_strands(
                 1.0
             };
             input.bones.push(interpolate(&from, &bone, t));
+        }
+        if settings.damping_frame == HairDampingFrame::Bone {
+            let mut prev = interpolate(
+                &from,
+                &bone,
+                if dt > 0.0 {
+                    (start / dt).clamp(0.0, 1.0)
+                } else {
+                    1.0
+                },
+            );
+            for now in &input.bones {
+                input.bone_motion.push(*now * prev.inverse());
+                prev = *now;
+            }
         }
         // Colliders this hair sees: spheres followed per substep, other engine shapes at the
         // frame's final pose.

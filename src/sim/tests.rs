@@ -1737,3 +1737,52 @@ fn a_jump_just_under_the_teleport_distance_does_not_stretch_the_hair() {
     eprintln!("worst segment stretch after a 0.99 m jump: {worst:.2}x");
     assert!(worst < 2.0, "segments stretched {worst:.2}x");
 }
+
+/// Issue 15: a character riding a vehicle at a steady 30 m/s. With damping in the world frame
+/// (the default, still air) the ninja's hair is blown back; in the bone's frame it stays as at
+/// rest.
+#[test]
+fn damping_in_the_bones_frame_leaves_hair_in_a_moving_vehicle_at_rest() {
+    let mut blown = Vec::new();
+    for frame in [HairDampingFrame::World, HairDampingFrame::Bone] {
+        let (groom, head) = ninja_groom_and_head();
+        let settings = HairSimSettings {
+            damping_frame: frame,
+            ..default()
+        };
+        let mut h = Harness::with(groom, None, Some(head), settings, 60.0);
+        let relative = |h: &mut Harness| -> Vec<Vec3> {
+            let bone = Vec3::from(h.bone_affine().translation);
+            h.strands().iter().flatten().map(|p| *p - bone).collect()
+        };
+        for _ in 0..180 {
+            h.update();
+        }
+        let rest = relative(&mut h);
+        // 30 m/s along +x for 4 s: 0.5 m a frame, under the 1 m teleport distance.
+        for f in 1..=240 {
+            h.set_bone(Transform::from_xyz(0.5 * f as f32, 1.6, 0.0));
+            h.update();
+        }
+        assert_eq!(h.computed().stats.teleports, 0);
+        let now = relative(&mut h);
+        let worst = rest
+            .iter()
+            .zip(&now)
+            .map(|(a, b)| a.distance(*b))
+            .fold(0.0, f32::max);
+        blown.push(worst);
+    }
+    eprintln!(
+        "hair displaced at 30 m/s: world frame {:.4} m, bone frame {:.4} m",
+        blown[0], blown[1]
+    );
+    assert!(
+        blown[0] > 0.03,
+        "still air should blow the hair back: {blown:?}"
+    );
+    assert!(
+        blown[1] < 0.002,
+        "the bone's frame should leave it at rest: {blown:?}"
+    );
+}

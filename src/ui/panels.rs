@@ -17,7 +17,7 @@ use crate::render::{
     ToonLighting, ToonRamps,
 };
 use crate::silhouette::SilhouetteSettings;
-use crate::sim::{Hair, HairSimSettings};
+use crate::sim::{Hair, HairDampingFrame, HairSimSettings};
 
 /// The hairs the window edits.
 type HairQuery<'w, 's> = Query<
@@ -227,6 +227,7 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
         });
         ui.end_row();
         slider_row(ui, "Damping", &mut s.damping, 0.0..=20.0);
+        combo_row(ui, "Damping frame", &mut s.damping_frame, &DAMPING_FRAMES);
         drag_row(ui, "M min (m)", &mut s.margin_min, 0.0005);
         drag_row(ui, "M max (m)", &mut s.margin_max, 0.0005);
         s.margin_min = s.margin_min.clamp(0.0, 0.2);
@@ -249,6 +250,11 @@ const RAMP_MODES: [(RampMode, &str); 4] = [
     (RampMode::Depth, "depth detail"),
     (RampMode::BackLight, "back light"),
     (RampMode::Specular, "specular"),
+];
+
+const DAMPING_FRAMES: [(HairDampingFrame, &str); 2] = [
+    (HairDampingFrame::World, "world (still air)"),
+    (HairDampingFrame::Bone, "bone (air moves along)"),
 ];
 
 const LIGHTING_MODES: [(ToonLighting, &str); 2] = [
