@@ -25,6 +25,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "scene_lighting_darkens_under_a_point_light_shadow",
         scene_lighting_darkens_under_a_point_light_shadow,
     ),
+    (
+        "scene_lighting_darkens_under_a_spot_light_shadow",
+        scene_lighting_darkens_under_a_spot_light_shadow,
+    ),
 ];
 
 /// A thick horizontal strand across the view, shaded by every light of the scene.
@@ -234,6 +238,58 @@ fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
     if shaded_gap < open_gap + 10.0 {
         return Err(format!(
             "the point light's shadow darkened the left half by only {}",
+            shaded_gap - open_gap
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A spot light's shadow map darkens the hair it shadows, as the point light's does: the same
+/// lamp and board, the lamp a spot cone pointing down.
+fn scene_lighting_darkens_under_a_spot_light_shadow() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 3.0))?;
+    {
+        let world = r.app.world_mut();
+        let mut suns = world.query::<&mut DirectionalLight>();
+        for mut sun in suns.iter_mut(world) {
+            sun.illuminance = 0.0;
+        }
+        // Bevy's spot light has a point light's intensity (lumens over the whole sphere).
+        world.spawn((
+            SpotLight {
+                intensity: 4.0 * std::f32::consts::PI * 5_000.0 * 3.65 * 3.65,
+                range: 10.0,
+                outer_angle: 0.9,
+                inner_angle: 0.8,
+                shadow_maps_enabled: true,
+                ..default()
+            },
+            Transform::from_xyz(0.0, 4.0, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
+        ));
+    }
+    lit_strand(&mut r);
+    let open = r.capture()?;
+    let open_gap = halves_gap(&open);
+    spawn_board(
+        &mut r,
+        Vec3::new(0.7, 0.05, 1.0),
+        Vec3::new(-0.45, 1.5, 0.0),
+    );
+    let shaded = r.capture()?;
+    save(&shaded, "scene_lighting_spot_shadow")?;
+    let shaded_gap = halves_gap(&shaded);
+    println!(
+        "scene lighting, spot light: right minus left half, mean luma: {open_gap:.1} without \
+         the board, {shaded_gap:.1} with its shadow on the left"
+    );
+    let lit = open.count(|p| p != BACKGROUND);
+    if lit < 5000 {
+        return Err(format!("the spot light shows only {lit} hair pixels").into());
+    }
+    if shaded_gap < open_gap + 10.0 {
+        return Err(format!(
+            "the spot light's shadow darkened the left half by only {}",
             shaded_gap - open_gap
         )
         .into());
