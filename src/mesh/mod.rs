@@ -53,6 +53,12 @@ pub struct HairMeshSettings {
     /// `[0, 1]`. Default: `0.8` (the strands' own shading still shows
     /// inside the mass's light and shadow).
     pub mass_normals: f32,
+    /// Cross-section: the tube's width across the strand's rest normal over its width along it.
+    /// `1` is round; less is an ellipse; about `0.2` is a flat blade, the flat clumps of anime
+    /// hair (pair it with a taper that ends at 0 for sharp tips). Each ring's normal is the
+    /// ellipse's, and silhouettes come from the geometry, so both stay right for any shape.
+    /// Clamped to `[0.05, 1]`. Default: `1.0`.
+    pub section_aspect: f32,
     /// The smooth shape the normals lean toward. Default: [`HairMassShape::Fitted`], an
     /// ellipsoid around the groom's rest shape.
     pub mass_shape: HairMassShape,
@@ -66,6 +72,7 @@ impl Default for HairMeshSettings {
             radius: 0.016,
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
             mass_normals: 0.8,
+            section_aspect: 1.0,
             mass_shape: HairMassShape::Fitted,
         }
     }
@@ -288,6 +295,7 @@ pub fn rebuild_strand_meshes(
                     direction: rotation * direction,
                     normal: rotation * normal,
                 },
+                aspect: settings.section_aspect,
             }
         };
         let mass = sim.bone_pose().and_then(|bone| {

@@ -349,6 +349,10 @@ pub struct TubeParams {
     pub taper: [f32; 3],
     /// Seeds the ring frames; see [`FrameReference`].
     pub reference: FrameReference,
+    /// Cross-section: the ring's width along the frame's binormal over its width along the
+    /// frame's normal (the strand's rest normal). `1` is a circle, less an ellipse, about `0.2`
+    /// a flat blade. Clamped to `[0.05, 1]`; not finite gives `1`.
+    pub aspect: f32,
 }
 
 impl Default for TubeParams {
@@ -358,6 +362,7 @@ impl Default for TubeParams {
             radius: 0.01,
             taper: [0.0, -0.9, 1.0],
             reference: FrameReference::default(),
+            aspect: 1.0,
         }
     }
 }
@@ -368,6 +373,9 @@ impl Default for TubeParams {
 pub struct TubeScratch {
     samples: Vec<Vec3>,
     tangents: Vec<Vec3>,
+    /// Per side: the position's `(cos, sin)` factors, the outward normal's and the around
+    /// tangent's, for the cross-section's aspect.
+    section: Vec<[(f32, f32); 3]>,
 }
 
 /// Writes the tube around the spline through `particles` (root first) into the vertex buffers.
@@ -409,7 +417,31 @@ pub fn build_tube(
     let TubeScratch {
         samples,
         tangents: directions,
+        section,
     } = scratch;
+    // The cross-section, an ellipse of half widths 1 (along N) and `aspect` (along B): each
+    // side's position direction, its outward normal (the gradient of the ellipse) and the
+    // direction of increasing u. A circle keeps the exact table.
+    let aspect = if params.aspect.is_finite() {
+        params.aspect.clamp(0.05, 1.0)
+    } else {
+        1.0
+    };
+    section.clear();
+    section.extend(topology.cos_sin.iter().map(|&(cos, sin)| {
+        if aspect >= 1.0 {
+            return [(cos, sin), (cos, sin), (-sin, cos)];
+        }
+        let n = (cos * aspect, sin);
+        let n_len = (n.0 * n.0 + n.1 * n.1).sqrt().recip();
+        let t = (-sin, cos * aspect);
+        let t_len = (t.0 * t.0 + t.1 * t.1).sqrt().recip();
+        [
+            (cos, sin * aspect),
+            (n.0 * n_len, n.1 * n_len),
+            (t.0 * t_len, t.1 * t_len),
+        ]
+    }));
     let mut radius = if params.radius.is_finite() {
         params.radius.max(0.0)
     } else {
@@ -503,15 +535,17 @@ pub fn build_tube(
         let ring = positions[range.clone()]
             .iter_mut()
             .zip(&mut normals[range.clone()])
-            .zip(&topology.cos_sin);
-        for ((position, normal_out), &(cos, sin)) in ring {
-            let radial = n * cos + b * sin;
+            .zip(section.iter());
+        for ((position, normal_out), [(pc, ps), (nc, ns), _]) in ring {
+            let radial = n * *pc + b * *ps;
             *position = (centre + radial * ring_radius).to_array();
-            *normal_out = (radial * radial_weight + axial).to_array();
+            let outward = n * *nc + b * *ns;
+            *normal_out = (outward * radial_weight + axial).to_array();
         }
         if let Some(tangents) = tangents.as_deref_mut() {
-            for (t, &(cos, sin)) in tangents[range].iter_mut().zip(&topology.cos_sin) {
-                *t = (binormal * cos - normal * sin).extend(1.0).to_array();
+            for (t, [_, _, (tc, ts)]) in tangents[range].iter_mut().zip(section.iter()) {
+                // (-sin, cos) in the circle's table: binormal * cos - normal * sin.
+                *t = (normal * *tc + binormal * *ts).extend(1.0).to_array();
             }
         }
     }
@@ -561,6 +595,7 @@ mod tests {
                 direction: Vec3::Y,
                 normal: Vec3::Z,
             },
+            aspect: 1.0,
         }
     }
 
@@ -596,6 +631,55 @@ mod tests {
             assert!((n.length() - 1.0).abs() < 1e-4, "normal {i} = {n:?}");
             let t = b.tangents[i];
             assert!(t.iter().all(|x| x.is_finite()), "tangent {i} = {t:?}");
+        }
+    }
+
+    #[test]
+    fn an_elliptic_section_lies_on_its_ellipse_with_its_normals() {
+        // A straight, untapered strand up +Y, rest normal +Z: the ring's wide axis is Z (half
+        // width r), its narrow one X (r * aspect).
+        let t = TubeTopology::new(4, 16);
+        let particles = straight(4, 1.0);
+        let r = 0.1;
+        for aspect in [1.0, 0.5, 0.2] {
+            let params = TubeParams {
+                aspect,
+                ..params_up(r)
+            };
+            let b = build(&t, &particles, &params);
+            assert_finite_unit_normals(&b);
+            for ring in 0..t.rings() {
+                for side in 0..t.sides() {
+                    let i = t.ring_vertex(ring, side) as usize;
+                    let p = v3(b.positions[i]);
+                    let (x, z) = (p.x / (r * aspect), p.z / r);
+                    assert!(
+                        (x * x + z * z - 1.0).abs() < 1e-4,
+                        "{aspect}: {p:?} off the ellipse"
+                    );
+                    // The outward normal is the ellipse's gradient (x / (r a)^2, z / r^2),
+                    // and the tangent runs around the ring, perpendicular to it.
+                    let gradient =
+                        Vec3::new(p.x / (r * aspect).powi(2), 0.0, p.z / (r * r)).normalize();
+                    let n = v3(b.normals[i]);
+                    assert!(
+                        n.abs_diff_eq(gradient, 1e-4),
+                        "{aspect}: {n:?} vs {gradient:?}"
+                    );
+                    let around = bevy::math::Vec4::from_array(b.tangents[i]).truncate();
+                    assert!(n.dot(around).abs() < 1e-4 && around.y.abs() < 1e-4);
+                    // cross(normal, tangent) * w still runs along the strand.
+                    assert!(n.cross(around).dot(Vec3::Y) > 0.99, "{aspect}: {around:?}");
+                }
+            }
+        }
+        // Out-of-range aspects are clamped, not NaN.
+        for aspect in [0.0, -1.0, f32::NAN, 5.0] {
+            let params = TubeParams {
+                aspect,
+                ..params_up(r)
+            };
+            assert_finite_unit_normals(&build(&t, &particles, &params));
         }
     }
 
@@ -791,6 +875,7 @@ mod tests {
                 direction: Vec3::NAN,
                 normal: Vec3::ZERO,
             },
+            aspect: 1.0,
         };
         for particles in &bad {
             for params in [TubeParams::default(), params] {
@@ -816,6 +901,7 @@ mod tests {
             radius,
             taper: [0.0, -0.5, 1.0],
             reference: FrameReference::from_direction(Vec3::NEG_Y),
+            aspect: 1.0,
         };
         // A strand that hangs down, curls and bends sideways.
         let base: Vec<Vec3> = (0..10)
@@ -879,6 +965,7 @@ mod tests {
                 direction: Vec3::X,
                 normal: Vec3::Z,
             },
+            aspect: 1.0,
         };
         let b = build(&t, &particles, &params);
         for r in 0..t.rings() {

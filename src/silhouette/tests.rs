@@ -14,6 +14,11 @@ struct Tube {
 }
 
 fn tube(rings: usize, sides: usize, particles: &[Vec3], radius: f32) -> Tube {
+    shaped_tube(rings, sides, particles, radius, 1.0)
+}
+
+/// A tube of cross-section `aspect` (1 round, 0.2 a flat blade).
+fn shaped_tube(rings: usize, sides: usize, particles: &[Vec3], radius: f32, aspect: f32) -> Tube {
     let topology = TubeTopology::new(rings, sides);
     let mut positions = vec![[0.0; 3]; topology.vertex_count()];
     let mut normals = positions.clone();
@@ -24,6 +29,7 @@ fn tube(rings: usize, sides: usize, particles: &[Vec3], radius: f32) -> Tube {
             direction: Vec3::Y,
             normal: Vec3::Z,
         },
+        aspect,
     };
     build_tube(
         &topology,
@@ -175,56 +181,60 @@ fn silhouette_edges_have_the_front_face_on_their_left() {
             Vec3::new((2.0 * s).sin() * 0.3, -s, s * s * 0.2)
         })
         .collect();
-    let tube = tube(16, 8, &particles, 0.03);
-    let t = &tube.topology;
-    let adjacency = EdgeAdjacency::from_triangles(&t.indices).unwrap();
-    let mut scratch = SilhouetteScratch::default();
-    let (mut edges, mut chains) = (Vec::new(), SilhouetteChains::default());
-    for k in 0..24 {
-        let a = k as f32 * 0.5;
-        let eye = Vec3::new(a.cos() * 2.0, (k as f32 * 0.3).sin() - 0.5, a.sin() * 2.0);
-        silhouette_edges(
-            &adjacency,
-            &t.indices,
-            &tube.positions,
-            eye,
-            &mut scratch,
-            &mut edges,
-        );
-        assert!(!edges.is_empty());
-        for &[a, b] in &edges {
-            let e = adjacency
-                .edges
-                .iter()
-                .find(|e| undirected(e.v) == undirected([a, b]))
-                .unwrap();
-            let front = if e.v == [a, b] {
-                e.faces[0]
-            } else {
-                e.faces[1]
-            };
-            let tri = &t.indices[3 * front as usize..3 * front as usize + 3];
-            let p = |i: u32| Vec3::from_array(tube.positions[i as usize]);
-            let n = (p(tri[1]) - p(tri[0])).cross(p(tri[2]) - p(tri[0]));
-            assert!(
-                n.dot(eye - p(tri[0])) > 0.0,
-                "face {front} is not the front one"
+    // Round, elliptic and blade cross-sections: the edges come from the geometry, whatever
+    // its shape.
+    for aspect in [1.0, 0.5, 0.2] {
+        let tube = shaped_tube(16, 8, &particles, 0.03, aspect);
+        let t = &tube.topology;
+        let adjacency = EdgeAdjacency::from_triangles(&t.indices).unwrap();
+        let mut scratch = SilhouetteScratch::default();
+        let (mut edges, mut chains) = (Vec::new(), SilhouetteChains::default());
+        for k in 0..24 {
+            let a = k as f32 * 0.5;
+            let eye = Vec3::new(a.cos() * 2.0, (k as f32 * 0.3).sin() - 0.5, a.sin() * 2.0);
+            silhouette_edges(
+                &adjacency,
+                &t.indices,
+                &tube.positions,
+                eye,
+                &mut scratch,
+                &mut edges,
             );
-            assert!((0..3).any(|i| tri[i] == a && tri[(i + 1) % 3] == b));
-        }
-        chain_edges(&edges, &mut scratch, &mut chains);
-        assert_chains_cover(&edges, &chains);
-        // On a closed mesh every silhouette vertex has even degree: loops only... unless
-        // the chains were split at junctions, which then are shared by several chains.
-        for chain in chains.iter().filter(|c| !c.closed) {
-            let (first, last) = (chain.vertices[0], *chain.vertices.last().unwrap());
-            let degree = |v: u32| edges.iter().flatten().filter(|&&x| x == v).count();
-            assert!(degree(first) != 2 && degree(last) != 2);
-        }
-        // Consistently oriented edges give consistently oriented chains.
-        for chain in chains.iter() {
-            for w in chain.vertices.windows(2) {
-                assert!(edges.contains(&[w[0], w[1]]), "chain runs against an edge");
+            assert!(!edges.is_empty());
+            for &[a, b] in &edges {
+                let e = adjacency
+                    .edges
+                    .iter()
+                    .find(|e| undirected(e.v) == undirected([a, b]))
+                    .unwrap();
+                let front = if e.v == [a, b] {
+                    e.faces[0]
+                } else {
+                    e.faces[1]
+                };
+                let tri = &t.indices[3 * front as usize..3 * front as usize + 3];
+                let p = |i: u32| Vec3::from_array(tube.positions[i as usize]);
+                let n = (p(tri[1]) - p(tri[0])).cross(p(tri[2]) - p(tri[0]));
+                assert!(
+                    n.dot(eye - p(tri[0])) > 0.0,
+                    "face {front} is not the front one"
+                );
+                assert!((0..3).any(|i| tri[i] == a && tri[(i + 1) % 3] == b));
+            }
+            chain_edges(&edges, &mut scratch, &mut chains);
+            assert_chains_cover(&edges, &chains);
+            // On a closed mesh every silhouette vertex has even degree: loops only... unless
+            // the chains were split at junctions, which then are shared by several chains.
+            for chain in chains.iter().filter(|c| !c.closed) {
+                let (first, last) = (chain.vertices[0], *chain.vertices.last().unwrap());
+                let degree = |v: u32| edges.iter().flatten().filter(|&&x| x == v).count();
+                assert!(degree(first) != 2 && degree(last) != 2);
+            }
+            // Consistently oriented edges give consistently oriented chains.
+            for chain in chains.iter() {
+                for w in chain.vertices.windows(2) {
+                    assert!(edges.contains(&[w[0], w[1]]), "chain runs against an edge");
+                }
             }
         }
     }

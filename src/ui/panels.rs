@@ -174,6 +174,7 @@ fn mesh_controls(
         drag_row(ui, "Radius (m)", &mut m.radius, 0.0005);
         m.radius = m.radius.max(0.0);
         slider_row(ui, "Mass normals", &mut m.mass_normals, 0.0..=1.0);
+        slider_row(ui, "Cross-section", &mut m.section_aspect, 0.05..=1.0);
         // Resolutions are edited as a pending copy, applied by the button (as in the thesis).
         let (mut rings, mut sides) = match panel.pending_mesh {
             Some((e, r, s)) if e == hair => (r, s),
