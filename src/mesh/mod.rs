@@ -18,7 +18,8 @@ pub mod tube;
 pub use mass::HairMassShape;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::visibility::NoFrustumCulling;
+use bevy::camera::primitives::Aabb;
+use bevy::camera::visibility::NoAutoAabb;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
 
@@ -195,6 +196,7 @@ pub fn rebuild_strand_meshes(
     )>,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
+    mut aabbs: Query<&mut Aabb, With<HairMeshOf>>,
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = parallel::compute_pool();
@@ -221,8 +223,10 @@ pub fn rebuild_strand_meshes(
                         Name::new("hair mesh"),
                         Mesh3d(mesh.clone()),
                         Transform::IDENTITY,
-                        // Vertices move every frame; bounds would go stale.
-                        NoFrustumCulling,
+                        // Bounds come from the particles every frame (below), not from a scan
+                        // of the mesh, so Bevy culls the hair when no camera sees it.
+                        NoAutoAabb,
+                        Aabb::from_min_max(Vec3::ZERO, Vec3::ZERO),
                         HairMeshOf(hair),
                     ))
                     .id(),
@@ -276,6 +280,22 @@ pub fn rebuild_strand_meshes(
         }
         let scratch = &mut scratch[..gathered];
         scratch.sort_unstable_by_key(|(i, _)| *i);
+        // Bounds: the particles, grown by the thickest the tube gets (the H curve's largest
+        // value on [0, 1], at least 1).
+        let taper = &settings.taper;
+        let widest = [0.0, 1.0, (-taper.b / (2.0 * taper.a)).clamp(0.0, 1.0)]
+            .into_iter()
+            .map(|x| taper.a * x * x + taper.b * x + taper.c)
+            .filter(|h| h.is_finite())
+            .fold(1.0f32, f32::max);
+        if let Some(bounds) = particle_bounds(scratch, radius * widest) {
+            match aabbs.get_mut(computed.entity) {
+                Ok(mut aabb) => *aabb = bounds,
+                Err(_) => {
+                    commands.entity(computed.entity).try_insert(bounds);
+                }
+            }
+        }
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {
             continue;
         };
@@ -351,6 +371,22 @@ pub fn rebuild_strand_meshes(
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
     }
+}
+
+/// The box around every finite particle, grown by `pad`; `None` if there is none.
+fn particle_bounds(strands: &[(u32, Vec<Vec3>)], pad: f32) -> Option<Aabb> {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for p in strands
+        .iter()
+        .flat_map(|(_, s)| s)
+        .filter(|p| p.is_finite())
+    {
+        lo = lo.min(*p);
+        hi = hi.max(*p);
+    }
+    let pad = Vec3::splat(if pad.is_finite() { pad.max(0.0) } else { 0.0 });
+    (lo.x <= hi.x).then(|| Aabb::from_min_max(lo - pad, hi + pad))
 }
 
 /// Turns [`tube::build_tube`]'s tangents (around the ring, Bevy's convention) into the strand's

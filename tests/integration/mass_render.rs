@@ -19,10 +19,14 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "angel_ring_crosses_the_hair_and_follows_the_light",
         angel_ring_crosses_the_hair_and_follows_the_light,
     ),
+    (
+        "hair_meshes_have_particle_bounds_and_are_culled_off_screen",
+        hair_meshes_have_particle_bounds_and_are_culled_off_screen,
+    ),
 ];
 
 /// Nine vertical strands side by side in one hair, held still, each `radius` thick.
-fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) {
+fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) -> Entity {
     let ramp = ramps(r).three_tone;
     let world = r.app.world_mut();
     let strands: Vec<Vec<Vec3>> = (0..9)
@@ -48,27 +52,29 @@ fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) {
             },
             ramp,
         ));
-    world.spawn((
-        Hair { groom, ..default() },
-        HairSimSettings {
-            gravity: Vec3::ZERO,
-            anchor_stiffness: QuadraticCurve::constant(1.0),
-            ..default()
-        },
-        HairMeshSettings {
-            radius: 0.08,
-            taper: QuadraticCurve::constant(1.0),
-            hair_resolution: 24,
-            shape_resolution: 24,
-            mass_normals,
-            ..default()
-        },
-        HairMaterial(material),
-        SilhouetteSettings {
-            enabled: false,
-            ..default()
-        },
-    ));
+    world
+        .spawn((
+            Hair { groom, ..default() },
+            HairSimSettings {
+                gravity: Vec3::ZERO,
+                anchor_stiffness: QuadraticCurve::constant(1.0),
+                ..default()
+            },
+            HairMeshSettings {
+                radius: 0.08,
+                taper: QuadraticCurve::constant(1.0),
+                hair_resolution: 24,
+                shape_resolution: 24,
+                mass_normals,
+                ..default()
+            },
+            HairMaterial(material),
+            SilhouetteSettings {
+                enabled: false,
+                ..default()
+            },
+        ))
+        .id()
 }
 
 fn luma(p: [u8; 4]) -> f32 {
@@ -319,6 +325,83 @@ fn angel_ring_crosses_the_hair_and_follows_the_light() -> Result<(), Failed> {
     }
     if zig_edge as f32 / (n as f32) <= even_edge as f32 / (even_n as f32) {
         return fail("the zig-zag's edge is no longer than the even band's");
+    }
+    Ok(())
+}
+
+/// Hair meshes carry bounds from their particles (no `NoFrustumCulling`), so Bevy culls a hair
+/// no camera sees: two curtains, one in view and one 20 m to the side; the first is visible and
+/// drawn, the second is not visible; every particle lies inside its mesh's bounds, and the bounds
+/// follow the hair when it moves.
+fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Failed> {
+    use bevy::camera::primitives::Aabb;
+    use bevy::camera::visibility::{NoFrustumCulling, ViewVisibility};
+    use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairMeshOf};
+    use bevy_cartoon_hair::sim::{StrandOf, StrandParticles};
+
+    let mut r = scene(Vec3::new(1.0, 0.2, 0.5), Vec3::new(0.0, 0.0, 3.0))?;
+    let seen = spawn_curtain(&mut r, 0.0);
+    let hidden = spawn_curtain(&mut r, 0.0);
+    r.app
+        .world_mut()
+        .entity_mut(hidden)
+        .insert(Transform::from_xyz(20.0, 0.0, 0.0));
+    let frame = r.capture()?;
+    let drawn = frame.count(|p| p != BACKGROUND);
+    let check = |r: &mut HeadlessRenderer| -> Result<(bool, bool), Failed> {
+        let world = r.app.world_mut();
+        let mut result = Vec::new();
+        for hair in [seen, hidden] {
+            let mesh = world
+                .get::<ComputedHairMesh>(hair)
+                .ok_or("no hair mesh")?
+                .entity;
+            let e = world.entity(mesh);
+            if e.contains::<NoFrustumCulling>() || !e.contains::<HairMeshOf>() {
+                return Err("the hair mesh opts out of culling".into());
+            }
+            let aabb = *e.get::<Aabb>().ok_or("the hair mesh has no bounds")?;
+            let visible = e.get::<ViewVisibility>().is_some_and(|v| v.get());
+            let (lo, hi) = (aabb.min(), aabb.max());
+            let mut q = world.query::<(&StrandOf, &StrandParticles)>();
+            let mut particles = 0;
+            for (strand, p) in q.iter(world) {
+                if strand.0 != hair {
+                    continue;
+                }
+                for x in &p.positions {
+                    particles += 1;
+                    let x = bevy::math::Vec3A::from(*x);
+                    if x.cmplt(lo).any() || x.cmpgt(hi).any() {
+                        return Err(format!("particle {x} outside the bounds {lo}..{hi}").into());
+                    }
+                }
+            }
+            if particles < 50 {
+                return Err(format!("only {particles} particles found").into());
+            }
+            result.push(visible);
+        }
+        Ok((result[0], result[1]))
+    };
+    let (a, b) = check(&mut r)?;
+    eprintln!("in view: visible {a}, {drawn} pixels drawn; 20 m aside: visible {b}");
+    if !a || b || drawn < 5000 {
+        return Err(format!("visible in view {a}, aside {b}, {drawn} pixels drawn").into());
+    }
+    // Swap them: the bounds follow, and so does the culling.
+    r.app
+        .world_mut()
+        .entity_mut(hidden)
+        .insert(Transform::IDENTITY);
+    r.app
+        .world_mut()
+        .entity_mut(seen)
+        .insert(Transform::from_xyz(-20.0, 0.0, 0.0));
+    r.capture()?;
+    let (a, b) = check(&mut r)?;
+    if a || !b {
+        return Err(format!("after the swap: visible {a} (moved aside), {b} (moved in)").into());
     }
     Ok(())
 }
