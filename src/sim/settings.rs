@@ -53,6 +53,11 @@ pub struct HairSimSettings {
     /// can follow does (a 0.99 m jump in one frame stretched segments 13x without it).
     /// Clamped to `[1, 100]`. Default: `1.1`.
     pub max_stretch: f32,
+    /// Style limit: the farthest (metres, at the character's built size) a particle may leave
+    /// its anchor, the keyframed style, at the end of a frame; it is pulled back onto that
+    /// sphere, its velocity kept. Like VRM's angle limits and Magica Cloth's backstop: bangs stay
+    /// out of the face however hard the head shakes. `None`: no limit. Default: `None`.
+    pub style_limit: Option<f32>,
     /// A bone that turns more than this in one frame (radians) teleported, as above.
     /// Default: `PI / 2` (90 degrees).
     pub teleport_angle: f32,
@@ -85,6 +90,7 @@ impl Default for HairSimSettings {
             max_frame_time: 0.1,
             teleport_distance: 1.0,
             max_stretch: 1.1,
+            style_limit: None,
             teleport_angle: std::f32::consts::FRAC_PI_2,
             margin_min: 0.005,
             margin_max: 0.015,
@@ -103,6 +109,14 @@ impl HairSimSettings {
     /// Longest frame after clamping.
     pub fn frame_clamp(&self) -> f32 {
         finite_or(self.max_frame_time, 0.1).clamp(0.001, 0.25)
+    }
+
+    /// Style limit after clamping (`>= 0`); infinite when there is none.
+    pub fn style_limit(&self) -> f32 {
+        match self.style_limit {
+            Some(m) if !m.is_nan() => m.max(0.0),
+            _ => f32::INFINITY,
+        }
     }
 
     /// Strain limit after clamping.

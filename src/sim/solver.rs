@@ -176,6 +176,9 @@ pub struct StepInput {
     /// at the substep's end times the inverse of its pose at the start), one per entry of
     /// `bones`; empty = damping in the world frame.
     pub bone_motion: Vec<Affine3A>,
+    /// Style limit applied after the last substep: no free node farther than this (metres)
+    /// from its anchor; `inf` = none.
+    pub style_limit: f32,
     /// Strain limit applied after the last substep: no chain edge (and no particle segment)
     /// longer than this times its rest length; `inf` or below 1 = none.
     pub max_stretch: f32,
@@ -397,12 +400,43 @@ impl Batch {
         // Once a frame, after the last substep; then the last substep's collisions again, so
         // nothing the limit pulled in stays inside a collider.
         let last = input.bones.len();
-        if last > 0 && input.max_stretch.is_finite() && input.max_stretch >= 1.0 {
-            self.limit_stretch(input.max_stretch);
+        let stretch = input.max_stretch.is_finite() && input.max_stretch >= 1.0;
+        let style = input.style_limit.is_finite() && input.style_limit >= 0.0;
+        if last > 0 && (stretch || style) {
+            if stretch {
+                self.limit_stretch(input.max_stretch);
+            }
+            if style {
+                self.limit_to_style(input.style_limit, &input.bones[last - 1]);
+            }
             let c = input.sphere_count;
             self.collide_spheres(&input.spheres[(last - 1) * c..last * c]);
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
+            }
+        }
+    }
+
+    /// Pulls every free node that lies farther than `max` from its anchor (at the bone pose
+    /// `bone`) back onto that sphere; its previous position moves with it, so no velocity is
+    /// made. VRM's angle limits and Magica Cloth's backstop do the same job: bangs never enter the
+    /// face however hard the head shakes.
+    #[inline(always)]
+    fn limit_to_style(&mut self, max: f32, bone: &Affine3A) {
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            let a = transform(bone, &node.anchor);
+            for l in 0..LANES {
+                let d = [
+                    node.x[0][l] - a[0][l],
+                    node.x[1][l] - a[1][l],
+                    node.x[2][l] - a[2][l],
+                ];
+                let len = dot(d, d).sqrt().max(1e-12);
+                let f = (1.0 - max / len).max(0.0);
+                for c in 0..3 {
+                    node.x[c][l] -= f * d[c];
+                    node.p[c][l] -= f * d[c];
+                }
             }
         }
     }

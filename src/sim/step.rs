@@ -138,6 +138,7 @@ pub(crate) fn step_hair_strands(
                 settings.torsion_stiffness,
             ]
             .map(|s| alpha_tilde(s, h)),
+            style_limit: settings.style_limit() * computed.size,
             // Loose edges (stiffness 0) ask for stretchy hair: no limit then.
             max_stretch: if compliance_factor(settings.edge_stiffness, h, 1.0) > 0.0 {
                 settings.max_stretch()

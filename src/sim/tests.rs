@@ -1786,3 +1786,43 @@ fn damping_in_the_bones_frame_leaves_hair_in_a_moving_vehicle_at_rest() {
         "the bone's frame should leave it at rest: {blown:?}"
     );
 }
+
+/// Issue 15: a style limit holds every particle within its distance of the keyframed style
+/// through the 4 turns/s shake (only the head's collisions, which run after it, may push a
+/// particle a little farther).
+#[test]
+fn a_style_limit_keeps_hair_near_its_style_through_a_hard_shake() {
+    let mut farthest = Vec::new();
+    for limit in [None, Some(0.02)] {
+        let (groom, head) = ninja_groom_and_head();
+        let settings = HairSimSettings {
+            style_limit: limit,
+            ..default()
+        };
+        let mut h = Harness::with(groom, None, Some(head), settings, 60.0);
+        let mut worst = 0.0f32;
+        for f in 0..180 {
+            h.set_bone(fast_motion(0, f as f32 / 60.0));
+            h.update();
+            let strands = h.strands();
+            let c = h.computed();
+            for (s, particles) in strands.iter().enumerate() {
+                for (i, p) in particles.iter().enumerate().skip(1) {
+                    if let Some(a) = c.anchor(s, i) {
+                        worst = worst.max(p.distance(a));
+                    }
+                }
+            }
+        }
+        farthest.push(worst);
+    }
+    eprintln!(
+        "farthest from the style in a 4 Hz shake: {:.3} m without a limit, {:.4} m with 0.02 m",
+        farthest[0], farthest[1]
+    );
+    assert!(
+        farthest[0] > 0.04,
+        "the shake should move hair: {farthest:?}"
+    );
+    assert!(farthest[1] < 0.0205, "the limit did not hold: {farthest:?}");
+}

@@ -212,6 +212,18 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
         slider_row(ui, "Bend stiffness", &mut s.bend_stiffness, 0.0..=1.0);
         slider_row(ui, "Torsion stiffness", &mut s.torsion_stiffness, 0.0..=1.0);
         slider_row(ui, "Max stretch", &mut s.max_stretch, 1.0..=3.0);
+        let mut limited = s.style_limit.is_some();
+        ui.label("Style limit");
+        ui.checkbox(&mut limited, "keep near the style");
+        ui.end_row();
+        s.style_limit = match (limited, s.style_limit) {
+            (false, _) => None,
+            (true, limit) => {
+                let mut m = limit.unwrap_or(0.03);
+                slider_row(ui, "Style limit (m)", &mut m, 0.0..=0.2);
+                Some(m)
+            }
+        };
         ui.label("Gravity");
         ui.horizontal(|ui| {
             for (name, v) in [
