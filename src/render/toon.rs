@@ -136,7 +136,9 @@ pub struct ToonShading {
     /// Back lighting exponent `r >= 0` in `|N.V|^r`: below 1 widens the lit rim, above 1 narrows
     /// it. Default: `2.0`.
     pub back_light_power: f32,
-    /// Adds a rim of [`ToonShading::back_light_color`] (thesis: "mixed in like the specular").
+    /// Adds a rim of [`ToonShading::back_light_color`] (thesis: "mixed in like the specular")
+    /// where the hair turns away from the view: full when the light is behind the hair, facing
+    /// the viewer, a quarter when it lights the hair from the front, in the light's hue.
     /// Default: `0.0` (off).
     pub back_light_strength: f32,
     /// Rim colour. Default: white.

@@ -165,8 +165,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         * step(0.0, dot(n, l));
 #endif
 #ifdef BACK_LIGHT
-    color += material.back_light_color.rgb * material.params2.y
-        * (1.0 - back_light(n, v, material.params.z));
+    // A rim where the hair turns away from the view, strongest against the light (contre-jour:
+    // the light behind the hair, facing the viewer) and a quarter as strong lit from the front;
+    // in the light's hue.
+    let against_light = max(-dot(l, v), 0.0);
+    color += material.back_light_color.rgb * tint * material.params2.y
+        * (1.0 - back_light(n, v, material.params.z)) * (0.25 + 0.75 * against_light);
 #endif
 
 #ifdef ANGEL_RING

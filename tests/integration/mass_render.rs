@@ -8,7 +8,7 @@ use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{AngelRingProfile, ToonLighting};
 use libtest_mimic::Failed;
 
-use crate::toon_render::{BACKGROUND, ramps, save, scene};
+use crate::toon_render::{BACKGROUND, ramps, save, scene, spawn_strand};
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
@@ -22,6 +22,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "hair_meshes_have_particle_bounds_and_are_culled_off_screen",
         hair_meshes_have_particle_bounds_and_are_culled_off_screen,
+    ),
+    (
+        "back_light_rim_is_strongest_against_the_light",
+        back_light_rim_is_strongest_against_the_light,
     ),
 ];
 
@@ -402,6 +406,50 @@ fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Fa
     let (a, b) = check(&mut r)?;
     if a || !b {
         return Err(format!("after the swap: visible {a} (moved aside), {b} (moved in)").into());
+    }
+    Ok(())
+}
+
+/// The additive back light (contre-jour) uses the light: a cyan rim on a strand is brighter lit
+/// from behind (the light facing the viewer) than lit from the front.
+fn back_light_rim_is_strongest_against_the_light() -> Result<(), Failed> {
+    // Blue summed over the frame with the rim and without: the rim's own share.
+    let blue = |light: Vec3, strength: f32, name: &str| -> Result<f32, Failed> {
+        let mut r = scene(light, Vec3::new(0.0, 0.0, 3.0))?;
+        let ramp = ramps(&r).three_tone;
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            0.4,
+            ToonHairMaterial::new(
+                ToonShading {
+                    lighting: ToonLighting::FirstDirectional,
+                    back_light_strength: strength,
+                    back_light_color: Color::srgb(0.0, 0.8, 0.8),
+                    ..default()
+                },
+                ramp,
+            ),
+        );
+        let frame = r.capture()?;
+        save(&frame, &format!("back_light_{name}_{strength}"))?;
+        Ok((0..frame.height)
+            .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
+            .map(|(x, y)| f32::from(frame.pixel(x, y)[2]))
+            .sum())
+    };
+    let mut rim = Vec::new();
+    for (name, light) in [
+        ("front", Vec3::new(0.0, 0.3, 1.0)),
+        ("behind", Vec3::new(0.0, 0.3, -1.0)),
+    ] {
+        let added = blue(light, 1.0, name)? - blue(light, 0.0, name)?;
+        eprintln!("back light, lit from the {name}: the rim adds {added:.0} to the blue sum");
+        rim.push(added);
+    }
+    if rim[0] <= 0.0 || rim[1] < 2.0 * rim[0] {
+        return Err(format!("the rim lit from behind is not twice the front's: {rim:?}").into());
     }
     Ok(())
 }
