@@ -6,7 +6,7 @@
 //! Run: `tools/run-example.sh` (or `cargo run --example ninja_head`).
 //!
 //! Keys: arrows orbit the camera, Page Up / Page Down zoom, M toggles the tuning panel, P pauses
-//! the hair, Enter steps it one frame.
+//! the hair, Enter steps it one frame, G toggles a gusty 8 m/s wind.
 //!
 //! Flags:
 //! - `--screenshot FILE`: save the window at frame 150 and exit.
@@ -167,7 +167,16 @@ fn hair_keys(
     keys: Res<ButtonInput<KeyCode>>,
     mut hair_time: ResMut<Time<HairTime>>,
     mut ui: ResMut<HairTuningUi>,
+    mut wind: ResMut<HairWind>,
 ) {
+    if keys.just_pressed(KeyCode::KeyG) {
+        // A gusty breeze from the character's left, or calm again.
+        wind.velocity = if wind.velocity == Vec3::ZERO {
+            Vec3::new(8.0, 0.0, 0.0)
+        } else {
+            Vec3::ZERO
+        };
+    }
     if keys.just_pressed(KeyCode::KeyM) {
         ui.toggle();
     }

@@ -199,7 +199,7 @@ pub mod prelude {
     pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
         AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
-        Strand, StrandParticles,
+        HairWind, HairWindOverride, Strand, StrandParticles,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

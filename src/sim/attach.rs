@@ -110,6 +110,8 @@ pub struct ComputedHair {
     pub(crate) rest_bounds: Option<(Vec3, Vec3)>,
     pub(crate) accumulator: f32,
     pub(crate) animation_time: f32,
+    /// Substeps simulated since the hair was built: the wind's clock (exact at any frame rate).
+    pub(crate) substeps_done: u64,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }

@@ -35,6 +35,7 @@ pub mod solver;
 mod step;
 #[cfg(test)]
 mod tests;
+mod wind;
 
 pub use attach::{
     ComputedHair, Hair, HairStatus, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
@@ -52,6 +53,7 @@ pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
+pub use wind::{HairWind, HairWindOverride};
 
 use bevy::prelude::*;
 
@@ -75,6 +77,9 @@ pub struct HairSimulationPlugin;
 impl Plugin for HairSimulationPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<HairSimControl>()
+            .init_resource::<HairWind>()
+            .register_type::<HairWind>()
+            .register_type::<HairWindOverride>()
             .init_resource::<Time<HairTime>>()
             .add_systems(
                 First,

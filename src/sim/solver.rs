@@ -151,6 +151,18 @@ pub struct Batch {
     pub margin: Lane,
 }
 
+/// Wind for one frame of one hair.
+#[derive(Clone, Debug)]
+pub struct WindInput {
+    /// The wind (velocity, gusts, seed).
+    pub wind: super::HairWind,
+    /// The share of the gap between a particle's velocity and the wind's closed per substep:
+    /// `1 - exp(-drag h)`.
+    pub pull: f32,
+    /// Each substep's time (seconds of simulated time), for the gusts.
+    pub times: Vec<f32>,
+}
+
 /// Per-substep world state the batches are stepped against.
 #[derive(Clone, Debug, Default)]
 pub struct StepInput {
@@ -176,6 +188,8 @@ pub struct StepInput {
     /// at the substep's end times the inverse of its pose at the start), one per entry of
     /// `bones`; empty = damping in the world frame.
     pub bone_motion: Vec<Affine3A>,
+    /// Wind, when there is any.
+    pub wind: Option<WindInput>,
     /// Style limit applied after the last substep: no free node farther than this (metres)
     /// from its anchor; `inf` = none.
     pub style_limit: f32,
@@ -383,12 +397,19 @@ impl Batch {
     #[inline(always)]
     fn step_portable(&mut self, input: &StepInput) {
         let n = self.nodes.len();
+        let phases = input
+            .wind
+            .as_ref()
+            .map(|w| self.strands.map(|strand| w.wind.phase(strand)));
         for (s, bone) in input.bones.iter().enumerate() {
             // Pinned nodes follow the bone.
             for k in 0..PINNED.min(n) {
                 let x = transform(bone, &self.local[k]);
                 self.nodes[k].x = x;
                 self.nodes[k].p = x;
+            }
+            if let (Some(w), Some(phases)) = (&input.wind, &phases) {
+                self.blow(w, s, phases, input);
             }
             self.integrate_and_solve(input, bone, input.bone_motion.get(s));
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
@@ -413,6 +434,33 @@ impl Batch {
             self.collide_spheres(&input.spheres[(last - 1) * c..last * c]);
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
+            }
+        }
+    }
+
+    /// Wind drag before substep `s`: each free node's velocity `v` becomes
+    /// `v + (w h - v) pull` (`w` the wind's velocity with this strand's gust), written into its
+    /// previous position so the prediction that follows integrates it.
+    #[inline(always)]
+    fn blow(&mut self, w: &WindInput, s: usize, phases: &[f32; LANES], input: &StepInput) {
+        let t = w.times.get(s).copied().unwrap_or(0.0);
+        let d = input.damping.max(1e-6);
+        let base = w.wind.velocity * input.h;
+        let mut target = [[0.0; LANES]; 3];
+        for (l, phase) in phases.iter().enumerate() {
+            let g = w.wind.gust_factor(t, *phase);
+            target[0][l] = base.x * g;
+            target[1][l] = base.y * g;
+            target[2][l] = base.z * g;
+        }
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let x = node.x[c][l];
+                    let v = (x - node.p[c][l]) * d;
+                    let blown = v + (target[c][l] - v) * w.pull;
+                    node.p[c][l] = x - blown / d;
+                }
             }
         }
     }

@@ -16,6 +16,7 @@ use super::collider::HairCollider;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
 use super::solver::{Batch, PINNED, StepInput, along};
+use super::wind::{HairWind, HairWindOverride};
 use super::{HairSimControl, HairTime};
 
 /// [`HairCollider`]s' poses last frame, so moving ones are interpolated per substep.
@@ -52,6 +53,7 @@ pub(crate) fn step_hair_strands(
     )>,
     own: Query<(Entity, &HairCollider, &GlobalTransform)>,
     animations: Res<Assets<crate::asset::HairAnimation>>,
+    (global_wind, own_wind): (Option<Res<HairWind>>, Query<&HairWindOverride>),
 ) {
     // The hair's clock: zero while paused, one step when stepped.
     let dt = time.delta_secs();
@@ -155,6 +157,24 @@ pub(crate) fn step_hair_strands(
             };
             input.bones.push(interpolate(&from, &bone, t));
         }
+        // Wind: the hair's own, else the world's; sampled at each substep's time.
+        let wind = own_wind
+            .get(hair_entity)
+            .map(|o| &o.0)
+            .ok()
+            .or(global_wind.as_deref())
+            .filter(|w| !w.is_calm());
+        if let Some(wind) = wind {
+            let first = computed.substeps_done;
+            input.wind = Some(super::solver::WindInput {
+                wind: wind.clone(),
+                pull: 1.0 - (-wind.drag() * h).exp(),
+                times: (0..substeps)
+                    .map(|j| (first + u64::from(j) + 1) as f32 * h)
+                    .collect(),
+            });
+        }
+        computed.substeps_done += u64::from(substeps);
         if settings.damping_frame == HairDampingFrame::Bone {
             let mut prev = interpolate(
                 &from,

@@ -17,7 +17,7 @@ use crate::render::{
     ToonLighting, ToonRamps,
 };
 use crate::silhouette::SilhouetteSettings;
-use crate::sim::{Hair, HairDampingFrame, HairSimSettings};
+use crate::sim::{Hair, HairDampingFrame, HairSimSettings, HairWind};
 
 /// The hairs the window edits.
 type HairQuery<'w, 's> = Query<
@@ -49,7 +49,7 @@ pub(super) fn properties_window(
     mut hairs: HairQuery,
     mut outlines: Query<&mut ImageSpaceOutline>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
-    ramps: Res<ToonRamps>,
+    (ramps, mut wind): (Res<ToonRamps>, ResMut<HairWind>),
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
@@ -91,6 +91,9 @@ pub(super) fn properties_window(
             egui::CollapsingHeader::new("Simulation")
                 .default_open(true)
                 .show(ui, |ui| simulation_controls(ui, &mut sim));
+            egui::CollapsingHeader::new("Wind (every hair)")
+                .default_open(false)
+                .show(ui, |ui| wind_controls(ui, &mut wind));
             egui::CollapsingHeader::new("Preset")
                 .default_open(true)
                 .show(ui, |ui| {
@@ -204,6 +207,34 @@ fn mesh_controls(
 }
 
 /// S curve, stiffnesses, gravity, damping, margins.
+/// The world's wind: velocity, drag and gusts.
+fn wind_controls(ui: &mut egui::Ui, wind: &mut ResMut<HairWind>) {
+    let mut w = (**wind).clone();
+    egui::Grid::new("hair_wind").num_columns(2).show(ui, |ui| {
+        ui.label("Velocity (m/s)");
+        ui.horizontal(|ui| {
+            for (name, v) in [
+                ("x", &mut w.velocity.x),
+                ("y", &mut w.velocity.y),
+                ("z", &mut w.velocity.z),
+            ] {
+                ui.add(
+                    egui::DragValue::new(v)
+                        .speed(0.1)
+                        .prefix(format!("{name} ")),
+                );
+            }
+        });
+        ui.end_row();
+        slider_row(ui, "Drag (1/s)", &mut w.drag, 0.0..=20.0);
+        slider_row(ui, "Gusts", &mut w.gust, 0.0..=2.0);
+        slider_row(ui, "Gusts per s", &mut w.gust_frequency, 0.0..=5.0);
+    });
+    if w != **wind {
+        **wind = w;
+    }
+}
+
 fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
     let mut s = (**sim).clone();
     egui::Grid::new("hair_sim").num_columns(2).show(ui, |ui| {
