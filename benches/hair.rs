@@ -141,6 +141,13 @@ fn bench_sim(c: &mut Criterion) {
             b.iter(|| app.update());
         });
     }
+    // The same frame with a gusty wind: the cost of the wind's drag pass.
+    let mut app = hair_app(1_000, 16);
+    app.insert_resource(bevy_cartoon_hair::sim::HairWind {
+        velocity: Vec3::new(6.0, 0.0, 0.0),
+        ..Default::default()
+    });
+    group.bench_function("1000x16_wind", |b| b.iter(|| app.update()));
     group.finish();
     let mut group = c.benchmark_group("rapier_chains");
     group.sample_size(10);

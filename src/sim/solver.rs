@@ -411,7 +411,10 @@ impl Batch {
             if let (Some(w), Some(phases)) = (&input.wind, &phases) {
                 self.blow(w, s, phases, input);
             }
-            self.integrate_and_solve(input, bone, input.bone_motion.get(s));
+            if let Some(m) = input.bone_motion.get(s) {
+                self.damp_in_bone_frame(m, input.damping);
+            }
+            self.integrate_and_solve(input, bone);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
             if !input.shapes.is_empty() {
@@ -434,6 +437,23 @@ impl Batch {
             self.collide_spheres(&input.spheres[(last - 1) * c..last * c]);
             if !input.shapes.is_empty() {
                 self.collide_shapes(&input.shapes);
+            }
+        }
+    }
+
+    /// Damping in the bone's frame, before a substep whose bone motion is `m`: only the velocity
+    /// relative to the point the bone carries along should be damped, so hair riding a moving
+    /// bone (a character in a vehicle) keeps its velocity. The prediction damps all of `x - p`
+    /// by `d`; moving `p` by `vb (1 - 1/d)` (`vb = m x - x`) leaves it damping only `x - p - vb`.
+    #[inline(always)]
+    fn damp_in_bone_frame(&mut self, m: &Affine3A, d: f32) {
+        let k = 1.0 - 1.0 / d.max(1e-6);
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            let carried = transform(m, &node.x);
+            for c in 0..3 {
+                for l in 0..LANES {
+                    node.p[c][l] += (carried[c][l] - node.x[c][l]) * k;
+                }
             }
         }
     }
@@ -501,37 +521,12 @@ impl Batch {
         for k in PINNED..n {
             let (head, tail) = nodes.split_at_mut(k);
             let nk = &mut tail[0];
-            // The chain edge, then (particles, odd k) the strand's own segment.
-            let springs: &[usize] = if k % 2 == 1 { &[0, 1] } else { &[0] };
-            for &s in springs {
-                let j = k - s - 1;
-                // Pinned nodes sit on the base pose, not on their anchors.
-                let aj = if j < PINNED {
-                    &local[j]
-                } else {
-                    &head[j].anchor
-                };
-                let xj = &head[j].x;
-                for l in 0..LANES {
-                    let a = [
-                        nk.anchor[0][l] - aj[0][l],
-                        nk.anchor[1][l] - aj[1][l],
-                        nk.anchor[2][l] - aj[2][l],
-                    ];
-                    let rest = nk.rest[s][l].max(dot(a, a).sqrt());
-                    let d = [
-                        nk.x[0][l] - xj[0][l],
-                        nk.x[1][l] - xj[1][l],
-                        nk.x[2][l] - xj[2][l],
-                    ];
-                    let len = dot(d, d).sqrt().max(1e-12);
-                    // The share of d beyond the limit; 0 when within it.
-                    let f = (1.0 - max * rest / len).max(0.0);
-                    for c in 0..3 {
-                        nk.x[c][l] -= f * d[c];
-                        nk.p[c][l] -= f * d[c];
-                    }
-                }
+            // The chain edge, then (particles, odd k) the strand's own segment. Pinned nodes
+            // sit on the base pose, not on their anchors.
+            let anchor_of = |j: usize| if j < PINNED { &local[j] } else { &head[j].anchor };
+            pull_within(nk, &head[k - 1].x, anchor_of(k - 1), 0, max);
+            if k % 2 == 1 {
+                pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
             }
         }
     }
@@ -541,12 +536,7 @@ impl Batch {
     /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
     /// then the anchor spring of the node three back, which no later spring touches this
     /// substep. Fusing them walks each node once per substep.
-    fn integrate_and_solve(
-        &mut self,
-        input: &StepInput,
-        bone: &Affine3A,
-        bone_motion: Option<&Affine3A>,
-    ) {
+    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A) {
         let g = input.gravity_h2.to_array();
         let d = input.damping;
         let n = self.nodes.len();
@@ -555,31 +545,12 @@ impl Batch {
             let nk = &mut tail[0];
             // Node k stays in registers through its prediction and its three springs.
             let mut xk = nk.x;
-            match bone_motion {
-                None => {
-                    for c in 0..3 {
-                        for l in 0..LANES {
-                            let x = xk[c][l];
-                            let v = (x - nk.p[c][l]) * d;
-                            nk.p[c][l] = x;
-                            xk[c][l] = x + v + g[c];
-                        }
-                    }
-                }
-                Some(m) => {
-                    // Damping in the bone's frame: only the velocity relative to the point the
-                    // bone carries along is damped, so hair riding a moving bone (a character in
-                    // a vehicle) keeps its velocity.
-                    let carried = transform(m, &xk);
-                    for c in 0..3 {
-                        for l in 0..LANES {
-                            let x = xk[c][l];
-                            let vb = carried[c][l] - x;
-                            let v = vb + (x - nk.p[c][l] - vb) * d;
-                            nk.p[c][l] = x;
-                            xk[c][l] = x + v + g[c];
-                        }
-                    }
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let x = xk[c][l];
+                    let v = (x - nk.p[c][l]) * d;
+                    nk.p[c][l] = x;
+                    xk[c][l] = x + v + g[c];
                 }
             }
             for s in 0..3 {
@@ -700,6 +671,37 @@ impl Batch {
                     }
                 }
             }
+        }
+    }
+}
+
+/// Pulls `node` toward `xj` (lane by lane) where it lies farther than `max` times its rest
+/// distance `rest[s]` (or the anchors' distance `anchor - aj`, if longer); its previous position
+/// moves with it.
+#[inline(always)]
+fn pull_within(node: &mut Node, xj: &[Lane; 3], aj: &[Lane; 3], s: usize, max: f32) {
+    let mut f = [0.0; LANES];
+    let mut d = [[0.0; LANES]; 3];
+    for l in 0..LANES {
+        for c in 0..3 {
+            d[c][l] = node.x[c][l] - xj[c][l];
+        }
+        let (ax, ay, az) = (
+            node.anchor[0][l] - aj[0][l],
+            node.anchor[1][l] - aj[1][l],
+            node.anchor[2][l] - aj[2][l],
+        );
+        let rest = node.rest[s][l].max((ax * ax + ay * ay + az * az).sqrt());
+        let len = (d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l])
+            .sqrt()
+            .max(1e-12);
+        // The share of d beyond the limit; 0 when within it.
+        f[l] = (1.0 - max * rest / len).max(0.0);
+    }
+    for c in 0..3 {
+        for l in 0..LANES {
+            node.x[c][l] -= f[l] * d[c][l];
+            node.p[c][l] -= f[l] * d[c][l];
         }
     }
 }
