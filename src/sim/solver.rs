@@ -190,6 +190,9 @@ pub struct StepInput {
     pub bone_motion: Vec<Affine3A>,
     /// Wind, when there is any.
     pub wind: Option<WindInput>,
+    /// The number of substeps the hair had simulated before this frame (the signed-volume
+    /// constraint runs on every other one).
+    pub first_substep: u64,
     /// Style limit applied after the last substep: no free node farther than this (metres)
     /// from its anchor; `inf` = none.
     pub style_limit: f32,
@@ -414,7 +417,11 @@ impl Batch {
             if let Some(m) = input.bone_motion.get(s) {
                 self.damp_in_bone_frame(m, input.damping);
             }
-            self.integrate_and_solve(input, bone);
+            // Volumes every other substep (counted from the hair's first): enough to keep the
+            // style the only rest state, at half the cost.
+            // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
+            let volumes = (input.first_substep + s as u64) % 2 == 0 && input.alpha[2].is_finite();
+            self.integrate_and_solve(input, bone, volumes);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
             if !input.shapes.is_empty() {
@@ -523,7 +530,13 @@ impl Batch {
             let nk = &mut tail[0];
             // The chain edge, then (particles, odd k) the strand's own segment. Pinned nodes
             // sit on the base pose, not on their anchors.
-            let anchor_of = |j: usize| if j < PINNED { &local[j] } else { &head[j].anchor };
+            let anchor_of = |j: usize| {
+                if j < PINNED {
+                    &local[j]
+                } else {
+                    &head[j].anchor
+                }
+            };
             pull_within(nk, &head[k - 1].x, anchor_of(k - 1), 0, max);
             if k % 2 == 1 {
                 pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
@@ -536,7 +549,7 @@ impl Batch {
     /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
     /// then the anchor spring of the node three back, which no later spring touches this
     /// substep. Fusing them walks each node once per substep.
-    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A) {
+    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A, volumes: bool) {
         let g = input.gravity_h2.to_array();
         let d = input.damping;
         let n = self.nodes.len();
@@ -570,7 +583,7 @@ impl Batch {
             }
             // Distances alone also hold the mirror image of the style: hold the tetrahedron's
             // signed volume too, so the style is the only rest state.
-            if k >= 3 {
+            if volumes && k >= 3 {
                 let w = |j: usize| if j < PINNED { 0.0 } else { 1.0 };
                 let [a, b, c] = &mut head[k - 3..k] else {
                     unreachable!()

@@ -174,6 +174,7 @@ pub(crate) fn step_hair_strands(
                     .collect(),
             });
         }
+        input.first_substep = computed.substeps_done;
         computed.substeps_done += u64::from(substeps);
         if settings.damping_frame == HairDampingFrame::Bone {
             let mut prev = interpolate(
