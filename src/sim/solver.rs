@@ -420,7 +420,8 @@ impl Batch {
             // Volumes every other substep (counted from the hair's first): enough to keep the
             // style the only rest state, at half the cost.
             // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
-            let volumes = (input.first_substep + s as u64) % 2 == 0 && input.alpha[2].is_finite();
+            let volumes =
+                (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
             self.integrate_and_solve(input, bone, volumes);
             let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
             self.collide_spheres(spheres);
