@@ -128,7 +128,7 @@ pub struct Node {
     /// Rest distance to the node 1, 2 and 3 places before this one (edge, bend, torsion).
     pub rest: [Lane; 3],
     /// Six times the signed rest volume of the tetrahedron this node closes with the three
-    /// before it (see [`signed_volume`]); 0 for the first three nodes.
+    /// before it, `(b - a) x (c - a) . (d - a)`; 0 for the first three nodes.
     pub volume: Lane,
     /// Anchor position for this frame, bone space.
     pub anchor: [Lane; 3],
