@@ -186,6 +186,7 @@ fn spawn_ninja_scene(
             },
         ))
         .observe(play_idle_when_ready)
+        .observe(shade_scalp_as_hair)
         .id();
     let hair_material = hair_materials.add(material);
     // The hair is built with everything on it; the plugin hangs it on the ninja's head bone.
@@ -261,6 +262,29 @@ fn play_idle_when_ready(
             commands
                 .entity(child)
                 .insert(AnimationGraphHandle(idle.graph.clone()));
+        }
+    }
+}
+
+/// The head's scalp (glTF material `scalp`) is drawn with the hair's own toon material: it
+/// shades like the hair between the locks, and it is part of the hair mask, so the mass outline
+/// draws no line where the hair meets it.
+fn shade_scalp_as_hair(
+    ready: On<WorldInstanceReady>,
+    mut commands: Commands,
+    children: Query<&Children>,
+    names: Query<&bevy::gltf::GltfMaterialName, With<MeshMaterial3d<StandardMaterial>>>,
+    scene: Option<Res<NinjaScene>>,
+) {
+    let Some(scene) = scene else {
+        return;
+    };
+    for child in children.iter_descendants(ready.entity) {
+        if names.get(child).is_ok_and(|name| name.0 == "scalp") {
+            commands
+                .entity(child)
+                .remove::<MeshMaterial3d<StandardMaterial>>()
+                .insert(MeshMaterial3d(scene.hair_material.clone()));
         }
     }
 }

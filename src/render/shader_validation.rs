@@ -251,14 +251,20 @@ fn every_toon_material_variant_composes_and_validates() {
     );
     let (name, source) = MATERIAL_SHADERS[0];
     let variants = ToonHairMaterialKey::all();
-    // The hair mesh, and a mesh without tangents (the angel ring's fallback path).
+    // The hair mesh, a mesh without tangents (the angel ring's fallback path), and one with
+    // positions and normals only (a scalp drawn with the hair's material).
     let no_tangents: Vec<&str> = vertex_defs
         .iter()
         .copied()
         .filter(|d| *d != "VERTEX_TANGENTS")
         .collect();
+    let bare: Vec<&str> = vertex_defs
+        .iter()
+        .copied()
+        .filter(|d| !d.starts_with("VERTEX_UVS") && *d != "VERTEX_TANGENTS")
+        .collect();
     for key in &variants {
-        for vertex in [&vertex_defs, &no_tangents] {
+        for vertex in [&vertex_defs, &no_tangents, &bare] {
             let mut defs = key.shader_defs();
             defs.extend(vertex);
             let module = compose_with(&bevy_modules, name, source, &defs, &values)

@@ -95,9 +95,14 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // The hair mesh's tangent is the strand's direction, root to tip.
     var strand = in.world_tangent.xyz;
 #else
+#ifdef VERTEX_UVS_A
     // Another mesh: where uv.y grows, from screen derivatives (in uniform control flow).
     var strand = dpdx(in.world_position.xyz) * dpdx(in.uv.y)
         + dpdy(in.world_position.xyz) * dpdy(in.uv.y);
+#else
+    // A mesh without UVs has no strand direction: no ring.
+    var strand = vec3<f32>(0.0);
+#endif
 #endif
 #endif
     let to_eye = view.world_position - in.world_position.xyz;
@@ -190,6 +195,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // Lake et al.: projected on the screen (strokes stay put as hair moves).
     let uv = in.position.xy / (256.0 * scale);
 #else
+#ifdef VERTEX_UVS_A
     // Praun et al.: on the strand's surface, coherent as hair moves. Strokes run along the
     // strand (texture x = v along it, texture y = u around it).
     var around = in.uv.x;
@@ -200,6 +206,10 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     }
 #endif
     let uv = vec2<f32>(in.uv.y * 2.0, around) / scale;
+#else
+    // A mesh without UVs (a scalp, a prop) hatches on the screen.
+    let uv = in.position.xy / (256.0 * scale);
+#endif
 #endif
     color *= hatch(uv, light);
 #endif
