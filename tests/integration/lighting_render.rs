@@ -198,9 +198,14 @@ fn scene_lighting_takes_the_light_colour() -> Result<(), Failed> {
     Ok(())
 }
 
-/// The same with a point light (cube shadow maps) instead of the sun: a board between the lamp
-/// and the left half of the strand darkens that half.
-fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
+/// About 5,000 lux on the strand's top from a lamp 4 m up, 3.65 m above it: a point light's
+/// intensity of 4 pi * 5,000 * 3.65^2 lumens (Bevy's spot light is measured the same way).
+const LAMP_LUMENS: f32 = 4.0 * std::f32::consts::PI * 5_000.0 * 3.65 * 3.65;
+
+/// A lamp's shadow map darkens the hair it shadows: the sun off, `lamp` 4 m above the lit strand,
+/// then a board between them whose shadow falls on the left half (x = -1.17..-0.15). The left
+/// half must darken by at least 10 luma against the right.
+fn lamp_shadow_darkens_hair(name: &str, lamp: impl Bundle) -> Result<(), Failed> {
     let mut r = scene(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 3.0))?;
     {
         let world = r.app.world_mut();
@@ -208,36 +213,30 @@ fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
         for mut sun in suns.iter_mut(world) {
             sun.illuminance = 0.0;
         }
-        // About 5,000 lux on the strand's top, 3.65 m below: 4 pi * 5,000 * 3.65^2 lumens.
-        world.spawn((
-            PointLight {
-                intensity: 4.0 * std::f32::consts::PI * 5_000.0 * 3.65 * 3.65,
-                range: 10.0,
-                shadow_maps_enabled: true,
-                ..default()
-            },
-            Transform::from_xyz(0.0, 4.0, 0.0),
-        ));
+        world.spawn(lamp);
     }
     lit_strand(&mut r);
     let open = r.capture()?;
+    let lit = open.count(|p| p != BACKGROUND);
+    if lit < 5000 {
+        return Err(format!("the {name} light shows only {lit} hair pixels").into());
+    }
     let open_gap = halves_gap(&open);
-    // Above the top of the view; its shadow from the lamp falls on x = -1.17..-0.15.
     spawn_board(
         &mut r,
         Vec3::new(0.7, 0.05, 1.0),
         Vec3::new(-0.45, 1.5, 0.0),
     );
     let shaded = r.capture()?;
-    save(&shaded, "scene_lighting_point_shadow")?;
+    save(&shaded, &format!("scene_lighting_{name}_shadow"))?;
     let shaded_gap = halves_gap(&shaded);
     println!(
-        "scene lighting, point light: right minus left half, mean luma: {open_gap:.1} without \
+        "scene lighting, {name} light: right minus left half, mean luma: {open_gap:.1} without \
          the board, {shaded_gap:.1} with its shadow on the left"
     );
     if shaded_gap < open_gap + 10.0 {
         return Err(format!(
-            "the point light's shadow darkened the left half by only {}",
+            "the {name} light's shadow darkened the left half by only {}",
             shaded_gap - open_gap
         )
         .into());
@@ -245,20 +244,29 @@ fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
     Ok(())
 }
 
-/// A spot light's shadow map darkens the hair it shadows, as the point light's does: the same
-/// lamp and board, the lamp a spot cone pointing down.
+/// A point light's cube shadow map darkens the hair it shadows.
+fn scene_lighting_darkens_under_a_point_light_shadow() -> Result<(), Failed> {
+    lamp_shadow_darkens_hair(
+        "point",
+        (
+            PointLight {
+                intensity: LAMP_LUMENS,
+                range: 10.0,
+                shadow_maps_enabled: true,
+                ..default()
+            },
+            Transform::from_xyz(0.0, 4.0, 0.0),
+        ),
+    )
+}
+
+/// A spot light's shadow map darkens the hair it shadows: the same lamp as a cone pointing down.
 fn scene_lighting_darkens_under_a_spot_light_shadow() -> Result<(), Failed> {
-    let mut r = scene(Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 0.0, 3.0))?;
-    {
-        let world = r.app.world_mut();
-        let mut suns = world.query::<&mut DirectionalLight>();
-        for mut sun in suns.iter_mut(world) {
-            sun.illuminance = 0.0;
-        }
-        // Bevy's spot light has a point light's intensity (lumens over the whole sphere).
-        world.spawn((
+    lamp_shadow_darkens_hair(
+        "spot",
+        (
             SpotLight {
-                intensity: 4.0 * std::f32::consts::PI * 5_000.0 * 3.65 * 3.65,
+                intensity: LAMP_LUMENS,
                 range: 10.0,
                 outer_angle: 0.9,
                 inner_angle: 0.8,
@@ -266,33 +274,6 @@ fn scene_lighting_darkens_under_a_spot_light_shadow() -> Result<(), Failed> {
                 ..default()
             },
             Transform::from_xyz(0.0, 4.0, 0.0).looking_at(Vec3::ZERO, Vec3::Z),
-        ));
-    }
-    lit_strand(&mut r);
-    let open = r.capture()?;
-    let open_gap = halves_gap(&open);
-    spawn_board(
-        &mut r,
-        Vec3::new(0.7, 0.05, 1.0),
-        Vec3::new(-0.45, 1.5, 0.0),
-    );
-    let shaded = r.capture()?;
-    save(&shaded, "scene_lighting_spot_shadow")?;
-    let shaded_gap = halves_gap(&shaded);
-    println!(
-        "scene lighting, spot light: right minus left half, mean luma: {open_gap:.1} without \
-         the board, {shaded_gap:.1} with its shadow on the left"
-    );
-    let lit = open.count(|p| p != BACKGROUND);
-    if lit < 5000 {
-        return Err(format!("the spot light shows only {lit} hair pixels").into());
-    }
-    if shaded_gap < open_gap + 10.0 {
-        return Err(format!(
-            "the spot light's shadow darkened the left half by only {}",
-            shaded_gap - open_gap
-        )
-        .into());
-    }
-    Ok(())
+        ),
+    )
 }

@@ -29,10 +29,40 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     ),
 ];
 
+/// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
+/// `mesh`, without strokes.
+fn spawn_still_hair(
+    world: &mut World,
+    strands: Vec<Vec<Vec3>>,
+    material: ToonHairMaterial,
+    mesh: HairMeshSettings,
+) -> Entity {
+    let groom = HairGroom::from_strands("", strands).unwrap();
+    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+    let material = world
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .add(material);
+    world
+        .spawn((
+            Hair { groom, ..default() },
+            HairSimSettings {
+                gravity: Vec3::ZERO,
+                anchor_stiffness: QuadraticCurve::constant(1.0),
+                ..default()
+            },
+            mesh,
+            HairMaterial(material),
+            SilhouetteSettings {
+                enabled: false,
+                ..default()
+            },
+        ))
+        .id()
+}
+
 /// Nine vertical strands side by side in one hair, held still, each `radius` thick.
 fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) -> Entity {
     let ramp = ramps(r).three_tone;
-    let world = r.app.world_mut();
     let strands: Vec<Vec<Vec3>> = (0..9)
         .map(|i| {
             let x = -0.48 + 0.12 * i as f32;
@@ -42,43 +72,26 @@ fn spawn_curtain(r: &mut HeadlessRenderer, mass_normals: f32) -> Entity {
                 .collect()
         })
         .collect();
-    let groom = HairGroom::from_strands("", strands).unwrap();
-    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
     // The thesis's lighting (no shadow maps): the strands would also shadow each other, which
     // is not what this measures.
-    let material = world
-        .resource_mut::<Assets<ToonHairMaterial>>()
-        .add(ToonHairMaterial::new(
-            ToonShading {
-                lighting: ToonLighting::FirstDirectional,
-                specular_strength: 0.0,
-                ..default()
-            },
-            ramp,
-        ));
-    world
-        .spawn((
-            Hair { groom, ..default() },
-            HairSimSettings {
-                gravity: Vec3::ZERO,
-                anchor_stiffness: QuadraticCurve::constant(1.0),
-                ..default()
-            },
-            HairMeshSettings {
-                radius: 0.08,
-                taper: QuadraticCurve::constant(1.0),
-                hair_resolution: 24,
-                shape_resolution: 24,
-                mass_normals,
-                ..default()
-            },
-            HairMaterial(material),
-            SilhouetteSettings {
-                enabled: false,
-                ..default()
-            },
-        ))
-        .id()
+    let shading = ToonShading {
+        lighting: ToonLighting::FirstDirectional,
+        specular_strength: 0.0,
+        ..default()
+    };
+    spawn_still_hair(
+        r.app.world_mut(),
+        strands,
+        ToonHairMaterial::new(shading, ramp),
+        HairMeshSettings {
+            radius: 0.08,
+            taper: QuadraticCurve::constant(1.0),
+            hair_resolution: 24,
+            shape_resolution: 24,
+            mass_normals,
+            ..default()
+        },
+    )
 }
 
 fn luma(p: [u8; 4]) -> f32 {
@@ -206,7 +219,6 @@ fn is_ring(p: [u8; 4]) -> bool {
 /// to below the equator, 2 cm off the scalp, in one hair.
 fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
     let ramp = ramps(r).three_tone;
-    let world = r.app.world_mut();
     let strands: Vec<Vec<Vec3>> = (0..72)
         .map(|i| {
             let around = std::f32::consts::TAU * i as f32 / 72.0;
@@ -223,27 +235,17 @@ fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
                 .collect()
         })
         .collect();
-    let groom = HairGroom::from_strands("", strands).unwrap();
-    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
-    let material = world
-        .resource_mut::<Assets<ToonHairMaterial>>()
-        .add(ToonHairMaterial::new(
-            ToonShading {
-                lighting: ToonLighting::FirstDirectional,
-                angel_ring: 1.0,
-                angel_ring_color: RING,
-                angel_ring_profile: profile,
-                ..default()
-            },
-            ramp,
-        ));
-    world.spawn((
-        Hair { groom, ..default() },
-        HairSimSettings {
-            gravity: Vec3::ZERO,
-            anchor_stiffness: QuadraticCurve::constant(1.0),
-            ..default()
-        },
+    let shading = ToonShading {
+        lighting: ToonLighting::FirstDirectional,
+        angel_ring: 1.0,
+        angel_ring_color: RING,
+        angel_ring_profile: profile,
+        ..default()
+    };
+    spawn_still_hair(
+        r.app.world_mut(),
+        strands,
+        ToonHairMaterial::new(shading, ramp),
         HairMeshSettings {
             radius: 0.035,
             taper: QuadraticCurve::constant(1.0),
@@ -251,12 +253,7 @@ fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
             shape_resolution: 12,
             ..default()
         },
-        HairMaterial(material),
-        SilhouetteSettings {
-            enabled: false,
-            ..default()
-        },
-    ));
+    );
 }
 
 /// Ring pixels: (count, mean y, leftmost x, rightmost x).
