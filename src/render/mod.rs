@@ -115,7 +115,7 @@ impl Plugin for ToonHairMaterialPlugin {
             // Hatching works without the panel: materials that ask for it get a map.
             .add_systems(
                 PostUpdate,
-                assign_tonal_art_maps.in_set(HairSystems::Materials),
+                (assign_tonal_art_maps, assign_specular_ramps).in_set(HairSystems::Materials),
             );
     }
 }
@@ -125,6 +125,27 @@ impl Plugin for ToonHairMaterialPlugin {
 #[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
 #[reflect(Component, Debug, Default, PartialEq)]
 pub struct HairMaterial(pub Handle<ToonHairMaterial>);
+
+/// Gives every material whose specular layer is on ([`ToonShading::specular_ramp`]) but has no
+/// ramp for it the default one ([`ToonRamps::specular`]). Only materials that changed are looked
+/// at.
+fn assign_specular_ramps(
+    mut events: MessageReader<AssetEvent<ToonHairMaterial>>,
+    mut materials: ResMut<Assets<ToonHairMaterial>>,
+    ramps: Res<ToonRamps>,
+) {
+    for event in events.read() {
+        let (AssetEvent::Added { id } | AssetEvent::Modified { id }) = *event else {
+            continue;
+        };
+        let needs = materials
+            .get(id)
+            .is_some_and(|m| m.specular_ramp > 0.0 && m.specular_ramp_texture.is_none());
+        if needs && let Some(mut m) = materials.get_mut(id) {
+            m.specular_ramp_texture = Some(ramps.specular.clone());
+        }
+    }
+}
 
 /// The material silhouette strokes are drawn with: the stroke texture, unlit, alpha-blended,
 /// depth-tested; stroke colour and fade come in as vertex colours. Replace the handle's asset to

@@ -263,19 +263,47 @@ fn every_toon_material_variant_composes_and_validates() {
         .copied()
         .filter(|d| !d.starts_with("VERTEX_UVS") && *d != "VERTEX_TANGENTS")
         .collect();
-    for key in &variants {
-        for vertex in [&vertex_defs, &no_tangents, &bare] {
-            let mut defs = key.shader_defs();
-            defs.extend(vertex);
-            let module = compose_with(&bevy_modules, name, source, &defs, &values)
-                .unwrap_or_else(|e| panic!("variant {key:?} {vertex:?}: {e}"));
-            assert!(
-                module.entry_points.iter().any(|e| e.name == "fragment"),
-                "variant {key:?} lost its entry point"
-            );
+    // Every variant on the hair mesh; on the other two layouts, the variants that differ in
+    // what they read from the vertex (the angel ring's direction, hatching's UVs), each with
+    // and without the scene's lights and the specular layer.
+    let layout_dependent = |k: &ToonHairMaterialKey| {
+        let d = k.shader_defs();
+        !d.iter()
+            .any(|d| d.starts_with("RAMP_") || *d == "BLINN_SPECULAR" || *d == "BACK_LIGHT")
+    };
+    let jobs: Vec<(&ToonHairMaterialKey, &Vec<&str>)> = variants
+        .iter()
+        .flat_map(|key| {
+            let layouts: Vec<&Vec<&str>> = if layout_dependent(key) {
+                vec![&vertex_defs, &no_tangents, &bare]
+            } else {
+                vec![&vertex_defs]
+            };
+            layouts.into_iter().map(move |v| (key, v))
+        })
+        .collect();
+    let checked = jobs.len();
+    // Composing is the slow part: spread it over the machine's threads.
+    let threads = std::thread::available_parallelism().map_or(1, usize::from);
+    std::thread::scope(|scope| {
+        for part in jobs.chunks(checked.div_ceil(threads)) {
+            let (bevy_modules, values) = (&bevy_modules, &values);
+            scope.spawn(move || {
+                for &(key, vertex) in part {
+                    let mut defs = key.shader_defs();
+                    defs.extend(vertex);
+                    let module = compose_with(bevy_modules, name, source, &defs, values)
+                        .unwrap_or_else(|e| panic!("variant {key:?} {vertex:?}: {e}"));
+                    assert!(
+                        module.entry_points.iter().any(|e| e.name == "fragment"),
+                        "variant {key:?} lost its entry point"
+                    );
+                }
+            });
         }
-    }
-    assert_eq!(variants.len(), 192);
+    });
+    assert_eq!(variants.len(), 384);
+    assert_eq!(checked, 384 + 2 * 24);
 }
 
 #[test]

@@ -106,6 +106,12 @@ pub struct ToonHairMaterial {
     #[texture(3, dimension = "2d_array")]
     #[sampler(4)]
     pub tonal_art_map: Option<Handle<Image>>,
+    /// The specular layer's ramp ([`ToonShading::specular_ramp`]): x = light intensity, y =
+    /// `(N.H)^shininess`; `1 - alpha` is where the highlight is drawn. When the layer is on and
+    /// this is `None`, the render plugin fills in [`crate::render::ToonRamps::specular`].
+    #[texture(5)]
+    #[sampler(6)]
+    pub specular_ramp_texture: Option<Handle<Image>>,
 }
 
 impl ToonHairMaterial {
@@ -115,6 +121,7 @@ impl ToonHairMaterial {
             shading,
             ramp,
             tonal_art_map: None,
+            specular_ramp_texture: None,
         }
     }
 }
@@ -145,7 +152,14 @@ pub struct ToonShading {
     pub back_light_color: Color,
     /// Adds Blinn specular `(N.H)^shininess` on top. Default: `0.0` (off).
     pub specular_strength: f32,
-    /// Shininess exponent for Blinn and the specular ramp: higher is a smaller highlight.
+    /// Adds the highlight drawn in a specular ramp
+    /// ([`ToonHairMaterial::specular_ramp_texture`], indexed by the light and `(N.H)^shininess`)
+    /// in [`ToonShading::specular_color`], times this, as a layer of its own on top of whatever
+    /// [`ToonShading::ramp_mode`] the main ramp uses: depth detail, the back light rim and drawn
+    /// highlights can all be on at once (the thesis added specular and back light on top of the
+    /// cartoon shading). 0 turns it off (and its shader variant). Default: `0.0`.
+    pub specular_ramp: f32,
+    /// Shininess exponent for Blinn and the specular ramps: higher is a smaller highlight.
     /// Default: `40.0`.
     pub shininess: f32,
     /// Specular colour. Default: white.
@@ -195,6 +209,7 @@ impl Default for ToonShading {
             back_light_strength: 0.0,
             back_light_color: Color::WHITE,
             specular_strength: 0.0,
+            specular_ramp: 0.0,
             shininess: 40.0,
             specular_color: Color::WHITE,
             hatching: HatchingMode::None,
@@ -250,7 +265,7 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 finite_or(self.full_light_lux, 10_000.0).max(1e-3),
                 finite_or(self.angel_ring_teeth, 0.02).max(1e-4),
                 self.angel_ring_profile.index(),
-                0.0,
+                finite_or(self.specular_ramp, 0.0).clamp(0.0, 16.0),
             ),
             angel_ring_color: self
                 .angel_ring_color
@@ -277,6 +292,7 @@ pub struct ToonHairMaterialKey {
     hatching: HatchingMode,
     scene_lights: bool,
     angel_ring: bool,
+    specular_layer: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -293,6 +309,8 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
             },
             scene_lights: m.lighting == ToonLighting::Scene,
             angel_ring: m.angel_ring > 0.0,
+            // Without a ramp there is nothing to draw the highlight from.
+            specular_layer: m.specular_ramp > 0.0 && m.specular_ramp_texture.is_some(),
         }
     }
 }
@@ -324,6 +342,9 @@ impl ToonHairMaterialKey {
         if self.angel_ring {
             defs.push("ANGEL_RING");
         }
+        if self.specular_layer {
+            defs.push("SPECULAR_LAYER");
+        }
         defs
     }
 
@@ -345,14 +366,17 @@ impl ToonHairMaterialKey {
                     for back_light in [false, true] {
                         for scene_lights in [false, true] {
                             for angel_ring in [false, true] {
-                                v.push(Self {
-                                    ramp_mode,
-                                    blinn,
-                                    back_light,
-                                    hatching,
-                                    scene_lights,
-                                    angel_ring,
-                                });
+                                for specular_layer in [false, true] {
+                                    v.push(Self {
+                                        ramp_mode,
+                                        blinn,
+                                        back_light,
+                                        hatching,
+                                        scene_lights,
+                                        angel_ring,
+                                        specular_layer,
+                                    });
+                                }
                             }
                         }
                     }

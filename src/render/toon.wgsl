@@ -11,6 +11,9 @@
 //                                                  surface, or on the screen with HATCH_SCREEN
 //   ANGEL_RING                                     a highlight band across the hair where the
 //                                                  strands run across the half vector
+//   SPECULAR_LAYER                                 add the highlight drawn in a second ramp
+//                                                  (y = (N.H)^shininess), whatever the first
+//                                                  ramp's y axis is
 
 #import bevy_pbr::{forward_io::VertexOutput, mesh_view_bindings::{view, lights}}
 #import bevy_cartoon_hair::curves::{depth_detail, back_light}
@@ -27,7 +30,8 @@ struct ToonHairUniform {
     // x: specular strength, y: back light strength, z: hatching scale, w: ramp y when constant
     params2: vec4<f32>,
     // x: illuminance (lux) at the right end of the ramp (SCENE_LIGHTS), y: angel ring teeth
-    // spacing (m), z: angel ring profile (0 even, 1 tapered, 2 zig-zag, 3 soft)
+    // spacing (m), z: angel ring profile (0 even, 1 tapered, 2 zig-zag, 3 soft), w: specular
+    // layer strength (SPECULAR_LAYER)
     params3: vec4<f32>,
     // rgb: angel ring colour, a: its opacity
     angel_ring_color: vec4<f32>,
@@ -54,6 +58,10 @@ fn hatch(uv: vec2<f32>, light: f32) -> f32 {
     let b = textureSample(tam_texture, tam_sampler, uv, i32(hi)).r;
     return mix(a, b, t - lo);
 }
+#endif
+#ifdef SPECULAR_LAYER
+@group(#{MATERIAL_BIND_GROUP}) @binding(5) var specular_ramp_texture: texture_2d<f32>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(6) var specular_ramp_sampler: sampler;
 #endif
 
 #ifdef ANGEL_RING
@@ -165,6 +173,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     var color = material.base_color.rgb * ramp.rgb * tint
         + material.specular_color.rgb * (1.0 - ramp.a);
 
+#ifdef SPECULAR_LAYER
+    // Drawn highlights from their own ramp, on top of any main ramp (depth detail included).
+    let drawn = textureSample(specular_ramp_texture, specular_ramp_sampler,
+        vec2<f32>(intensity, 1.0 - clamp(pow(n_dot_h, shininess), 0.0, 1.0)));
+    color += material.specular_color.rgb * tint * material.params3.w * (1.0 - drawn.a);
+#endif
 #ifdef BLINN_SPECULAR
     color += material.specular_color.rgb * material.params2.x * pow(n_dot_h, shininess)
         * step(0.0, dot(n, l));

@@ -457,6 +457,7 @@ fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
     slider_row(ui, "Back light r", &mut m.back_light_power, 0.0..=8.0);
     slider_row(ui, "Back light", &mut m.back_light_strength, 0.0..=1.0);
     slider_row(ui, "Specular", &mut m.specular_strength, 0.0..=2.0);
+    slider_row(ui, "Specular ramp", &mut m.specular_ramp, 0.0..=2.0);
     ui.label("Shininess");
     ui.add(egui::Slider::new(&mut m.shininess, 1.0..=512.0).logarithmic(true));
     ui.end_row();

@@ -29,6 +29,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "specular_quads_show_on_the_lit_side",
         specular_quads_show_on_the_lit_side,
     ),
+    (
+        "depth_detail_back_light_and_specular_ramp_combine",
+        depth_detail_back_light_and_specular_ramp_combine,
+    ),
 ];
 
 pub(crate) const BACKGROUND: [u8; 4] = [0, 0, 0, 255];
@@ -232,6 +236,121 @@ fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
     Ok(())
 }
 
+/// Issue 13 item 4: depth detail (the main ramp's y), the back light rim and the specular ramp
+/// layer at once. Against the same scene with depth detail alone: the far strand is still
+/// lighter than the near one, the near strand gains a drawn highlight (near-white pixels the
+/// depth-only frame lacks) on its lit side, and the rim brightens its edges.
+fn depth_detail_back_light_and_specular_ramp_combine() -> Result<(), Failed> {
+    let render = |layers: bool| -> Result<CapturedFrame, Failed> {
+        let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 4.0))?;
+        let ramp = ramps(&r).depth;
+        let material = ToonHairMaterial::new(
+            ToonShading {
+                base_color: Color::srgb(0.9, 0.45, 0.3),
+                ramp_mode: RampMode::Depth,
+                z_min: 3.0,
+                z_scale: 3.0,
+                back_light_strength: if layers { 0.6 } else { 0.0 },
+                specular_ramp: if layers { 1.0 } else { 0.0 },
+                specular_color: Color::WHITE,
+                shininess: 6.0,
+                ..default()
+            },
+            ramp,
+        );
+        // Near (left, lying across, 1 m from the camera) and far (right, 9 m away, scaled up).
+        spawn_strand(
+            &mut r,
+            Vec3::new(-0.38, 0.0, 3.0),
+            Vec3::new(-0.04, 0.0, 3.0),
+            0.08,
+            material.clone(),
+        );
+        spawn_strand(
+            &mut r,
+            Vec3::new(2.0, -3.0, -5.0),
+            Vec3::new(2.0, 3.0, -5.0),
+            0.6,
+            material,
+        );
+        Ok(r.capture()?)
+    };
+    let plain = render(false)?;
+    let layered = render(true)?;
+    save(&layered, "ramps_combine")?;
+    let w = layered.width;
+    let (near, far) = (interior(&layered, 0, w / 2), interior(&layered, w / 2, w));
+    // Depth detail at each strand's middle, where it faces the camera (no rim there) and is
+    // lit alike: the far one is lighter.
+    let middle = |f: &CapturedFrame, x0: u32, x1: u32| -> Option<f32> {
+        let px: Vec<(u32, u32)> = (0..f.height)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .filter(|&(x, y)| f.pixel(x, y) != BACKGROUND)
+            .collect();
+        let n = px.len().max(1) as u64;
+        let cx = (px.iter().map(|p| u64::from(p.0)).sum::<u64>() / n) as u32;
+        let cy = (px.iter().map(|p| u64::from(p.1)).sum::<u64>() / n) as u32;
+        (!px.is_empty()).then(|| luminance(f.pixel(cx, cy)))
+    };
+    let centres = |f: &CapturedFrame| middle(f, 0, w / 2).zip(middle(f, w / 2, w));
+    let (n, f) = centres(&layered).ok_or("a strand is missing")?;
+    let (pn, pf) = centres(&plain).ok_or("a strand is missing")?;
+    // Drawn highlight: near-white where the depth-only frame was not.
+    let mut highlight = 0;
+    let mut highlight_y = 0u64;
+    // Rim: the near strand's top and bottom edge pixels, brighter than without the layers.
+    let (mut rim_gain, mut rim_px) = (0.0f32, 0);
+    for x in 0..w / 2 {
+        let column: Vec<u32> = (0..layered.height)
+            .filter(|&y| layered.pixel(x, y) != BACKGROUND)
+            .collect();
+        for &y in &column {
+            let (a, b) = (layered.pixel(x, y), plain.pixel(x, y));
+            if a[0] > 230 && a[1] > 230 && a[2] > 230 && luminance(b) < 200.0 {
+                highlight += 1;
+                highlight_y += u64::from(y);
+            }
+        }
+        if let (Some(&top), Some(&bottom)) = (column.first(), column.last())
+            && bottom > top + 4
+        {
+            for y in [top + 1, bottom - 1] {
+                rim_gain += luminance(layered.pixel(x, y)) - luminance(plain.pixel(x, y));
+                rim_px += 1;
+            }
+        }
+    }
+    eprintln!(
+        "near {n:.1} far {f:.1} (depth only: {pn:.1} {pf:.1}); {highlight} highlight px; rim gain \
+         {:.1} luma over {rim_px} px",
+        rim_gain / rim_px.max(1) as f32
+    );
+    if near.len() < 200 || far.len() < 200 {
+        return Err(format!("strands missing: {} near, {} far px", near.len(), far.len()).into());
+    }
+    if f <= n + 5.0 {
+        return Err(
+            format!("depth detail lost with the layers on: near {n:.1}, far {f:.1}").into(),
+        );
+    }
+    if highlight < 20 {
+        return Err(format!("no drawn highlight: {highlight} px").into());
+    }
+    // The light is above: the highlight sits in the upper half of the frame.
+    let mean_y = highlight_y as f32 / highlight as f32;
+    if mean_y >= layered.height as f32 / 2.0 {
+        return Err(format!("highlight below the middle (row {mean_y:.0})").into());
+    }
+    if rim_gain / (rim_px.max(1) as f32) < 5.0 {
+        return Err(format!(
+            "no back light rim: {:.1} luma",
+            rim_gain / rim_px.max(1) as f32
+        )
+        .into());
+    }
+    Ok(())
+}
+
 /// Blinn specular: the brightest hair pixels sit where N.H is highest on a horizontal tube, above
 /// its axis toward the light.
 fn blinn_specular_peaks_where_n_dot_h_is_highest() -> Result<(), Failed> {
@@ -338,6 +457,7 @@ fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
                 },
                 ramp: flat,
                 tonal_art_map: Some(tam),
+                specular_ramp_texture: None,
             },
         );
         let frame = r.capture()?;
