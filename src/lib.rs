@@ -192,7 +192,7 @@ pub mod prelude {
         ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
-    pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings};
+    pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};
     #[cfg(feature = "rapier")]
     pub use crate::sim::HairCollisionGroups;
     #[cfg(feature = "avian")]

@@ -8,11 +8,13 @@ use bevy::prelude::*;
 use bevy::shader::load_shader_library;
 
 use crate::schedule::HairSystems;
+use crate::silhouette::StrokeScope;
 
 mod outline;
 mod ramps;
 #[cfg(test)]
 mod shader_validation;
+mod stroke;
 mod tonal_maps;
 mod toon;
 
@@ -23,6 +25,7 @@ pub use outline::{
 pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
 };
+pub use stroke::{HairStrokeMaterial, HairStrokeUniform};
 pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use toon::{
     AngelRingProfile, HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey,
@@ -37,6 +40,7 @@ pub const SHADER_LIBRARY: &[(&str, &str)] =
 pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
     ("toon.wgsl", include_str!("toon.wgsl")),
     ("hair_prepass.wgsl", include_str!("hair_prepass.wgsl")),
+    ("stroke.wgsl", include_str!("stroke.wgsl")),
 ];
 
 /// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
@@ -62,25 +66,23 @@ impl Plugin for ToonHairMaterialPlugin {
     fn build(&self, app: &mut App) {
         bevy::asset::embedded_asset!(app, "toon.wgsl");
         bevy::asset::embedded_asset!(app, "hair_prepass.wgsl");
-        app.add_plugins(MaterialPlugin::<ToonHairMaterial>::default())
-            .register_type::<ToonHairMaterial>();
+        bevy::asset::embedded_asset!(app, "stroke.wgsl");
+        app.add_plugins((
+            MaterialPlugin::<ToonHairMaterial>::default(),
+            MaterialPlugin::<HairStrokeMaterial>::default(),
+        ))
+        .register_type::<ToonHairMaterial>()
+        .register_type::<HairStrokeMaterial>();
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         let texture = app
             .world_mut()
             .resource_mut::<Assets<Image>>()
             .add(stroke_texture_image());
-        let stroke = StrokeMaterial(
-            app.world_mut()
-                .resource_mut::<Assets<StandardMaterial>>()
-                .add(StandardMaterial {
-                    base_color_texture: Some(texture),
-                    unlit: true,
-                    alpha_mode: AlphaMode::Blend,
-                    cull_mode: None,
-                    double_sided: true,
-                    ..default()
-                }),
-        );
+        let mut strokes = app.world_mut().resource_mut::<Assets<HairStrokeMaterial>>();
+        let stroke = StrokeMaterials {
+            mass: strokes.add(HairStrokeMaterial::new(texture.clone(), StrokeScope::Mass)),
+            strands: strokes.add(HairStrokeMaterial::new(texture, StrokeScope::Strands)),
+        };
         let highlight_texture = app
             .world_mut()
             .resource_mut::<Assets<Image>>()
@@ -147,27 +149,60 @@ fn assign_specular_ramps(
     }
 }
 
-/// The material silhouette strokes are drawn with: the stroke texture, unlit, alpha-blended,
-/// depth-tested; stroke colour and fade come in as vertex colours. Replace the handle's asset to
-/// restyle every stroke.
+/// The materials silhouette strokes are drawn with, one per [`StrokeScope`] (see
+/// [`HairStrokeMaterial`]); each hair's strokes get the one its
+/// [`SilhouetteSettings::scope`](crate::silhouette::SilhouetteSettings::scope) names. Stroke
+/// colour and fade come in as vertex colours. Change the assets to restyle every stroke.
 #[derive(Resource, Clone, Debug)]
-pub struct StrokeMaterial(pub Handle<StandardMaterial>);
+pub struct StrokeMaterials {
+    /// For [`StrokeScope::Mass`].
+    pub mass: Handle<HairStrokeMaterial>,
+    /// For [`StrokeScope::Strands`].
+    pub strands: Handle<HairStrokeMaterial>,
+}
 
+impl StrokeMaterials {
+    /// The material of `scope`.
+    pub fn of(&self, scope: StrokeScope) -> &Handle<HairStrokeMaterial> {
+        match scope {
+            StrokeScope::Strands => &self.strands,
+            _ => &self.mass,
+        }
+    }
+}
+
+/// Gives new stroke entities, and those of hairs whose settings changed, the material of their
+/// hair's stroke scope.
 fn apply_stroke_material(
     mut commands: Commands,
-    strokes: Query<
-        Entity,
-        (
-            With<crate::silhouette::HairStrokesOf>,
-            Without<MeshMaterial3d<StandardMaterial>>,
-        ),
+    new: Query<
+        (Entity, &crate::silhouette::HairStrokesOf),
+        Without<MeshMaterial3d<HairStrokeMaterial>>,
     >,
-    material: Res<StrokeMaterial>,
+    changed: Query<
+        (
+            &crate::silhouette::SilhouetteSettings,
+            &crate::silhouette::HairStrokes,
+        ),
+        Changed<crate::silhouette::SilhouetteSettings>,
+    >,
+    settings: Query<&crate::silhouette::SilhouetteSettings>,
+    current: Query<&MeshMaterial3d<HairStrokeMaterial>>,
+    materials: Res<StrokeMaterials>,
 ) {
-    for e in &strokes {
+    for (e, of) in &new {
+        let scope = settings.get(of.0).map(|s| s.scope).unwrap_or_default();
         commands
             .entity(e)
-            .insert(MeshMaterial3d(material.0.clone()));
+            .insert(MeshMaterial3d(materials.of(scope).clone()));
+    }
+    for (s, strokes) in &changed {
+        let want = materials.of(s.scope);
+        for e in strokes.iter() {
+            if current.get(e).is_ok_and(|m| m.0 != *want) {
+                commands.entity(e).insert(MeshMaterial3d(want.clone()));
+            }
+        }
     }
 }
 

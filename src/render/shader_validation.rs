@@ -390,3 +390,48 @@ fn every_hair_prepass_variant_composes_and_validates() {
     }
     assert_eq!(checked, 7);
 }
+
+#[test]
+fn every_stroke_material_variant_composes_and_validates() {
+    use super::MATERIAL_SHADERS;
+    let bevy_modules = bevy_shader_sources();
+    let values = bevy_value_defs();
+    let (name, source) = MATERIAL_SHADERS
+        .iter()
+        .find(|(n, _)| *n == "stroke.wgsl")
+        .expect("stroke.wgsl is listed");
+    // The vertex defs of the mesh strokes are drawn on.
+    let strokes = crate::mesh::StripBuffers::empty_mesh(true);
+    let vertex = mesh_pipeline_vertex_defs(&strokes);
+    assert!(
+        vertex.contains(&"VERTEX_COLORS") && vertex.contains(&"VERTEX_UVS_A"),
+        "stroke meshes carry colours and UVs: {vertex:?}"
+    );
+    let mut checked = 0;
+    // Whether the view has a normal prepass (the mass scope's hair mask), with and without MSAA.
+    for normals in [false, true] {
+        for multisampled in [false, true] {
+            let mut defs = vertex.clone();
+            if normals {
+                defs.push("NORMAL_PREPASS");
+            }
+            if multisampled {
+                defs.push("MULTISAMPLED");
+            }
+            let module = compose_with(&bevy_modules, name, source, &defs, &values)
+                .unwrap_or_else(|e| panic!("stroke {defs:?}: {e}"));
+            let reads_mask = module
+                .global_variables
+                .iter()
+                // naga_oil decorates imported names.
+                .any(|(_, g)| {
+                    g.name
+                        .as_deref()
+                        .is_some_and(|n| n.contains("normal_prepass_texture"))
+                });
+            assert_eq!(reads_mask, normals, "stroke {defs:?}");
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 4);
+}

@@ -29,7 +29,7 @@ pub mod tube_edges;
 
 pub use strokes::{
     ComputedSilhouettes, HairStrokes, HairStrokesOf, SilhouetteCamera, SilhouetteSettings,
-    extract_silhouettes,
+    StrokePrepass, StrokeScope, extract_silhouettes, sync_stroke_prepasses,
 };
 
 use bevy::prelude::*;
@@ -46,10 +46,13 @@ impl Plugin for HairSilhouettePlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<SilhouetteSettings>()
             .register_type::<SilhouetteCamera>()
+            .register_type::<StrokePrepass>()
             .register_required_components::<Hair, SilhouetteSettings>()
             .add_systems(
                 PostUpdate,
-                extract_silhouettes.in_set(HairSystems::Silhouettes),
+                (extract_silhouettes, sync_stroke_prepasses)
+                    .chain()
+                    .in_set(HairSystems::Silhouettes),
             );
     }
 }

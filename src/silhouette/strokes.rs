@@ -13,6 +13,7 @@
 //! strands (its Figure 4.18); a depth test has no such blind spot.
 
 use bevy::camera::visibility::{NoFrustumCulling, RenderLayers};
+use bevy::core_pipeline::prepass::NormalPrepass;
 use bevy::prelude::*;
 use bevy::tasks::TaskPool;
 use std::sync::Mutex;
@@ -34,7 +35,8 @@ use crate::sim::Hair;
 pub struct SilhouetteSettings {
     /// Draw strokes. Default: `true`.
     pub enabled: bool,
-    /// Stroke width on screen, pixels. Default: `3.0`.
+    /// Stroke width on screen, pixels. Default: `4.0` (the thesis's users preferred thick
+    /// strokes, chapter 5.2).
     pub width_px: f32,
     /// Angle scaling: how much corners widen to keep the stroke's width (0 = plain miter off,
     /// 1 = full). Default: `1.0`.
@@ -44,31 +46,51 @@ pub struct SilhouetteSettings {
     pub depth_scale: f32,
     /// Overall multiplier of the width. Default: `1.0`.
     pub stroke_scale: f32,
-    /// Largest width a stroke may reach after all scaling, pixels. Default: `6.0`.
+    /// Largest width a stroke may reach after all scaling, pixels. Default: `8.0`.
     pub stroke_limit_px: f32,
     /// The E curve: stroke opacity along the strand, root `x = 0` to tip `x = 1`; fading toward the
-    /// root hides outlines where strands leave the scalp. Default: `QuadraticCurve { a: 0.0,
-    /// b: 0.8, c: 0.2 }`.
+    /// root hides outlines where strands leave the scalp. Default: constant `1.0`, unfaded (as
+    /// the thesis's users preferred; `QuadraticCurve::new(0.0, 0.8, 0.2)` fades toward roots).
     pub fade: QuadraticCurve,
     /// How far strokes are pulled toward the camera, in strand radii (see the module docs).
     /// Default: `0.6`.
     pub depth_bias: f32,
     /// Stroke colour (multiplied by the stroke texture). Default: near-black.
     pub color: Color,
+    /// Which silhouettes become strokes: the outline of the hair as one mass, or every
+    /// strand's. Default: [`StrokeScope::Mass`].
+    pub scope: StrokeScope,
+}
+
+/// Which strand silhouettes a hair's strokes draw ([`SilhouetteSettings::scope`]).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum StrokeScope {
+    /// The outline of the hair as one mass (the thesis's users preferred thick outlines around
+    /// the hair, chapter 5.2): a stroke shows only where something other than hair (the
+    /// background, the face, a prop) lies within its own width, so strands lying on other
+    /// strands get no outline. Read from the hair mask in the normal prepass: the plugin adds a
+    /// `NormalPrepass` to the cameras that draw these strokes (and removes it when none do
+    /// any more, unless it was there before). See [`crate::render::HairStrokeMaterial`].
+    #[default]
+    Mass,
+    /// Every strand's silhouette (the thesis's strokes): each lock outlined on its own.
+    Strands,
 }
 
 impl Default for SilhouetteSettings {
     fn default() -> Self {
         Self {
             enabled: true,
-            width_px: 3.0,
+            width_px: 4.0,
             angle_scale: 1.0,
             depth_scale: 0.0,
             stroke_scale: 1.0,
-            stroke_limit_px: 6.0,
-            fade: QuadraticCurve::new(0.0, 0.8, 0.2),
+            stroke_limit_px: 8.0,
+            fade: QuadraticCurve::constant(1.0),
             depth_bias: 0.6,
             color: Color::srgb(0.05, 0.03, 0.03),
+            scope: StrokeScope::Mass,
         }
     }
 }
@@ -481,5 +503,37 @@ impl StrokeBuilder {
             worker.clear();
         }
         buffers.put(mesh);
+    }
+}
+
+/// On a camera: [`sync_stroke_prepasses`] added its `NormalPrepass` (and so may remove it).
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Debug)]
+pub struct StrokePrepass;
+
+/// Keeps a `NormalPrepass` on every camera that draws strokes of [`StrokeScope::Mass`] (their
+/// material reads the hair mask from it), and removes the ones it added when the camera no
+/// longer draws any. A prepass that was there before (the user's, or an
+/// [`ImageSpaceOutline`](crate::render::ImageSpaceOutline)'s) is left alone.
+pub fn sync_stroke_prepasses(
+    mut commands: Commands,
+    hairs: Query<(&SilhouetteSettings, &ComputedSilhouettes)>,
+    cameras: Query<(Entity, Has<NormalPrepass>, Has<StrokePrepass>), With<Camera3d>>,
+) {
+    for (camera, has_prepass, added) in &cameras {
+        let wanted = hairs.iter().any(|(settings, computed)| {
+            settings.enabled
+                && settings.scope == StrokeScope::Mass
+                && computed.views.iter().any(|v| v.camera == camera)
+        });
+        if wanted && !has_prepass {
+            commands
+                .entity(camera)
+                .insert((NormalPrepass, StrokePrepass));
+        } else if !wanted && added {
+            commands
+                .entity(camera)
+                .remove::<(NormalPrepass, StrokePrepass)>();
+        }
     }
 }

@@ -78,10 +78,29 @@ fn spawn(r: &mut HeadlessRenderer, points: Vec<Vec3>, radius: f32) -> Entity {
                 width_px: 4.0,
                 fade: QuadraticCurve::constant(1.0),
                 color: Color::BLACK,
+                // Every strand's silhouette: these tests look at one tube's outlines.
+                scope: StrokeScope::Strands,
                 ..default()
             },
         ))
         .id()
+}
+
+/// Down column `x`, the runs of ink (separated by at least 2 pixels without).
+fn ink_runs(frame: &CapturedFrame, x: u32) -> usize {
+    let mut runs = 0;
+    let mut gap = 2;
+    for y in 0..frame.height {
+        if is_ink(frame.pixel(x, y)) {
+            if gap >= 2 {
+                runs += 1;
+            }
+            gap = 0;
+        } else {
+            gap += 1;
+        }
+    }
+    runs
 }
 
 /// Darker than anything else in these scenes: the darkest hair band has a channel above 170 and
@@ -159,7 +178,7 @@ fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
         .collect();
     points.push(Vec3::new(1.2, 0.0, 0.0));
     points.extend((0..5).map(|i| Vec3::new(0.8 - 0.45 * i as f32, -0.08, -0.3)));
-    spawn(&mut r, points, 0.22);
+    let hair = spawn(&mut r, points, 0.22);
     let frame = r.capture()?;
     save(&frame, "strokes_self_overlap")?;
     // Down each column where both halves show: the front half's top and bottom outlines and the
@@ -167,18 +186,7 @@ fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
     // front half; drawing it through the front face would make a 4th run.
     let mut columns = 0;
     for x in frame.width / 5..frame.width * 3 / 5 {
-        let mut runs = 0;
-        let mut gap = 2;
-        for y in 0..frame.height {
-            if is_ink(frame.pixel(x, y)) {
-                if gap >= 2 {
-                    runs += 1;
-                }
-                gap = 0;
-            } else {
-                gap += 1;
-            }
-        }
+        let runs = ink_runs(&frame, x);
         if runs > 3 {
             return Err(
                 format!("column {x}: {runs} outline runs; a hidden outline shows through").into(),
@@ -191,6 +199,31 @@ fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
     println!("self-overlap: {columns} columns with exactly the 3 visible outlines");
     if columns < frame.width / 4 {
         return Err(format!("only {columns} columns show both halves outlined").into());
+    }
+    // The mass's outline: the front half's lower edge, lying on the back half, is inside the
+    // hair and gets no stroke; the outer edges keep theirs.
+    r.app
+        .world_mut()
+        .get_mut::<SilhouetteSettings>(hair)
+        .ok_or("the hair is gone")?
+        .scope = StrokeScope::Mass;
+    let mass = r.capture()?;
+    save(&mass, "strokes_self_overlap_mass")?;
+    let (mut two, mut more) = (0, 0);
+    for x in frame.width / 5..frame.width * 3 / 5 {
+        match ink_runs(&mass, x) {
+            2 => two += 1,
+            n if n > 2 => more += 1,
+            _ => {}
+        }
+    }
+    println!("self-overlap, mass scope: {two} columns with 2 outlines, {more} with more");
+    if two < columns * 3 / 4 || more > columns / 10 {
+        return Err(format!(
+            "mass scope: {two} columns with the 2 outer outlines and {more} with more (every \
+             strand: {columns} with 3)"
+        )
+        .into());
     }
     Ok(())
 }
