@@ -187,6 +187,7 @@ pub fn build_specular_quads(
             &HairMeshSettings,
             &HairStrands,
             Option<&HairHighlights>,
+            &super::HairInView,
         ),
         (With<Hair>, With<ComputedHairMesh>),
     >,
@@ -206,18 +207,20 @@ pub fn build_specular_quads(
         .next()
         .map(|t| t.back().as_vec3())
         .unwrap_or(Vec3::Y);
-    for (hair, settings, mesh_settings, strand_list, highlights) in &hairs {
+    for (hair, settings, mesh_settings, strand_list, highlights, in_view) in &hairs {
         let existing = highlights.and_then(|h| h.iter().next());
+        // Hair no camera sees gets no quads (see `culling`).
+        let shown = settings.enabled && in_view.0;
         if let Some(e) = existing
             && let Ok(mut v) = visibility.get_mut(e)
         {
-            v.set_if_neq(if settings.enabled {
+            v.set_if_neq(if shown {
                 Visibility::Inherited
             } else {
                 Visibility::Hidden
             });
         }
-        let (Some(eye), true) = (eye, settings.enabled) else {
+        let (Some(eye), true) = (eye, shown) else {
             continue;
         };
         let handle = match existing.and_then(|e| highlight_meshes.get(e).ok()) {

@@ -11,14 +11,16 @@
 //!
 //! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006).
 
+pub mod culling;
 pub mod highlights;
 mod mass;
 pub mod tube;
 
+pub use culling::{HairCulling, HairCullingStats, HairInView};
 pub use mass::HairMassShape;
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::primitives::Aabb;
+use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::NoAutoAabb;
 use bevy::mesh::{Indices, PrimitiveTopology, VertexAttributeValues};
 use bevy::prelude::*;
@@ -127,11 +129,19 @@ impl Plugin for HairMeshPlugin {
             .register_type::<highlights::SpecularQuads>()
             .register_required_components::<Hair, HairMeshSettings>()
             .register_required_components::<Hair, highlights::SpecularQuads>()
+            .register_type::<culling::HairCulling>()
+            .register_type::<culling::HairInView>()
+            .register_type::<culling::HairCullingStats>()
+            .register_required_components::<Hair, culling::HairCulling>()
+            .register_required_components::<Hair, culling::HairInView>()
+            .init_resource::<culling::HairCullingStats>()
             .add_systems(
                 PostUpdate,
                 (rebuild_strand_meshes, highlights::build_specular_quads)
                     .chain()
-                    .in_set(HairSystems::BuildMesh),
+                    .in_set(HairSystems::BuildMesh)
+                    // Culling tests this frame's bounds against this frame's frusta.
+                    .after(bevy::camera::visibility::VisibilitySystems::UpdateFrusta),
             );
     }
 }
@@ -193,14 +203,21 @@ pub fn rebuild_strand_meshes(
         &HairStrands,
         Option<&mut ComputedHairMesh>,
         &ComputedHair,
+        (&HairCulling, &mut HairInView),
     )>,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
     mut aabbs: Query<&mut Aabb, With<HairMeshOf>>,
+    cameras: Query<(&Camera, &Frustum), With<Camera3d>>,
+    mut stats: ResMut<HairCullingStats>,
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = parallel::compute_pool();
-    for (hair, hair_assets, settings, global, strand_list, mut computed, sim) in &mut hairs {
+    let mut counted = HairCullingStats::default();
+    let any_camera = cameras.iter().any(|(c, _)| c.is_active);
+    for (hair, hair_assets, settings, global, strand_list, mut computed, sim, culling) in &mut hairs
+    {
+        let (culling, mut in_view) = culling;
         // A character scaled at run time keeps its tubes in proportion.
         let radius = settings.radius * sim.size();
         let (rings, sides) = settings_topology(settings);
@@ -288,13 +305,30 @@ pub fn rebuild_strand_meshes(
             .map(|x| taper.a * x * x + taper.b * x + taper.c)
             .filter(|h| h.is_finite())
             .fold(1.0f32, f32::max);
-        if let Some(bounds) = particle_bounds(scratch, radius * widest) {
+        let bounds = particle_bounds(scratch, radius * widest);
+        if let Some(bounds) = bounds {
             match aabbs.get_mut(computed.entity) {
                 Ok(mut aabb) => *aabb = bounds,
                 Err(_) => {
                     commands.entity(computed.entity).try_insert(bounds);
                 }
             }
+        }
+        // Hair no camera sees keeps its last mesh (see `culling`); with no camera at all
+        // there is nothing to judge by.
+        let seen = !culling.enabled
+            || !any_camera
+            || bounds.is_none_or(|b| {
+                culling::seen_by_any(
+                    &b,
+                    cameras.iter().filter(|(c, _)| c.is_active).map(|(_, f)| f),
+                )
+            });
+        in_view.set_if_neq(HairInView(seen));
+        counted.hairs += 1;
+        if !seen {
+            counted.culled += 1;
+            continue;
         }
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {
             continue;
@@ -371,6 +405,7 @@ pub fn rebuild_strand_meshes(
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
     }
+    stats.set_if_neq(counted);
 }
 
 /// The box around every finite particle, grown by `pad`; `None` if there is none.

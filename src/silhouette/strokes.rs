@@ -12,6 +12,7 @@
 //! buffer, which cannot tell a strand from itself and so drew outlines through self-overlapping
 //! strands (its Figure 4.18); a depth test has no such blind spot.
 
+use bevy::camera::primitives::{Aabb, Frustum};
 use bevy::camera::visibility::{NoFrustumCulling, RenderLayers};
 use bevy::core_pipeline::prepass::NormalPrepass;
 use bevy::prelude::*;
@@ -25,7 +26,8 @@ use super::strip::{StrokeCamera, StrokeParams, StrokeVertices, build_chain_strip
 use super::tube_edges::{TubeEdgeScratch, TubeEdges};
 use crate::curve::QuadraticCurve;
 use crate::math::finite_or;
-use crate::mesh::{ComputedHairMesh, HairMeshSettings, StripBuffers};
+use crate::mesh::culling::seen_by_any;
+use crate::mesh::{ComputedHairMesh, HairInView, HairMeshSettings, StripBuffers};
 use crate::sim::Hair;
 
 /// Object-space outline strokes of a hair (thesis 4.3.7). A component on the [`Hair`] entity,
@@ -251,6 +253,7 @@ pub fn extract_silhouettes(
             &HairMeshSettings,
             &ComputedHairMesh,
             Option<&mut ComputedSilhouettes>,
+            &HairInView,
         ),
         With<Hair>,
     >,
@@ -262,9 +265,11 @@ pub fn extract_silhouettes(
             Has<SilhouetteCamera>,
             Option<&RenderLayers>,
             Option<&StrokeLayer>,
+            Option<&Frustum>,
         ),
         With<Camera3d>,
     >,
+    bounds: Query<&Aabb>,
     mut visibility: Query<&mut Visibility>,
     mut builder: Local<StrokeBuilder>,
 ) {
@@ -282,7 +287,7 @@ pub fn extract_silhouettes(
     let layer_of = |slot: usize| layered.then_some(FIRST_STROKE_LAYER + slot);
     // Each camera sees its strokes' layer; a camera that no longer gets strokes of its own
     // loses the layer it was given.
-    for (camera, _, _, _, layers, given) in &cameras {
+    for (camera, _, _, _, layers, given, _) in &cameras {
         let slot = views.iter().position(|(e, ..)| *e == camera);
         let wanted = slot.and_then(layer_of);
         if wanted == given.map(|g| g.layer) {
@@ -304,7 +309,7 @@ pub fn extract_silhouettes(
         }
     }
     let pool = crate::parallel::compute_pool();
-    for (hair, settings, mesh_settings, hair_mesh, computed) in &mut hairs {
+    for (hair, settings, mesh_settings, hair_mesh, computed, in_view) in &mut hairs {
         let topology = &hair_mesh.topology;
         let tube = TubeEdges::new(topology);
         let mut computed = match computed {
@@ -330,14 +335,27 @@ pub fn extract_silhouettes(
             }
             keep
         });
-        let want = if settings.enabled {
-            Visibility::Inherited
-        } else {
-            Visibility::Hidden
+        // Strokes only for cameras that see the hair (see `mesh::culling`): the hair's bounds
+        // against each camera's frustum. Without bounds or a frustum, the camera sees it.
+        let hair_bounds = bounds.get(hair_mesh.entity).ok();
+        let sees = |frustum: Option<&Frustum>| {
+            in_view.0
+                && match (hair_bounds, frustum) {
+                    (Some(b), Some(f)) => seen_by_any(b, std::iter::once(f)),
+                    _ => true,
+                }
         };
-        for &entity in computed.views.iter().flat_map(|v| &v.entities) {
-            if let Ok(mut v) = visibility.get_mut(entity) {
-                v.set_if_neq(want);
+        for view in &computed.views {
+            let frustum = cameras.get(view.camera).ok().and_then(|c| c.6);
+            let want = if settings.enabled && sees(frustum) {
+                Visibility::Inherited
+            } else {
+                Visibility::Hidden
+            };
+            for &entity in &view.entities {
+                if let Ok(mut v) = visibility.get_mut(entity) {
+                    v.set_if_neq(want);
+                }
             }
         }
         if !settings.enabled {
@@ -346,10 +364,15 @@ pub fn extract_silhouettes(
         // Pull strokes toward the viewer (see the module docs on visibility).
         let params = settings.stroke_params(mesh_settings.radius);
         computed.chains = 0;
-        for (slot, (camera_entity, camera, camera_transform, ..)) in views.iter().enumerate() {
+        for (slot, (camera_entity, camera, camera_transform, .., frustum)) in
+            views.iter().enumerate()
+        {
             let Some(viewport) = camera.physical_viewport_size() else {
                 continue;
             };
+            if !sees(*frustum) {
+                continue;
+            }
             let stroke_camera = StrokeCamera::from_view(
                 camera_transform.to_matrix(),
                 camera.clip_from_view(),

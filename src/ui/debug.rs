@@ -7,6 +7,7 @@ use bevy_egui::{EguiContexts, egui};
 
 use super::HairTuningUi;
 use crate::debug::{HairDebugDraw, HairStageTimings};
+use crate::mesh::HairCullingStats;
 use crate::sim::{ComputedHair, HairTime, HairTimeExt};
 
 /// The Debug window.
@@ -16,6 +17,7 @@ pub(super) fn debug_window(
     mut hair_time: ResMut<Time<HairTime>>,
     timings: Res<HairStageTimings>,
     tuning: Res<HairTuningUi>,
+    culling: Res<HairCullingStats>,
     hairs: Query<&ComputedHair>,
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
@@ -70,6 +72,11 @@ pub(super) fn debug_window(
                         ui.end_row();
                     }
                 });
+            ui.label(format!(
+                "Culled: {} of {} hairs",
+                culling.culled, culling.hairs
+            ))
+            .on_hover_text("Hair no camera sees: simulated, but no mesh, strokes or highlights");
 
             ui.separator();
             let Some(computed) = tuning.hair.and_then(|h| hairs.get(h).ok()) else {

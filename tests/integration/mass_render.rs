@@ -337,7 +337,7 @@ fn angel_ring_crosses_the_hair_and_follows_the_light() -> Result<(), Failed> {
 fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Failed> {
     use bevy::camera::primitives::Aabb;
     use bevy::camera::visibility::{NoFrustumCulling, ViewVisibility};
-    use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairMeshOf};
+    use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairCulling, HairCullingStats, HairMeshOf};
     use bevy_cartoon_hair::sim::{StrandOf, StrandParticles};
 
     let mut r = scene(Vec3::new(1.0, 0.2, 0.5), Vec3::new(0.0, 0.0, 3.0))?;
@@ -403,6 +403,48 @@ fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Fa
     let (a, b) = check(&mut r)?;
     if a || !b {
         return Err(format!("after the swap: visible {a} (moved aside), {b} (moved in)").into());
+    }
+    // The hair no camera sees keeps its last mesh (culled: not rebuilt), while its bounds
+    // follow its particles; the hair that came into view was rebuilt in that same frame.
+    let centre_x = |r: &mut HeadlessRenderer, hair: Entity| -> Result<f32, Failed> {
+        let world = r.app.world();
+        let handle = world
+            .get::<ComputedHairMesh>(hair)
+            .ok_or("no hair mesh")?
+            .mesh
+            .clone();
+        let mesh = world
+            .resource::<Assets<Mesh>>()
+            .get(&handle)
+            .ok_or("the mesh asset is gone")?;
+        let p = mesh
+            .attribute(Mesh::ATTRIBUTE_POSITION)
+            .and_then(|a| a.as_float3())
+            .ok_or("no positions")?;
+        Ok(p.iter().map(|v| v[0]).sum::<f32>() / p.len().max(1) as f32)
+    };
+    let (aside, came_in) = (centre_x(&mut r, seen)?, centre_x(&mut r, hidden)?);
+    let stats = *r.app.world().resource::<HairCullingStats>();
+    eprintln!(
+        "after the swap: the culled hair's mesh is centred at x = {aside:.2} (its particles near \
+         -20), the one that came in at x = {came_in:.2}; culled {} of {}",
+        stats.culled, stats.hairs
+    );
+    if aside.abs() > 2.0 || came_in.abs() > 2.0 || stats.culled != 1 || stats.hairs != 2 {
+        return Err(format!(
+            "culled mesh at x {aside}, rebuilt mesh at x {came_in}, stats {stats:?}"
+        )
+        .into());
+    }
+    // With culling off, the hair aside is rebuilt where its particles are.
+    r.app
+        .world_mut()
+        .entity_mut(seen)
+        .insert(HairCulling { enabled: false });
+    r.capture()?;
+    let rebuilt = centre_x(&mut r, seen)?;
+    if (rebuilt + 20.0).abs() > 2.0 {
+        return Err(format!("with culling off the mesh is at x {rebuilt}, not near -20").into());
     }
     Ok(())
 }

@@ -1,0 +1,60 @@
+//! Work skipped for hair that no camera sees.
+//!
+//! Every frame, after Bevy has updated the cameras' frusta, the hair's bounds (its particles,
+//! grown by the thickest tube) are tested against the frustum of every active 3D camera. Hair
+//! outside all of them ([`HairInView`] false) keeps simulating, so it is right when it comes
+//! back, but its tube mesh is not rebuilt and it gets no strokes or specular quads. A hair that
+//! comes into view is rebuilt in that same frame (the test uses this frame's bounds and
+//! frusta), so nothing stale is ever drawn. In an app with no active 3D camera (a server, a
+//! simulation test) nothing is culled.
+//!
+//! What this costs you: a culled hair's shadow keeps the last pose it was built in. Switch
+//! [`HairCulling::enabled`] off for hair whose shadow falls into view from off screen.
+
+use bevy::camera::primitives::{Aabb, Frustum};
+use bevy::math::Affine3A;
+use bevy::prelude::*;
+
+/// Whether a hair's mesh, strokes and specular quads are skipped while no camera sees it (see
+/// the [module docs](self)). A component on the [`Hair`](crate::sim::Hair) entity, inserted with
+/// defaults when missing.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairCulling {
+    /// Skip the work of hair outside every camera's view. Default: `true`.
+    pub enabled: bool,
+}
+
+impl Default for HairCulling {
+    fn default() -> Self {
+        Self { enabled: true }
+    }
+}
+
+/// Whether any active 3D camera saw the hair this frame (always `true` with culling off, or
+/// before its bounds are known). Set in [`HairSystems::BuildMesh`](crate::HairSystems), read by
+/// the stages after it.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairInView(pub bool);
+
+impl Default for HairInView {
+    fn default() -> Self {
+        Self(true)
+    }
+}
+
+/// How many hairs were culled in the last frame (shown by the debug panel).
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Resource, Debug, Default)]
+pub struct HairCullingStats {
+    /// Hairs with a mesh.
+    pub hairs: usize,
+    /// Of those, hairs no camera saw: not rebuilt, no strokes, no specular quads.
+    pub culled: usize,
+}
+
+/// Whether world-space `bounds` meet the frustum of any of `frusta`.
+pub fn seen_by_any<'a>(bounds: &Aabb, mut frusta: impl Iterator<Item = &'a Frustum>) -> bool {
+    frusta.any(|f| f.intersects_obb(bounds, &Affine3A::IDENTITY, true, true))
+}
