@@ -12,6 +12,14 @@
 //!   (`silhouettes/plugin_2_threads_*`) and the general closed-mesh path beside the tube one.
 //! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
 //!   10 candidates).
+//! - `frame/*`: the whole `app.update()` with every CPU stage of the hair on (simulation, tube
+//!   mesh, object-space strokes for a 1280x720 camera, specular quads), each beside the same app
+//!   without hair (`*_no_hair`): W1, the thesis default (100 x 6, 8 rings x 8 sides); W6, a
+//!   crowd of 16 heads of 160 x 7 at 2 to 24.5 m, half of them behind the camera, with culling
+//!   and with it off; W2, 10,000 x 16 on one hair. There is no render app here (no GPU on the
+//!   bench machine): material assignment and the upload of meshes to the GPU are not measured.
+//!   After each, the stage times of `HairStageTimings` (smoothed over about ten frames) are
+//!   printed.
 #![expect(
     missing_docs,
     reason = "criterion's macros define undocumented functions"
@@ -476,8 +484,170 @@ fn bench_solver(c: &mut Criterion) {
     group.finish();
 }
 
+/// A camera at `eye` looking at `target`, 1280x720, its projection and frustum set by hand (the
+/// bench app has no camera or render plugins to do it).
+fn bench_camera(world: &mut World, eye: Vec3, target: Vec3) {
+    use bevy::camera::primitives::Frustum;
+    use bevy::camera::{CameraProjection, RenderTargetInfo};
+    let transform = Transform::from_translation(eye).looking_at(target, Vec3::Y);
+    let projection = PerspectiveProjection {
+        aspect_ratio: 16.0 / 9.0,
+        ..default()
+    };
+    let clip_from_view = projection.get_clip_from_view();
+    let global = GlobalTransform::from(transform);
+    let projection = Projection::Perspective(projection);
+    let frustum: Frustum = projection.compute_frustum(&global);
+    let mut camera = Camera::default();
+    camera.computed.clip_from_view = clip_from_view;
+    camera.computed.target_info = Some(RenderTargetInfo {
+        physical_size: UVec2::new(1280, 720),
+        scale_factor: 1.0,
+    });
+    world.spawn((
+        Camera3d::default(),
+        camera,
+        projection,
+        transform,
+        global,
+        frustum,
+    ));
+}
+
+/// One head of hair for [`frame_app`]: where its bone is, its strands and particles, its tube
+/// rings and sides.
+#[derive(Clone, Copy)]
+struct Head {
+    at: Vec3,
+    strands: usize,
+    particles: usize,
+    rings: u32,
+    sides: u32,
+}
+
+/// The app of the `frame` benches: every CPU stage of the hair, a camera at the origin looking
+/// down -Z, and `heads` (none: the app's own cost).
+fn frame_app(heads: &[Head], culling: bool) -> App {
+    use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
+    use bevy_cartoon_hair::mesh::{HairCulling, HairMeshPlugin, HairMeshSettings};
+    use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
+    let mut app = App::new();
+    app.add_plugins((
+        minimal_plugins(),
+        TransformPlugin,
+        AssetPlugin::default(),
+        bevy::diagnostic::DiagnosticsPlugin,
+        HairAssetPlugin,
+        HairSchedulePlugin,
+        HairSimulationPlugin,
+        HairMeshPlugin,
+        HairSilhouettePlugin,
+        bevy_cartoon_hair::debug::HairStageTimingsPlugin,
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    for head in heads {
+        let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
+        let world = app.world_mut();
+        let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+        let bone = world.spawn(Transform::from_translation(head.at)).id();
+        world.spawn((
+            Hair { groom, ..default() },
+            HairSimSettings::default(),
+            HairMeshSettings {
+                hair_resolution: head.rings,
+                shape_resolution: head.sides,
+                ..default()
+            },
+            SilhouetteSettings::default(),
+            SpecularQuads {
+                enabled: true,
+                ..default()
+            },
+            HairCulling { enabled: culling },
+            ChildOf(bone),
+        ));
+    }
+    for _ in 0..5 {
+        app.update();
+    }
+    app
+}
+
+fn print_stages(name: &str, app: &App) {
+    let t = app
+        .world()
+        .resource::<bevy_cartoon_hair::debug::HairStageTimings>();
+    let culled = app
+        .world()
+        .get_resource::<bevy_cartoon_hair::mesh::HairCullingStats>()
+        .copied()
+        .unwrap_or_default();
+    let stages: Vec<String> = t
+        .stages()
+        .iter()
+        .map(|(n, ms)| format!("{n} {ms:.3} ms"))
+        .collect();
+    println!(
+        "{name} stages: {}; culled {} of {} hairs",
+        stages.join(", "),
+        culled.culled,
+        culled.hairs
+    );
+}
+
+fn bench_frame(c: &mut Criterion) {
+    let w1 = [Head {
+        at: Vec3::new(0.0, -0.1, -1.0),
+        strands: 100,
+        particles: 6,
+        rings: 8,
+        sides: 8,
+    }];
+    // 16 heads from 2 m to 24.5 m away; the odd ones behind the camera.
+    let w6: Vec<Head> = (0..16)
+        .map(|i| {
+            let d = 2.0 + 1.5 * i as f32;
+            let side = if i % 2 == 0 { -1.0 } else { 1.0 };
+            Head {
+                at: Vec3::new(0.3 * (i % 4) as f32 - 0.45, -0.2, side * d),
+                strands: 160,
+                particles: 7,
+                rings: 16,
+                sides: 8,
+            }
+        })
+        .collect();
+    let w2 = [Head {
+        at: Vec3::new(0.0, -0.1, -1.0),
+        strands: 10_000,
+        particles: 16,
+        rings: 16,
+        sides: 8,
+    }];
+    let mut group = c.benchmark_group("frame");
+    let mut app = frame_app(&[], true);
+    group.bench_function("no_hair", |b| b.iter(|| app.update()));
+    for (name, heads, culling, samples) in [
+        ("W1_thesis_100x6", &w1[..], true, 100),
+        ("W6_crowd_16x160x7", &w6[..], true, 30),
+        ("W6_crowd_16x160x7_no_culling", &w6[..], false, 20),
+        ("W2_10000x16", &w2[..], true, 10),
+    ] {
+        group.sample_size(samples);
+        let mut app = frame_app(heads, culling);
+        group.bench_function(name, |b| b.iter(|| app.update()));
+        print_stages(name, &app);
+    }
+    group.finish();
+}
+
 criterion_group!(
     benches,
+    bench_frame,
     bench_sim,
     bench_solver,
     bench_load,

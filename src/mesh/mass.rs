@@ -100,13 +100,57 @@ impl MassField {
     /// Leans each normal toward the field's normal at its position (normalised linear blend).
     /// Where the two cancel, or at the centre, the tube's own normal stays.
     pub(crate) fn apply(&self, positions: &[[f32; 3]], normals: &mut [[f32; 3]]) {
-        for (p, n) in positions.iter().zip(normals) {
-            let own = Vec3A::from_array(*n);
-            let field = (self.metric * (Vec3A::from_array(*p) - self.centre)).normalize_or_zero();
-            let blended = own.lerp(field, self.weight);
-            let l2 = blended.length_squared();
-            if l2 > 1e-12 && l2.is_finite() {
-                *n = (blended * l2.sqrt().recip()).to_array();
+        // Eight vertices at a time in coordinate rows, with no branch in the arithmetic, so the
+        // compiler vectorises across vertices (the per-vertex form was a tenth of a frame of
+        // 10,000 strands).
+        const W: usize = 8;
+        let m = self.metric;
+        let (c, w) = (self.centre, self.weight);
+        let mut p_chunks = positions.chunks(W);
+        for ns in normals.chunks_mut(W) {
+            let Some(ps) = p_chunks.next() else {
+                break;
+            };
+            let k = ns.len().min(ps.len());
+            let mut out = [[0.0f32; W]; 3];
+            let mut keep = [false; W];
+            let (mut px, mut py, mut pz) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
+            let (mut nx, mut ny, mut nz) = ([0.0f32; W], [0.0f32; W], [0.0f32; W]);
+            for i in 0..k {
+                [px[i], py[i], pz[i]] = ps[i];
+                [nx[i], ny[i], nz[i]] = ns[i];
+            }
+            for i in 0..W {
+                let d = [px[i] - c.x, py[i] - c.y, pz[i] - c.z];
+                let f = [
+                    m.x_axis.x * d[0] + m.y_axis.x * d[1] + m.z_axis.x * d[2],
+                    m.x_axis.y * d[0] + m.y_axis.y * d[1] + m.z_axis.y * d[2],
+                    m.x_axis.z * d[0] + m.y_axis.z * d[1] + m.z_axis.z * d[2],
+                ];
+                let fl2 = f[0] * f[0] + f[1] * f[1] + f[2] * f[2];
+                // `normalize_or_zero`: no field at the centre.
+                let fi = if fl2 > 0.0 && fl2.is_finite() {
+                    fl2.sqrt().recip()
+                } else {
+                    0.0
+                };
+                let b = [
+                    nx[i] + (f[0] * fi - nx[i]) * w,
+                    ny[i] + (f[1] * fi - ny[i]) * w,
+                    nz[i] + (f[2] * fi - nz[i]) * w,
+                ];
+                let l2 = b[0] * b[0] + b[1] * b[1] + b[2] * b[2];
+                keep[i] = l2 > 1e-12 && l2.is_finite();
+                let inv = if keep[i] { l2.sqrt().recip() } else { 0.0 };
+                for a in 0..3 {
+                    out[a][i] = b[a] * inv;
+                }
+            }
+            // Where the two cancel, the tube's own normal stays.
+            for i in 0..k {
+                if keep[i] {
+                    ns[i] = [out[0][i], out[1][i], out[2][i]];
+                }
             }
         }
     }
