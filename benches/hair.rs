@@ -1,7 +1,8 @@
 //! Criterion benches for the issue targets. Run: `cargo bench --bench hair`.
 //!
 //! - `sim_frame/*`: one 60 Hz frame (default substeps) of the whole app update, for the thesis
-//!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands.
+//!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands; with a gusty wind; with hair–hair
+//!   volume (`*_volume`).
 //! - `solver_frame/*`: the solver alone for the same workloads, one thread (no Bevy frame, no
 //!   copy into strand entities).
 //! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
@@ -156,6 +157,30 @@ fn bench_sim(c: &mut Criterion) {
         ..Default::default()
     });
     group.bench_function("1000x16_wind", |b| b.iter(|| app.update()));
+    // The same frames with hair–hair volume: with a radius of half the roots' spacing (the
+    // strands touch at the roots, as guide strands a tube apart do), and with the default 16 mm
+    // (tubes overlapping many times over: the worst case, bounded by `MAX_PUSHES`).
+    for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
+        // Roots on a 0.1 m half sphere: spacing sqrt(2 pi 0.1^2 / n).
+        let spacing = (std::f32::consts::TAU * 0.01 / n as f32).sqrt();
+        for (name, radius) in [("touching", Some(0.5 * spacing)), ("16mm", None)] {
+            let mut app = hair_app(n, p);
+            let world = app.world_mut();
+            let mut q = world.query::<&mut HairSimSettings>();
+            for mut s in q.iter_mut(world) {
+                s.volume = Some(bevy_cartoon_hair::sim::HairVolume {
+                    radius,
+                    ..Default::default()
+                });
+            }
+            for _ in 0..3 {
+                app.update();
+            }
+            group.bench_function(format!("{n}x{p}_volume_{name}"), |b| {
+                b.iter(|| app.update());
+            });
+        }
+    }
     group.finish();
     let mut group = c.benchmark_group("rapier_chains");
     group.sample_size(10);

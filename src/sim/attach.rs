@@ -112,6 +112,9 @@ pub struct ComputedHair {
     pub(crate) animation_time: f32,
     /// Substeps simulated since the hair was built: the wind's clock (exact at any frame rate).
     pub(crate) substeps_done: u64,
+    /// The hair–hair volume pass's buffers.
+    #[reflect(ignore)]
+    pub(crate) volume: super::VolumeScratch,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }
@@ -128,6 +131,8 @@ pub struct HairStepStats {
     pub invalid_bone_frames: u32,
     /// Strands reset because their state stopped being finite.
     pub strand_resets: u32,
+    /// Pairs of particles of different strands the hair–hair volume pushed apart last frame.
+    pub volume_pairs: u32,
 }
 
 impl ComputedHair {

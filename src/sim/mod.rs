@@ -35,6 +35,7 @@ pub mod solver;
 mod step;
 #[cfg(test)]
 mod tests;
+mod volume;
 mod wind;
 
 pub use attach::{
@@ -53,6 +54,7 @@ pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
+pub use volume::{HairVolume, VolumeScratch, keep_apart};
 pub use wind::{HairWind, HairWindOverride};
 
 use bevy::prelude::*;
@@ -79,6 +81,7 @@ impl Plugin for HairSimulationPlugin {
         app.init_resource::<HairSimControl>()
             .init_resource::<HairWind>()
             .register_type::<HairWind>()
+            .register_type::<HairVolume>()
             .register_type::<HairWindOverride>()
             .init_resource::<Time<HairTime>>()
             .add_systems(

@@ -6,6 +6,8 @@ use crate::math::finite_or;
 
 use crate::curve::QuadraticCurve;
 
+use super::HairVolume;
+
 /// How a hair moves. A component on the entity that holds [`Hair`](super::Hair); inserted with
 /// defaults when missing. Changing it takes effect on the next frame without rebuilding strands,
 /// except [`HairSimSettings::structure_offset`], which rebuilds them.
@@ -58,6 +60,10 @@ pub struct HairSimSettings {
     /// sphere, its velocity kept. Like VRM's angle limits and Magica Cloth's backstop: bangs stay
     /// out of the face however hard the head shakes. `None`: no limit. Default: `None`.
     pub style_limit: Option<f32>,
+    /// Hair–hair volume: strands of this hair keep apart instead of passing through each other
+    /// (see [`HairVolume`]). `None`: strands pass through each other, as in the thesis.
+    /// Default: `None`.
+    pub volume: Option<HairVolume>,
     /// A bone that turns more than this in one frame (radians) teleported, as above.
     /// Default: `PI / 2` (90 degrees).
     pub teleport_angle: f32,
@@ -91,6 +97,7 @@ impl Default for HairSimSettings {
             teleport_distance: 1.0,
             max_stretch: 1.1,
             style_limit: None,
+            volume: None,
             teleport_angle: std::f32::consts::FRAC_PI_2,
             margin_min: 0.005,
             margin_max: 0.015,

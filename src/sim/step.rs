@@ -50,6 +50,7 @@ pub(crate) fn step_hair_strands(
         &GlobalTransform,
         &HairSimSettings,
         &mut ComputedHair,
+        Option<&crate::mesh::HairMeshSettings>,
     )>,
     own: Query<(Entity, &HairCollider, &GlobalTransform)>,
     animations: Res<Assets<crate::asset::HairAnimation>>,
@@ -70,7 +71,7 @@ pub(crate) fn step_hair_strands(
         .poses
         .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = parallel::compute_pool();
-    for (hair_entity, hair, global, settings, mut computed) in &mut hairs {
+    for (hair_entity, hair, global, settings, mut computed, mesh_settings) in &mut hairs {
         let computed = &mut *computed;
         let full = global.affine();
         if !usable_frame(&full) {
@@ -283,6 +284,22 @@ pub(crate) fn step_hair_strands(
             }
         });
         computed.stats.strand_resets += resets.load(Ordering::Relaxed);
+        // Hair–hair volume, once a frame after the last substep.
+        computed.stats.volume_pairs = 0;
+        if let (Some(volume), false) = (settings.volume, input.bones.is_empty()) {
+            let radius = volume
+                .radius
+                .or(mesh_settings.map(|m| m.radius))
+                .unwrap_or_else(|| crate::mesh::HairMeshSettings::default().radius)
+                * computed.size;
+            let ComputedHair {
+                batches,
+                volume: scratch,
+                ..
+            } = computed;
+            let pairs = super::keep_apart(batches, radius, volume.stiffness, scratch);
+            computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
+        }
     }
 }
 

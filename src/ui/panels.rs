@@ -255,6 +255,18 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
                 Some(m)
             }
         };
+        let mut volume = s.volume.is_some();
+        ui.label("Volume");
+        ui.checkbox(&mut volume, "strands keep apart");
+        ui.end_row();
+        s.volume = match (volume, s.volume) {
+            (false, _) => None,
+            (true, v) => {
+                let mut v = v.unwrap_or_default();
+                slider_row(ui, "Volume stiffness", &mut v.stiffness, 0.0..=1.0);
+                Some(v)
+            }
+        };
         ui.label("Gravity");
         ui.horizontal(|ui| {
             for (name, v) in [
