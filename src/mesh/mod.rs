@@ -207,9 +207,11 @@ pub fn rebuild_strand_meshes(
     )>,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
-    mut aabbs: Query<&mut Aabb, With<HairMeshOf>>,
-    cameras: Query<(&Camera, &Frustum), With<Camera3d>>,
-    mut stats: ResMut<HairCullingStats>,
+    (mut aabbs, cameras, mut stats): (
+        Query<&mut Aabb, With<HairMeshOf>>,
+        Query<(&Camera, &Frustum), With<Camera3d>>,
+        ResMut<HairCullingStats>,
+    ),
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = parallel::compute_pool();

@@ -40,6 +40,10 @@ pub(crate) fn interpolate(a: &Affine3A, b: &Affine3A, t: f32) -> Affine3A {
 
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
 /// teleports carried, unusable bones skipped, non-finite strands reset.
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub(crate) fn step_hair_strands(
     time: Res<Time<HairTime>>,
     mut history: ResMut<ColliderHistory>,

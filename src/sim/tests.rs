@@ -1976,7 +1976,7 @@ fn hair_volume_keeps_a_hanging_hair_fuller() {
         assert!(s.iter().flatten().all(|p| p.is_finite()));
         s.iter()
             .map(|p| {
-                let d = Vec3::from(*p.last().unwrap() - Vec3::from(axis));
+                let d = *p.last().unwrap() - Vec3::from(axis);
                 Vec2::new(d.x, d.z).length()
             })
             .sum::<f32>()
