@@ -165,8 +165,8 @@ impl StrokeMaterials {
     /// The material of `scope`.
     pub fn of(&self, scope: StrokeScope) -> &Handle<HairStrokeMaterial> {
         match scope {
+            StrokeScope::Mass => &self.mass,
             StrokeScope::Strands => &self.strands,
-            _ => &self.mass,
         }
     }
 }

@@ -57,6 +57,8 @@ pub struct VolumeScratch {
     bucket: Vec<u32>,
     /// Each particle's cell.
     cells: Vec<[i32; 3]>,
+    /// Where the next particle of each bucket goes while filling `sorted`.
+    fill: Vec<u32>,
     /// Summed push per particle.
     delta: Vec<Vec3A>,
 }
@@ -137,13 +139,11 @@ pub fn keep_apart(
     }
     s.sorted.clear();
     s.sorted.resize(n, 0);
-    {
-        // Fill from each bucket's start; `start` is restored by the shift below.
-        let mut fill = s.start.clone();
-        for (i, &h) in s.bucket.iter().enumerate() {
-            s.sorted[fill[h as usize] as usize] = i as u32;
-            fill[h as usize] += 1;
-        }
+    s.fill.clear();
+    s.fill.extend_from_slice(&s.start);
+    for (i, &h) in s.bucket.iter().enumerate() {
+        s.sorted[s.fill[h as usize] as usize] = i as u32;
+        s.fill[h as usize] += 1;
     }
     s.delta.clear();
     s.delta.resize(n, Vec3A::ZERO);

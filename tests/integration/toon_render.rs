@@ -187,6 +187,24 @@ fn toon_bands_no_more_than_ramp_tones() -> Result<(), Failed> {
     Ok(())
 }
 
+/// For a camera at z = 4: a strand from `near.0` to `near.1` of radius `near.2` about 1 m away
+/// (the left half of the frame), and an upright one 9 m away on the right, scaled up to look
+/// about as large; both drawn with `material`.
+fn spawn_near_and_far(
+    r: &mut HeadlessRenderer,
+    near: (Vec3, Vec3, f32),
+    material: ToonHairMaterial,
+) {
+    spawn_strand(r, near.0, near.1, near.2, material.clone());
+    spawn_strand(
+        r,
+        Vec3::new(2.0, -3.0, -5.0),
+        Vec3::new(2.0, 3.0, -5.0),
+        0.6,
+        material,
+    );
+}
+
 /// Depth detail: a far strand is washed out (lighter on average) compared with a near one.
 fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
     let mut r = scene(Vec3::new(1.0, 0.2, 0.3), Vec3::new(0.0, 0.0, 4.0))?;
@@ -200,19 +218,10 @@ fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
         },
         ramp,
     );
-    // Near (left, 1 m from the camera) and far (right, 9 m away, scaled up to look as large).
-    spawn_strand(
+    // Near (left, upright) and far.
+    spawn_near_and_far(
         &mut r,
-        Vec3::new(-0.2, -0.3, 3.0),
-        Vec3::new(-0.2, 0.3, 3.0),
-        0.06,
-        material.clone(),
-    );
-    spawn_strand(
-        &mut r,
-        Vec3::new(2.0, -3.0, -5.0),
-        Vec3::new(2.0, 3.0, -5.0),
-        0.6,
+        (Vec3::new(-0.2, -0.3, 3.0), Vec3::new(-0.2, 0.3, 3.0), 0.06),
         material,
     );
     let frame = r.capture()?;
@@ -258,19 +267,10 @@ fn depth_detail_back_light_and_specular_ramp_combine() -> Result<(), Failed> {
             },
             ramp,
         );
-        // Near (left, lying across, 1 m from the camera) and far (right, 9 m away, scaled up).
-        spawn_strand(
+        // Near (left, lying across) and far.
+        spawn_near_and_far(
             &mut r,
-            Vec3::new(-0.38, 0.0, 3.0),
-            Vec3::new(-0.04, 0.0, 3.0),
-            0.08,
-            material.clone(),
-        );
-        spawn_strand(
-            &mut r,
-            Vec3::new(2.0, -3.0, -5.0),
-            Vec3::new(2.0, 3.0, -5.0),
-            0.6,
+            (Vec3::new(-0.38, 0.0, 3.0), Vec3::new(-0.04, 0.0, 3.0), 0.08),
             material,
         );
         Ok(r.capture()?)
