@@ -273,17 +273,58 @@ fn draw_hair_debug(
         }
     }
     if draw.colliders {
+        let colour = Color::srgb(1.0, 0.5, 0.1);
         for (collider, global) in &colliders {
-            let scale = global.scale().x.abs();
-            for sphere in &collider.spheres {
-                gizmos
-                    .sphere(
-                        global.transform_point(sphere.center),
-                        sphere.radius * scale,
-                        Color::srgb(1.0, 0.5, 0.1),
-                    )
-                    .resolution(16);
+            let pose = global.affine();
+            for shape in collider.shapes() {
+                draw_shape(&mut gizmos, &shape.at(&pose), colour);
             }
+        }
+    }
+}
+
+/// One collider shape as gizmo lines.
+fn draw_shape(
+    gizmos: &mut Gizmos<HairDebugGizmos>,
+    shape: &crate::sim::solver::ContactShape,
+    colour: Color,
+) {
+    use crate::sim::solver::ContactShape;
+    match *shape {
+        ContactShape::Sphere { centre, radius } => {
+            gizmos
+                .sphere(Vec3::from(centre), radius, colour)
+                .resolution(16);
+        }
+        ContactShape::Capsule { a, b, radius } => {
+            let (a, b) = (Vec3::from(a), Vec3::from(b));
+            gizmos.sphere(a, radius, colour).resolution(12);
+            gizmos.sphere(b, radius, colour).resolution(12);
+            let axis = (b - a).normalize_or(Vec3::Y);
+            let side = axis.any_orthonormal_vector() * radius;
+            let other = axis.cross(side);
+            for offset in [side, -side, other, -other] {
+                gizmos.line(a + offset, b + offset, colour);
+            }
+        }
+        ContactShape::Plane { point, normal } => {
+            let (p, n) = (Vec3::from(point), Vec3::from(normal));
+            let (u, v) = n.any_orthonormal_pair();
+            for i in -4..=4 {
+                let f = i as f32 * 0.1;
+                gizmos.line(p + u * f - v * 0.4, p + u * f + v * 0.4, colour);
+                gizmos.line(p + v * f - u * 0.4, p + v * f + u * 0.4, colour);
+            }
+            gizmos.arrow(p, p + n * 0.1, colour);
+        }
+        ContactShape::Box { centre, axes, half } => {
+            let rotation = Quat::from_mat3a(&axes);
+            gizmos.cube(
+                Transform::from_translation(centre.into())
+                    .with_rotation(rotation)
+                    .with_scale(Vec3::from(half) * 2.0),
+                colour,
+            );
         }
     }
 }

@@ -35,8 +35,8 @@ pub use animation::{
     resolve_key_path,
 };
 pub use collision::{
-    COLLISION_BYTE_LIMIT, CollisionSphere, HeadCollision, HeadCollisionLoader, MAX_SPHERES,
-    parse_collision,
+    COLLISION_BYTE_LIMIT, CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere,
+    HeadCollision, HeadCollisionLoader, MAX_SHAPES, MAX_SPHERES, parse_collision,
 };
 pub use error::{BYTES_PER_ELEMENT, HairAssetError, MAX_COORDINATE, SCALE_RANGE};
 pub use groom::{

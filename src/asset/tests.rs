@@ -153,12 +153,16 @@ fn counts_above_the_limits_are_refused() {
     );
     let e = err(parse_groom("many.hair.xml", &many));
     assert!(e.message.contains("more than 1000000 strands"), "{e}");
-    let spheres = "<sphere x=\"0\" y=\"0\" z=\"0\" r=\"1\"/>".repeat(MAX_SPHERES + 1);
+    // Shapes of every kind count together toward the limit.
+    let pair = "<sphere x=\"0\" y=\"0\" z=\"0\" r=\"1\"/>\
+                <capsule x0=\"0\" y0=\"0\" z0=\"0\" x1=\"0\" y1=\"1\" z1=\"0\" r=\"1\"/>";
+    let shapes =
+        pair.repeat(MAX_SHAPES / 2) + "<plane x=\"0\" y=\"0\" z=\"0\" nx=\"0\" ny=\"1\" nz=\"0\"/>";
     let e = err(parse_collision(
         "c.collision.xml",
-        &format!("<collision version=\"1\">{spheres}</collision>"),
+        &format!("<collision version=\"1\">{shapes}</collision>"),
     ));
-    assert!(e.message.contains("more than 4096 spheres"), "{e}");
+    assert!(e.message.contains("more than 4096 shapes"), "{e}");
 }
 
 #[test]
@@ -186,6 +190,58 @@ fn collision_reads_spheres_and_refuses_bad_radii() {
         "<collision version=\"1\"/>",
     ));
     assert!(e.message.contains("no <sphere>"), "{e}");
+}
+
+#[test]
+fn collision_reads_capsules_and_planes_and_refuses_bad_ones() {
+    let c = parse_collision(
+        "c.collision.xml",
+        "<collision version=\"1\" scale=\"2\" bone=\"head\">\n\
+         <capsule x0=\"0\" y0=\"2\" z0=\"0\" x1=\"2\" y1=\"2\" z1=\"0\" r=\"0.5\"/>\n\
+         <plane x=\"0\" y=\"-2\" z=\"0\" nx=\"0\" ny=\"3\" nz=\"0\"/>\n\
+         </collision>",
+    )
+    .unwrap();
+    assert!(c.spheres.is_empty());
+    assert_eq!(
+        c.capsules,
+        vec![CollisionCapsule {
+            a: Vec3::new(0.0, 1.0, 0.0),
+            b: Vec3::new(1.0, 1.0, 0.0),
+            radius: 0.25
+        }]
+    );
+    assert_eq!(
+        c.planes,
+        vec![CollisionPlane {
+            point: Vec3::new(0.0, -1.0, 0.0),
+            normal: Vec3::Y,
+        }]
+    );
+    let e = err(parse_collision(
+        "c.collision.xml",
+        "<collision version=\"1\">\n<capsule x0=\"0\" y0=\"0\" z0=\"0\" x1=\"0\" y1=\"0\" z1=\"0\" r=\"0\"/></collision>",
+    ));
+    assert!(
+        e.message
+            .contains("capsule 0: radius must be greater than 0")
+            && e.line == 2,
+        "{e}"
+    );
+    let e = err(parse_collision(
+        "c.collision.xml",
+        "<collision version=\"1\">\n\n<plane x=\"0\" y=\"0\" z=\"0\" nx=\"0\" ny=\"0\" nz=\"0\"/></collision>",
+    ));
+    assert!(
+        e.message.contains("plane 0: the normal") && e.line == 3,
+        "{e}"
+    );
+    // A missing coordinate names the attribute.
+    let e = err(parse_collision(
+        "c.collision.xml",
+        "<collision version=\"1\"><capsule x0=\"0\" y0=\"0\" z0=\"0\" x1=\"0\" y1=\"1\" r=\"1\"/></collision>",
+    ));
+    assert!(e.message.contains("z1"), "{e}");
 }
 
 #[test]

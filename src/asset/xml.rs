@@ -178,6 +178,16 @@ impl<'a> Xml<'a> {
         wanted: &str,
         stray: &str,
     ) -> Result<Option<Element<'a>>, HairAssetError> {
+        self.next_child_of(parent, &[wanted], stray)
+    }
+
+    /// [`Xml::next_child`] for elements of any of the names in `wanted`.
+    pub fn next_child_of(
+        &mut self,
+        parent: &Element<'a>,
+        wanted: &[&str],
+        stray: &str,
+    ) -> Result<Option<Element<'a>>, HairAssetError> {
         loop {
             match self.next_in(parent)? {
                 Item::End => return Ok(None),
@@ -187,7 +197,7 @@ impl<'a> Xml<'a> {
                         return Err(self.error_at_slice(&text[k..], offset, stray));
                     }
                 }
-                Item::Element(e) if e.name == wanted => return Ok(Some(e)),
+                Item::Element(e) if wanted.contains(&e.name) => return Ok(Some(e)),
                 Item::Element(e) => self.skip(&e)?,
             }
         }

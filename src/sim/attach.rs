@@ -108,6 +108,8 @@ pub struct ComputedHair {
     pub(crate) last_bone: Option<Affine3A>,
     /// The rest shape's bounding box in the bone's rigid space (see [`ComputedHair::rest_bounds`]).
     pub(crate) rest_bounds: Option<(Vec3, Vec3)>,
+    /// The longest strand's rest length, metres: how far from its root a particle can swing.
+    pub(crate) longest: f32,
     pub(crate) accumulator: f32,
     pub(crate) animation_time: f32,
     /// Substeps simulated since the hair was built: the wind's clock (exact at any frame rate).
@@ -133,6 +135,9 @@ pub struct HairStepStats {
     pub strand_resets: u32,
     /// Pairs of particles of different strands the hair–hair volume pushed apart last frame.
     pub volume_pairs: u32,
+    /// Collider shapes tested against this hair last frame, after the broad phase (shapes whose
+    /// bounds cannot meet the hair are not counted).
+    pub colliders: u32,
 }
 
 impl ComputedHair {
@@ -611,6 +616,9 @@ pub(crate) fn build_hair_strands(
                 Name::new("head collider"),
                 HairCollider {
                     spheres: shape.spheres.clone(),
+                    capsules: shape.capsules.clone(),
+                    planes: shape.planes.clone(),
+                    ..default()
                 },
                 HeadColliderOf(entity),
                 Transform::default(),
@@ -637,8 +645,10 @@ pub(crate) fn build_hair_strands(
         let (last_bone, accumulator, animation_time) =
             kept.unwrap_or((bone_ok.then_some(bone), 0.0, 0.0));
         let rest_bounds = rest_bounds(&batches, &lane_of);
+        let longest = longest_strand(&batches);
         commands.entity(entity).insert(ComputedHair {
             rest_bounds,
+            longest,
             batches,
             lane_of,
             groom: hair.groom.id(),
@@ -663,6 +673,22 @@ pub(crate) fn build_hair_strands(
             Some(reason) => commands.trigger(HairRebuilt { entity, reason }),
         }
     }
+}
+
+/// The longest strand's rest length (the sum of its particle-to-particle distances).
+fn longest_strand(batches: &[Batch]) -> f32 {
+    let mut longest = 0.0f32;
+    for b in batches {
+        for l in 0..b.count {
+            let mut length = 0.0;
+            for k in (3..b.nodes.len()).step_by(2) {
+                // Node k (odd) is a particle; two nodes back is the one before it.
+                length += b.rest(l, k).distance(b.rest(l, k - 2));
+            }
+            longest = longest.max(length);
+        }
+    }
+    longest
 }
 
 /// The bounding box of every used lane's rest nodes.

@@ -28,6 +28,9 @@ mod attach;
 mod bone;
 mod clock;
 mod collider;
+#[cfg(test)]
+mod collider_tests;
+mod contact;
 mod events;
 mod physics;
 mod settings;
@@ -44,7 +47,7 @@ pub use attach::{
 };
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
 pub use clock::{HairTime, HairTimeExt};
-pub use collider::HairCollider;
+pub use collider::{HairCollider, HairColliderMode};
 pub use events::{
     BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
     HairAssetKind, HairReady, HairRebuilt, RebuildReason,

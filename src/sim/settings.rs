@@ -76,6 +76,12 @@ pub struct HairSimSettings {
     pub margin_max: f32,
     /// Seed of the margin draw ("Alter margins" draws again with a new seed). Default: `1`.
     pub margin_seed: u64,
+    /// Coulomb friction coefficient between this hair and every collider: a particle a collider
+    /// pushes loses up to this times the push of its motion along the surface (relative to the
+    /// collider's own motion), so hair resting on a slope steeper than `atan(friction)` slides
+    /// and on a gentler one stays. `0` is frictionless, as in the thesis. Clamped to `[0, 10]`.
+    /// Default: `0.0`.
+    pub friction: f32,
     /// Distance of the extra structural particles from the strand, as a fraction of the segment
     /// length (Selle et al. 2008). Larger resists twisting better. Changing it rebuilds strands.
     /// Clamped to `[0.05, 2]`. Default: `0.5`.
@@ -102,6 +108,7 @@ impl Default for HairSimSettings {
             margin_min: 0.005,
             margin_max: 0.015,
             margin_seed: 1,
+            friction: 0.0,
             structure_offset: 0.5,
         }
     }
@@ -111,6 +118,11 @@ impl HairSimSettings {
     /// Substep length in seconds after clamping.
     pub fn substep(&self) -> f32 {
         1.0 / finite_or(self.substep_rate, 240.0).clamp(30.0, 2000.0)
+    }
+
+    /// Friction after clamping (`0` when not finite).
+    pub fn friction(&self) -> f32 {
+        finite_or(self.friction, 0.0).clamp(0.0, 10.0)
     }
 
     /// Longest frame after clamping.

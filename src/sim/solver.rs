@@ -47,6 +47,7 @@ use bevy::math::{Affine3A, Vec3, Vec3A};
 
 use crate::math::orthonormalise;
 
+pub use super::contact::{Contact, ContactShape};
 pub use super::physics::ShapeCollider;
 
 /// Strands solved side by side in one batch.
@@ -174,6 +175,15 @@ pub struct StepInput {
     pub spheres: Vec<(Vec3A, f32)>,
     /// Spheres per substep.
     pub sphere_count: usize,
+    /// How far each entry of `spheres` moved over its substep (for friction).
+    pub sphere_shift: Vec<Vec3A>,
+    /// Capsules, planes, boxes and keep-inside shapes at each substep:
+    /// `contacts[s * contact_count + i]`.
+    pub contacts: Vec<Contact>,
+    /// Contacts per substep.
+    pub contact_count: usize,
+    /// Coulomb friction coefficient at every contact (`0` = none).
+    pub friction: f32,
     /// Other collider shapes (from rapier or avian colliders), at the frame's final pose.
     pub shapes: Vec<ShapeCollider>,
     /// `gravity * h^2`.
@@ -423,11 +433,7 @@ impl Batch {
             let volumes =
                 (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
             self.integrate_and_solve(input, bone, volumes);
-            let spheres = &input.spheres[s * input.sphere_count..(s + 1) * input.sphere_count];
-            self.collide_spheres(spheres);
-            if !input.shapes.is_empty() {
-                self.collide_shapes(&input.shapes);
-            }
+            self.collide(input, s, true);
         }
         // Once a frame, after the last substep; then the last substep's collisions again, so
         // nothing the limit pulled in stays inside a collider.
@@ -441,11 +447,27 @@ impl Batch {
             if style {
                 self.limit_to_style(input.style_limit, &input.bones[last - 1]);
             }
-            let c = input.sphere_count;
-            self.collide_spheres(&input.spheres[(last - 1) * c..last * c]);
-            if !input.shapes.is_empty() {
-                self.collide_shapes(&input.shapes);
-            }
+            // Where the limits left them: no path to follow.
+            self.collide(input, last - 1, false);
+        }
+    }
+
+    /// Every collider of substep `s`; `swept`: along each particle's path this substep.
+    #[inline(always)]
+    fn collide(&mut self, input: &StepInput, s: usize, swept: bool) {
+        let c = input.sphere_count;
+        let range = s * c..(s + 1) * c;
+        self.collide_spheres(
+            &input.spheres[range.clone()],
+            input.sphere_shift.get(range).unwrap_or(&[]),
+            input.friction,
+        );
+        let c = input.contact_count;
+        if c > 0 {
+            self.collide_contacts(&input.contacts[s * c..(s + 1) * c], input.friction, swept);
+        }
+        if !input.shapes.is_empty() {
+            self.collide_shapes(&input.shapes, input.friction);
         }
     }
 
@@ -622,15 +644,29 @@ impl Batch {
         }
     }
 
-    /// Pushes free nodes out of spheres grown by each lane's margin.
+    /// Pushes free nodes out of spheres grown by each lane's margin; with `friction`, the
+    /// push also slows their motion along the sphere (relative to its `shifts`).
     #[inline(always)]
-    fn collide_spheres(&mut self, spheres: &[(Vec3A, f32)]) {
-        for &(centre, radius) in spheres {
+    fn collide_spheres(&mut self, spheres: &[(Vec3A, f32)], shifts: &[Vec3A], friction: f32) {
+        for (i, &(centre, radius)) in spheres.iter().enumerate() {
+            if friction > 0.0 {
+                let shift = shifts.get(i).copied().unwrap_or(Vec3A::ZERO);
+                self.collide_contacts(
+                    &[Contact {
+                        shape: ContactShape::Sphere { centre, radius },
+                        inside: false,
+                        shift,
+                    }],
+                    friction,
+                    false,
+                );
+                continue;
+            }
             let mut reach = [0.0; LANES];
             for l in 0..LANES {
                 reach[l] = radius + self.margin[l];
             }
-            for node in self.nodes.iter_mut().skip(PINNED) {
+            for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
                 for l in 0..LANES {
                     let dx = node.x[0][l] - centre.x;
                     let dy = node.x[1][l] - centre.y;
@@ -653,10 +689,45 @@ impl Batch {
         }
     }
 
+    /// Keeps free nodes the margin outside (or inside) analytic shapes, along their path
+    /// relative to the shape this substep (so a fast shape pushes them ahead instead of passing
+    /// them), with friction.
+    fn collide_contacts(&mut self, contacts: &[Contact], friction: f32, swept: bool) {
+        for contact in contacts {
+            for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
+                for l in 0..LANES {
+                    let x = get3(&node.x, l);
+                    let p = get3(&node.p, l);
+                    // Where the particle was this substep's start, relative to where the shape
+                    // is now.
+                    let from = if swept {
+                        Vec3A::from(p) + contact.shift
+                    } else {
+                        Vec3A::from(x)
+                    };
+                    let Some(to) =
+                        contact
+                            .shape
+                            .resolve_swept(from, x.into(), self.margin[l], contact.inside)
+                    else {
+                        continue;
+                    };
+                    let to = Vec3::from(to);
+                    let to = if friction > 0.0 {
+                        super::contact::rub(x, to, p, contact.shift.into(), friction)
+                    } else {
+                        to
+                    };
+                    set3(&mut node.x, l, to);
+                }
+            }
+        }
+    }
+
     /// Pushes free nodes out of arbitrary shapes (the engine's point projection), keeping the
     /// margin.
-    fn collide_shapes(&mut self, shapes: &[ShapeCollider]) {
-        for node in self.nodes.iter_mut().skip(PINNED) {
+    fn collide_shapes(&mut self, shapes: &[ShapeCollider], friction: f32) {
+        for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
             for l in 0..LANES {
                 let x = get3(&node.x, l);
                 let m = self.margin[l];
@@ -681,6 +752,11 @@ impl Batch {
                         None
                     };
                     if let Some(v) = moved {
+                        let v = if friction > 0.0 {
+                            super::contact::rub(x, v, get3(&node.p, l), Vec3::ZERO, friction)
+                        } else {
+                            v
+                        };
                         set3(&mut node.x, l, v);
                     }
                 }

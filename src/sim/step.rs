@@ -13,9 +13,10 @@ use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
 use super::collider::HairCollider;
+use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
-use super::solver::{Batch, PINNED, StepInput, along};
+use super::solver::{Batch, Contact, ContactShape, PINNED, StepInput, along};
 use super::wind::{HairWind, HairWindOverride};
 use super::{HairSimControl, HairTime};
 
@@ -196,50 +197,123 @@ pub(crate) fn step_hair_strands(
                 prev = *now;
             }
         }
-        // Colliders this hair sees: spheres followed per substep, other engine shapes at the
-        // frame's final pose.
-        let mut sphere_templates: Vec<(&Affine3A, &Affine3A, Vec3A, f32)> = Vec::new();
-        for (prev, now, collider) in &own_views {
-            sphere_templates.extend(
+        // Colliders this hair sees, after the broad phase: analytic shapes followed per
+        // substep, other engine shapes at the frame's final pose.
+        let max_margin = settings.margins().1 * computed.size;
+        let reach = hair_reach(computed, &from, &bone, input.max_stretch);
+        let meets = |shape: &LocalShape, prev: &Affine3A, now: &Affine3A, inside: bool| {
+            let Some((min, max)) = reach else {
+                return true;
+            };
+            let (a, b) = (shape.at(prev), shape.at(now));
+            if inside || matches!(a, ContactShape::Plane { .. }) {
+                return inside || a.meets(min, max, max_margin) || b.meets(min, max, max_margin);
+            }
+            // Everything the shape swept through this frame.
+            let ((lo_a, hi_a), (lo_b, hi_b)) = (a.bounds(), b.bounds());
+            let (lo, hi) = (lo_a.min(lo_b) - max_margin, hi_a.max(hi_b) + max_margin);
+            lo.cmple(max).all() && hi.cmpge(min).all()
+        };
+        // A collider that jumped farther than the teleport distance this frame (with the
+        // character, or on its own) is where it is now: no path through the hair in between.
+        let jump = settings.teleport_distance.max(0.0) * computed.size;
+        let jumped = |prev: &Affine3A, now: &Affine3A| -> bool {
+            !usable_frame(prev) || prev.translation.distance(now.translation) > jump
+        };
+        let mut templates: Vec<(&Affine3A, &Affine3A, LocalShape, bool)> = Vec::new();
+        // A collider whose pose is not usable (NaN, zero scale) is skipped until it is.
+        for (prev, now, collider) in own_views.iter().filter(|(_, now, _)| usable_frame(now)) {
+            let prev = if jumped(prev, now) { now } else { prev };
+            let inside = collider.inside();
+            templates.extend(
                 collider
-                    .spheres
-                    .iter()
-                    .map(|s| (prev, now, Vec3A::from(s.center), s.radius)),
+                    .shapes()
+                    .filter(|shape| meets(shape, prev, now, inside))
+                    .map(|shape| (prev, now, shape, inside)),
             );
         }
         let seen = world
             .seen_by
             .get(&hair_entity)
             .map_or(&[][..], Vec::as_slice);
-        for collider in seen.iter().map(|&i| &world.colliders[i]) {
+        for collider in seen
+            .iter()
+            .map(|&i| &world.colliders[i])
+            .filter(|c| usable_frame(&c.now))
+        {
+            let prev = if jumped(&collider.prev, &collider.now) {
+                &collider.now
+            } else {
+                &collider.prev
+            };
             match &collider.shape {
-                WorldShape::Spheres(spheres) => sphere_templates.extend(
-                    spheres
+                WorldShape::Local(shapes) => templates.extend(
+                    shapes
                         .iter()
-                        .map(|&(centre, r)| (&collider.prev, &collider.now, centre, r)),
+                        .filter(|shape| meets(shape, prev, &collider.now, false))
+                        .map(|&shape| (prev, &collider.now, shape, false)),
                 ),
                 #[cfg(any(feature = "rapier", feature = "avian"))]
                 WorldShape::Other(kind) => {
-                    let max_margin = settings.margins().1 * computed.size;
-                    input.shapes.push(kind.collider(&collider.now, max_margin));
+                    let shape = kind.collider(&collider.now, max_margin);
+                    let far = reach.is_some_and(|(min, max)| {
+                        Vec3A::from(shape.aabb_min).cmpgt(max).any()
+                            || Vec3A::from(shape.aabb_max).cmplt(min).any()
+                    });
+                    if !far {
+                        input.shapes.push(shape);
+                    }
                 }
             }
         }
-        input.sphere_count = sphere_templates.len();
-        for j in 0..substeps {
-            let t = if dt > 0.0 {
-                (start + (j + 1) as f32 * h) / dt
-            } else {
-                1.0
-            };
-            for &(prev, now, centre, radius) in &sphere_templates {
+        computed.stats.colliders =
+            u32::try_from(templates.len() + input.shapes.len()).unwrap_or(u32::MAX);
+        // Outside spheres that move little take the solver's fast path; everything else is a
+        // contact, tested along each particle's path.
+        let spheres = templates
+            .iter()
+            .filter(|&&(prev, now, shape, inside)| fast_path(&shape, inside, prev, now, substeps))
+            .count();
+        input.sphere_count = spheres;
+        input.contact_count = templates.len() - spheres;
+        input.friction = settings.friction();
+        let start_t = if dt > 0.0 {
+            (start / dt).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
+        for &(prev, now, shape, inside) in &templates {
+            let mut before = interpolate(prev, now, start_t).transform_point3a(shape.origin());
+            let is_sphere = fast_path(&shape, inside, prev, now, substeps);
+            for j in 0..substeps {
+                let t = if dt > 0.0 {
+                    (start + (j + 1) as f32 * h) / dt
+                } else {
+                    1.0
+                };
                 let pose = interpolate(prev, now, t);
-                let scale = pose.matrix3.x_axis.length();
-                input
-                    .spheres
-                    .push((pose.transform_point3a(centre), radius * scale));
+                let origin = pose.transform_point3a(shape.origin());
+                let shift = origin - before;
+                before = origin;
+                let contact = Contact {
+                    shape: shape.at(&pose),
+                    inside,
+                    shift,
+                };
+                if is_sphere {
+                    if let ContactShape::Sphere { centre, radius } = contact.shape {
+                        input.spheres.push((centre, radius));
+                        input.sphere_shift.push(shift);
+                    }
+                } else {
+                    input.contacts.push(contact);
+                }
             }
         }
+        // Per substep, not per shape: `spheres[s * count + i]`.
+        transpose(&mut input.spheres, spheres, substeps as usize);
+        transpose(&mut input.sphere_shift, spheres, substeps as usize);
+        transpose(&mut input.contacts, input.contact_count, substeps as usize);
         // Keyframe anchors for this frame.
         if let Some(anim) = hair
             .animation
@@ -305,6 +379,69 @@ pub(crate) fn step_hair_strands(
             computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
         }
     }
+}
+
+/// Whether a shape goes to the solver's sphere fast path: an outside sphere that moves less
+/// than a quarter of its radius per substep (the fast path tests where particles are, not the
+/// path they took).
+fn fast_path(
+    shape: &LocalShape,
+    inside: bool,
+    prev: &Affine3A,
+    now: &Affine3A,
+    substeps: u32,
+) -> bool {
+    let LocalShape::Sphere(centre, radius) = *shape else {
+        return false;
+    };
+    let travel = prev
+        .transform_point3a(centre)
+        .distance(now.transform_point3a(centre));
+    !inside && travel <= 0.25 * radius * substeps.max(1) as f32
+}
+
+/// Reorders `items` from shape-major (`[shape][substep]`) to substep-major
+/// (`[substep][shape]`).
+fn transpose<T: Copy>(items: &mut [T], shapes: usize, substeps: usize) {
+    if shapes <= 1 || substeps <= 1 {
+        return;
+    }
+    let by_shape = items.to_vec();
+    for (i, item) in items.iter_mut().enumerate() {
+        let (s, shape) = (i / shapes, i % shapes);
+        *item = by_shape[shape * substeps + s];
+    }
+}
+
+/// Where the hair's particles can be this frame: its rest shape's bounds at the frame's first
+/// and last bone pose, grown by the longest strand at the strain limit (no particle strays
+/// farther from its rest place). `None` (test every collider) without a strain limit or bounds.
+fn hair_reach(
+    computed: &ComputedHair,
+    from: &Affine3A,
+    to: &Affine3A,
+    max_stretch: f32,
+) -> Option<(Vec3A, Vec3A)> {
+    let (lo, hi) = computed.rest_bounds?;
+    if !max_stretch.is_finite() {
+        return None;
+    }
+    let grow = 2.0 * computed.longest * max_stretch.max(1.0);
+    let mut min = Vec3A::INFINITY;
+    let mut max = Vec3A::NEG_INFINITY;
+    for pose in [from, to] {
+        for corner in 0..8 {
+            let c = Vec3::new(
+                if corner & 1 == 0 { lo.x } else { hi.x },
+                if corner & 2 == 0 { lo.y } else { hi.y },
+                if corner & 4 == 0 { lo.z } else { hi.z },
+            );
+            let w = pose.transform_point3a(c.into());
+            min = min.min(w);
+            max = max.max(w);
+        }
+    }
+    Some((min - grow, max + grow))
 }
 
 /// XPBD `alpha~` for a stiffness: `inf` when loose.

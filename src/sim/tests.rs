@@ -14,11 +14,11 @@ use crate::asset::{
 use crate::test_support::Rng;
 use crate::{curve::QuadraticCurve, schedule::HairSchedulePlugin};
 
-const HEAD_RADIUS: f32 = 0.1;
+pub(super) const HEAD_RADIUS: f32 = 0.1;
 
 /// A spiky groom on a head of radius 0.1 at the bone origin: strands leave the scalp along the
 /// normal and curve sideways.
-fn spiky_groom(strands: usize, particles: usize) -> HairGroom {
+pub(super) fn spiky_groom(strands: usize, particles: usize) -> HairGroom {
     let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
     HairGroom::from_strands(
         "head",
@@ -46,21 +46,23 @@ fn head() -> HeadCollision {
             center: Vec3::ZERO,
             radius: HEAD_RADIUS,
         }],
+        capsules: Vec::new(),
+        planes: Vec::new(),
     }
 }
 
-struct Harness {
-    app: App,
-    bone: Entity,
-    hair: Entity,
+pub(super) struct Harness {
+    pub(super) app: App,
+    pub(super) bone: Entity,
+    pub(super) hair: Entity,
 }
 
 impl Harness {
-    fn new(groom: HairGroom, settings: HairSimSettings, fps: f64) -> Self {
+    pub(super) fn new(groom: HairGroom, settings: HairSimSettings, fps: f64) -> Self {
         Self::with(groom, None, Some(head()), settings, fps)
     }
 
-    fn with(
+    pub(super) fn with(
         groom: HairGroom,
         animation: Option<HairAnimation>,
         collision: Option<HeadCollision>,
@@ -102,11 +104,11 @@ impl Harness {
         h
     }
 
-    fn update(&mut self) {
+    pub(super) fn update(&mut self) {
         self.app.update();
     }
 
-    fn set_bone(&mut self, t: Transform) {
+    pub(super) fn set_bone(&mut self, t: Transform) {
         *self
             .app
             .world_mut()
@@ -114,7 +116,7 @@ impl Harness {
             .unwrap() = t;
     }
 
-    fn computed(&self) -> &ComputedHair {
+    pub(super) fn computed(&self) -> &ComputedHair {
         self.app.world().get::<ComputedHair>(self.hair).unwrap()
     }
 
@@ -127,7 +129,7 @@ impl Harness {
     }
 
     /// Every strand's particles, in strand order.
-    fn strands(&mut self) -> Vec<Vec<Vec3>> {
+    pub(super) fn strands(&mut self) -> Vec<Vec<Vec3>> {
         let mut q = self.app.world_mut().query::<(&Strand, &StrandParticles)>();
         let mut v: Vec<_> = q
             .iter(self.app.world())
@@ -952,6 +954,8 @@ fn hair_on_a_scaled_rig_moves_exactly_as_on_a_unit_rig() {
                 center: Vec3::ZERO,
                 radius: HEAD_RADIUS / rig_scale,
             }],
+            capsules: Vec::new(),
+            planes: Vec::new(),
         };
         let world = app.world_mut();
         let groom = world.resource_mut::<Assets<HairGroom>>().add(in_bone_units);
@@ -1296,12 +1300,10 @@ fn a_hair_collider_anyone_adds_pushes_the_hair_out() {
         "the test ball must start inside the hair ({before} m)"
     );
     h.app.world_mut().spawn((
-        HairCollider {
-            spheres: vec![CollisionSphere {
-                center: Vec3::ZERO,
-                radius,
-            }],
-        },
+        HairCollider::spheres(vec![CollisionSphere {
+            center: Vec3::ZERO,
+            radius,
+        }]),
         Transform::from_translation(centre),
     ));
     for _ in 0..60 {

@@ -4,7 +4,7 @@ use avian3d::prelude::{Collider, ColliderDensity, CollisionLayers, Sensor};
 use bevy::math::Vec3A;
 use bevy::prelude::*;
 
-use super::{GatherColliders, ShapeKind, WorldColliders, WorldShape};
+use super::{GatherColliders, LocalShape, ShapeKind, WorldColliders, WorldShape};
 use crate::sim::HairCollider;
 use crate::sim::attach::HeadColliderOf;
 
@@ -28,7 +28,7 @@ pub(super) fn build(app: &mut App) {
         );
 }
 
-/// Other avian users see the head too: a compound of its spheres, of zero density so a
+/// Other avian users see the head too: a compound of its spheres and capsules, of zero density so a
 /// character body it becomes part of keeps its mass.
 fn head_collider(
     add: On<Add, HeadColliderOf>,
@@ -39,10 +39,19 @@ fn head_collider(
         return;
     };
     commands.entity(add.entity).insert((
+        // Planes are left out: an infinite half space in a head's compound would be one for
+        // every other avian user too.
         Collider::compound(
             head.spheres
                 .iter()
                 .map(|s| (s.center, Quat::IDENTITY, Collider::sphere(s.radius)))
+                .chain(head.capsules.iter().map(|c| {
+                    (
+                        Vec3::ZERO,
+                        Quat::IDENTITY,
+                        Collider::capsule_endpoints(c.radius, c.a, c.b),
+                    )
+                }))
                 .collect(),
         ),
         ColliderDensity(0.0),
@@ -72,15 +81,42 @@ fn gather(
             .map(|(e, _)| e);
         // avian's shape is already scaled (`shape_scaled`).
         let scaled = collider.shape_scaled();
-        let shape = if let Some(ball) = scaled.as_ball() {
-            WorldShape::Spheres(vec![(Vec3A::ZERO, ball.radius)])
-        } else {
-            WorldShape::Other(ShapeKind::Avian(
+        let shape = match local_shape(scaled) {
+            Some(shape) => WorldShape::Local(vec![shape]),
+            None => WorldShape::Other(ShapeKind::Avian(
                 collider.clone(),
                 Vec3::ZERO,
                 Quat::IDENTITY,
-            ))
+            )),
         };
         world.push(entity, global, shape, seen);
+    }
+}
+
+/// An avian shape as an analytic shape in the collider's space, when it is a ball, capsule,
+/// cuboid or half space.
+fn local_shape(shape: &avian3d::parry::shape::SharedShape) -> Option<LocalShape> {
+    let v = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
+    if let Some(ball) = shape.as_ball() {
+        Some(LocalShape::Sphere(Vec3A::ZERO, ball.radius))
+    } else if let Some(c) = shape.as_capsule() {
+        let (a, b) = (c.segment.a, c.segment.b);
+        Some(LocalShape::Capsule(
+            v(a.x, a.y, a.z),
+            v(b.x, b.y, b.z),
+            c.radius,
+        ))
+    } else if let Some(c) = shape.as_cuboid() {
+        let h = c.half_extents;
+        Some(LocalShape::Box(
+            Vec3A::ZERO,
+            Quat::IDENTITY,
+            v(h.x, h.y, h.z),
+        ))
+    } else {
+        shape.as_halfspace().map(|h| {
+            let n = h.normal;
+            LocalShape::Plane(Vec3A::ZERO, v(n.x, n.y, n.z).normalize_or(Vec3A::Y))
+        })
     }
 }

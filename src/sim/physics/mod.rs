@@ -7,9 +7,9 @@
 //!   interact. The head collider gets a compound avian collider of zero density, so it never
 //!   changes the mass of a body it ends up part of.
 //!
-//! Sensors and other [`HairCollider`](super::HairCollider) entities are never gathered. Spheres
-//! (a ball, or a compound of balls) are followed per substep like the crate's own colliders;
-//! any other shape is projected onto at the frame's final pose. No type of either engine's
+//! Sensors and other [`HairCollider`](super::HairCollider) entities are never gathered. Balls,
+//! capsules, cuboids and half spaces (alone or in a compound of them) are followed per substep
+//! like the crate's own colliders; any other shape is projected onto at the frame's final pose. No type of either engine's
 //! `parry` is part of this crate's API.
 #![cfg_attr(
     not(any(feature = "rapier", feature = "avian")),
@@ -17,8 +17,10 @@
 )]
 
 use bevy::ecs::entity::EntityHashMap;
-use bevy::math::{Affine3A, Vec3A};
+use bevy::math::Affine3A;
 use bevy::prelude::*;
+
+pub(crate) use super::contact::LocalShape;
 
 #[cfg(feature = "avian")]
 mod avian;
@@ -60,8 +62,8 @@ fn begin_frame(mut world: ResMut<WorldColliders>) {
 
 /// What a gathered engine collider is, for the solver.
 pub(crate) enum WorldShape {
-    /// Spheres in the collider's space (centre, radius): followed per substep.
-    Spheres(Vec<(Vec3A, f32)>),
+    /// Spheres, capsules, boxes and half spaces in the collider's space: followed per substep.
+    Local(Vec<LocalShape>),
     /// Any other shape, projected onto at the frame's final pose.
     #[cfg(any(feature = "rapier", feature = "avian"))]
     Other(ShapeKind),

@@ -4,7 +4,7 @@ use bevy::math::Vec3A;
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group, Sensor};
 
-use super::{GatherColliders, ShapeKind, WorldColliders, WorldShape};
+use super::{GatherColliders, LocalShape, ShapeKind, WorldColliders, WorldShape};
 use crate::sim::HairCollider;
 use crate::sim::attach::HeadColliderOf;
 
@@ -33,7 +33,7 @@ fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
         && (hair.memberships & collider.filters) != Group::NONE
 }
 
-/// Other rapier users see the head too: a compound of its spheres.
+/// Other rapier users see the head too: a compound of its spheres and capsules.
 fn head_collider(
     add: On<Add, HeadColliderOf>,
     heads: Query<&HairCollider>,
@@ -42,12 +42,22 @@ fn head_collider(
     let Ok(head) = heads.get(add.entity) else {
         return;
     };
-    commands.entity(add.entity).insert(Collider::compound(
-        head.spheres
-            .iter()
-            .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)))
-            .collect(),
-    ));
+    // Planes are left out: an infinite half space in a head's compound would be one for every
+    // other rapier user too.
+    let spheres = head
+        .spheres
+        .iter()
+        .map(|s| (s.center, Quat::IDENTITY, Collider::ball(s.radius)));
+    let capsules = head.capsules.iter().map(|c| {
+        (
+            Vec3::ZERO,
+            Quat::IDENTITY,
+            Collider::capsule(c.a, c.b, c.radius),
+        )
+    });
+    commands
+        .entity(add.entity)
+        .insert(Collider::compound(spheres.chain(capsules).collect()));
 }
 
 /// The world's rapier colliders, for the hairs that opted in.
@@ -79,24 +89,51 @@ fn gather(
             .map(|(e, _)| e);
         // rapier's shape is already scaled (`Collider::raw`).
         let shape = &collider.raw;
-        let shape = if let Some(ball) = shape.as_ball() {
-            WorldShape::Spheres(vec![(Vec3A::ZERO, ball.radius)])
-        } else if let Some(compound) = shape.as_compound()
-            && compound.shapes().iter().all(|(_, s)| s.as_ball().is_some())
-        {
-            WorldShape::Spheres(
-                compound
-                    .shapes()
-                    .iter()
-                    .map(|(pose, s)| {
-                        let r = s.as_ball().map_or(0.0, |b| b.radius);
-                        (Vec3A::from(pose.translation), r)
-                    })
-                    .collect(),
-            )
-        } else {
-            WorldShape::Other(ShapeKind::Rapier(shape.clone(), Default::default()))
+        let shape = match local_shapes(shape) {
+            Some(shapes) => WorldShape::Local(shapes),
+            None => WorldShape::Other(ShapeKind::Rapier(shape.clone(), Default::default())),
         };
         world.push(entity, global, shape, seen);
+    }
+}
+
+/// A rapier shape as analytic shapes in the collider's space, when it is a ball, capsule,
+/// cuboid or half space, or a compound of those.
+fn local_shapes(shape: &bevy_rapier3d::parry::shape::SharedShape) -> Option<Vec<LocalShape>> {
+    use bevy_rapier3d::parry::shape::Shape;
+    fn one(shape: &dyn Shape, at: Vec3A, rotation: Quat) -> Option<LocalShape> {
+        let v = |v: bevy_rapier3d::parry::math::Vector| Vec3A::new(v.x, v.y, v.z);
+        if let Some(ball) = shape.as_ball() {
+            Some(LocalShape::Sphere(at, ball.radius))
+        } else if let Some(c) = shape.as_capsule() {
+            Some(LocalShape::Capsule(
+                at + rotation * v(c.segment.a),
+                at + rotation * v(c.segment.b),
+                c.radius,
+            ))
+        } else if let Some(c) = shape.as_cuboid() {
+            Some(LocalShape::Box(at, rotation, v(c.half_extents)))
+        } else {
+            shape
+                .as_halfspace()
+                .map(|h| LocalShape::Plane(at, (rotation * v(h.normal)).normalize_or(Vec3A::Y)))
+        }
+    }
+    if let Some(compound) = shape.as_compound() {
+        compound
+            .shapes()
+            .iter()
+            .map(|(pose, s)| {
+                let r = pose.rotation;
+                let t = pose.translation;
+                one(
+                    &**s,
+                    Vec3A::new(t.x, t.y, t.z),
+                    Quat::from_xyzw(r.x, r.y, r.z, r.w),
+                )
+            })
+            .collect()
+    } else {
+        one(&**shape, Vec3A::ZERO, Quat::IDENTITY).map(|s| vec![s])
     }
 }
