@@ -2,7 +2,9 @@
 //!
 //! - `sim_frame/*`: one 60 Hz frame (default substeps) of the whole app update, for the thesis
 //!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands; with a gusty wind; with hair–hair
-//!   volume (`*_volume`).
+//!   volume (`*_volume`); with a body of colliders (`1000x16_body*`: head sphere, neck and
+//!   shoulder capsules, a back plane, a swinging arm capsule, friction 0.3), with 300 more
+//!   capsules out of reach (the broad phase's cost), beside the head sphere alone.
 //! - `solver_frame/*`: the solver alone for the same workloads, one thread (no Bevy frame, no
 //!   copy into strand entities).
 //! - `rapier_chains/*`: the baseline a Bevy user would otherwise write: the same strands as
@@ -32,8 +34,9 @@ use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_cartoon_hair::HairSchedulePlugin;
+use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionPlane, CollisionSphere};
 use bevy_cartoon_hair::asset::{HairAssetPlugin, HairGroom, parse_groom};
-use bevy_cartoon_hair::sim::{Hair, HairSimSettings, HairSimulationPlugin};
+use bevy_cartoon_hair::sim::{Hair, HairCollider, HairSimSettings, HairSimulationPlugin};
 use bevy_rapier3d::prelude::*;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 
@@ -99,6 +102,81 @@ fn hair_app(n: usize, particles: usize) -> App {
     app
 }
 
+/// The arm of `with_body`, swinging through the hair.
+#[derive(Component)]
+struct Arm;
+
+fn swing_arm(time: Res<Time>, mut arms: Query<&mut Transform, With<Arm>>) {
+    for mut t in &mut arms {
+        // 0.3 m either side at 1 Hz: up to 1.9 m/s.
+        t.translation.x = 0.3 * (std::f32::consts::TAU * time.elapsed_secs()).sin();
+    }
+}
+
+/// Adds a body of colliders around the bone at (0, 1.6, 0): the head sphere; neck, shoulder
+/// and arm capsules (the arm swings through the hair); a plane behind the back; friction 0.3;
+/// and `far` capsules out of the hair's reach.
+fn with_body(app: &mut App, far: usize) {
+    let world = app.world_mut();
+    let capsule = |a: Vec3, b: Vec3, radius| CollisionCapsule { a, b, radius };
+    world.spawn((
+        HairCollider {
+            spheres: vec![CollisionSphere {
+                center: Vec3::ZERO,
+                radius: 0.1,
+            }],
+            capsules: vec![
+                capsule(Vec3::new(0.0, -0.05, 0.0), Vec3::new(0.0, -0.2, 0.0), 0.05),
+                capsule(
+                    Vec3::new(0.05, -0.22, 0.0),
+                    Vec3::new(0.2, -0.25, 0.0),
+                    0.06,
+                ),
+                capsule(
+                    Vec3::new(-0.05, -0.22, 0.0),
+                    Vec3::new(-0.2, -0.25, 0.0),
+                    0.06,
+                ),
+            ],
+            planes: vec![CollisionPlane {
+                point: Vec3::new(0.0, 0.0, -0.12),
+                normal: Vec3::Z,
+            }],
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.6, 0.0),
+    ));
+    world.spawn((
+        HairCollider {
+            capsules: vec![capsule(
+                Vec3::new(0.0, 0.0, -0.3),
+                Vec3::new(0.0, 0.0, 0.3),
+                0.04,
+            )],
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.5, 0.0),
+        Arm,
+    ));
+    for i in 0..far {
+        world.spawn((
+            HairCollider {
+                capsules: vec![capsule(Vec3::ZERO, Vec3::X, 0.1)],
+                ..default()
+            },
+            Transform::from_xyz(10.0 + (i % 20) as f32, 0.0, (i / 20) as f32),
+        ));
+    }
+    let mut q = world.query::<&mut HairSimSettings>();
+    for mut s in q.iter_mut(world) {
+        s.friction = 0.3;
+    }
+    app.add_systems(Update, swing_arm);
+    for _ in 0..3 {
+        app.update();
+    }
+}
+
 fn rapier_app(n: usize, particles: usize) -> App {
     let mut app = App::new();
     app.add_plugins((
@@ -157,6 +235,22 @@ fn bench_sim(c: &mut Criterion) {
         ..Default::default()
     });
     group.bench_function("1000x16_wind", |b| b.iter(|| app.update()));
+    // Colliders: the head sphere alone; a body of capsules, a plane and a swinging arm with
+    // friction; the same with 300 capsules out of reach.
+    let mut app = hair_app(1_000, 16);
+    app.world_mut().spawn((
+        HairCollider::spheres(vec![CollisionSphere {
+            center: Vec3::ZERO,
+            radius: 0.1,
+        }]),
+        Transform::from_xyz(0.0, 1.6, 0.0),
+    ));
+    group.bench_function("1000x16_head_sphere", |b| b.iter(|| app.update()));
+    for (name, far) in [("1000x16_body", 0), ("1000x16_body_300_far", 300)] {
+        let mut app = hair_app(1_000, 16);
+        with_body(&mut app, far);
+        group.bench_function(name, |b| b.iter(|| app.update()));
+    }
     // The same frames with hair–hair volume: with a radius of half the roots' spacing (the
     // strands touch at the roots, as guide strands a tube apart do), and with the default 16 mm
     // (tubes overlapping many times over: the worst case, bounded by `MAX_PUSHES`).

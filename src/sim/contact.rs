@@ -64,6 +64,27 @@ pub struct Contact {
     /// How far the shape moved over the substep (its origin's displacement): friction acts on
     /// the particle's motion relative to it.
     pub shift: Vec3A,
+    /// Where a particle can touch the shape: its bounds grown by the largest margin (infinite
+    /// for planes and keep-inside shapes). Particles outside skip the test.
+    pub reach: (Vec3A, Vec3A),
+}
+
+impl Contact {
+    /// `shape` at one substep, `inside` or not, moved by `shift`, touched within `margin`.
+    pub fn new(shape: ContactShape, inside: bool, shift: Vec3A, margin: f32) -> Self {
+        let reach = if inside {
+            (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+        } else {
+            let (lo, hi) = shape.bounds();
+            (lo - margin, hi + margin)
+        };
+        Self {
+            shape,
+            inside,
+            shift,
+            reach,
+        }
+    }
 }
 
 /// A non-uniform scale's largest factor: what radii grow by.

@@ -14,6 +14,9 @@
 //! (already bent) groom, so hair keeps its style rather than straightening. `g`, `p0` and `s0` are
 //! pinned to the bone: three non-collinear points fix the root's position and orientation.
 //!
+//! Collisions act on the particles, not on the structural nodes: those are left to their springs,
+//! so a strand lying on a surface rests on its particles and torsion never fights a contact.
+//!
 //! Every node also has an anchor (thesis 4.2.3): a zero-length "blending" spring toward the
 //! keyframe pose, with a stiffness shaped along the strand by the S curve.
 //!
@@ -652,11 +655,12 @@ impl Batch {
             if friction > 0.0 {
                 let shift = shifts.get(i).copied().unwrap_or(Vec3A::ZERO);
                 self.collide_contacts(
-                    &[Contact {
-                        shape: ContactShape::Sphere { centre, radius },
-                        inside: false,
+                    &[Contact::new(
+                        ContactShape::Sphere { centre, radius },
+                        false,
                         shift,
-                    }],
+                        f32::INFINITY,
+                    )],
                     friction,
                     false,
                 );
@@ -697,6 +701,10 @@ impl Batch {
             for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
                 for l in 0..LANES {
                     let x = get3(&node.x, l);
+                    let (lo, hi) = contact.reach;
+                    if Vec3A::from(x).cmplt(lo).any() || Vec3A::from(x).cmpgt(hi).any() {
+                        continue;
+                    }
                     let p = get3(&node.p, l);
                     // Where the particle was this substep's start, relative to where the shape
                     // is now.

@@ -295,11 +295,7 @@ pub(crate) fn step_hair_strands(
                 let origin = pose.transform_point3a(shape.origin());
                 let shift = origin - before;
                 before = origin;
-                let contact = Contact {
-                    shape: shape.at(&pose),
-                    inside,
-                    shift,
-                };
+                let contact = Contact::new(shape.at(&pose), inside, shift, max_margin);
                 if is_sphere {
                     if let ContactShape::Sphere { centre, radius } = contact.shape {
                         input.spheres.push((centre, radius));

@@ -91,6 +91,7 @@ pub(super) fn debug_window(
                         ("Substeps", s.substeps),
                     ],
                     [("Teleports", s.teleports), ("Resets", s.strand_resets)],
+                    [("Colliders", s.colliders), ("Volume pairs", s.volume_pairs)],
                 ];
                 for row in rows {
                     for (name, value) in row {

@@ -288,6 +288,7 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
         drag_row(ui, "M max (m)", &mut s.margin_max, 0.0005);
         s.margin_min = s.margin_min.clamp(0.0, 0.2);
         s.margin_max = s.margin_max.clamp(0.0, 0.2);
+        slider_row(ui, "Friction", &mut s.friction, 0.0..=2.0);
         ui.label(format!("Margin seed {}", s.margin_seed));
         if ui
             .button("Alter margins")

@@ -6,7 +6,7 @@ use std::time::Duration;
 use bevy::asset::{AssetPlugin, LoadState};
 use bevy::prelude::*;
 use bevy_cartoon_hair::asset::{
-    HairAnimation, HairAssetPlugin, HairGroom, HeadCollision, parse_groom,
+    HairAnimation, HairAssetPlugin, HairGroom, HeadCollision, parse_collision, parse_groom,
 };
 use libtest_mimic::Failed;
 
@@ -197,6 +197,51 @@ fn blender_export_round_trips_through_the_loader() -> Result<(), Failed> {
     );
     if worst > 1e-5 {
         return Err(format!("positions differ by up to {worst} m").into());
+    }
+    // The collision shapes exported beside it: a sphere, a capsule rigid body and a plane.
+    let text = std::fs::read_to_string(out.join("fixture.collision.xml"))?;
+    let shapes = parse_collision("fixture.collision.xml", &text)?;
+    let expected = std::fs::read_to_string(out.join("fixture.collision.expected.txt"))?;
+    let mut got = Vec::new();
+    for s in &shapes.spheres {
+        got.push(("sphere", vec![s.center.x, s.center.y, s.center.z, s.radius]));
+    }
+    for c in &shapes.capsules {
+        let (a, b) = (c.a, c.b);
+        got.push(("capsule", vec![a.x, a.y, a.z, b.x, b.y, b.z, c.radius]));
+    }
+    for p in &shapes.planes {
+        let (x, n) = (p.point, p.normal);
+        got.push(("plane", vec![x.x, x.y, x.z, n.x, n.y, n.z]));
+    }
+    let want: Vec<(&str, Vec<f32>)> = expected
+        .lines()
+        .filter(|l| !l.trim().is_empty())
+        .map(|l| {
+            let mut parts = l.split_whitespace();
+            let kind = parts.next().unwrap_or("");
+            (kind, parts.filter_map(|v| v.parse().ok()).collect())
+        })
+        .collect();
+    if got.len() != want.len()
+        || got
+            .iter()
+            .zip(&want)
+            .any(|(g, w)| g.0 != w.0 || g.1.len() != w.1.len())
+    {
+        return Err(format!("collision shapes read {got:?}, expected {want:?}").into());
+    }
+    let shape_error = got
+        .iter()
+        .zip(&want)
+        .flat_map(|(g, w)| g.1.iter().zip(&w.1).map(|(a, b)| (a - b).abs()))
+        .fold(0.0f32, f32::max);
+    println!(
+        "blender round trip: {} collision shapes (sphere, capsule, plane), largest error {shape_error:e}",
+        got.len()
+    );
+    if shape_error > 1e-5 {
+        return Err(format!("collision shapes differ by up to {shape_error}").into());
     }
     let _ = std::fs::remove_dir_all(&out);
     Ok(())

@@ -180,18 +180,19 @@ def export_hair(filepath, objects, armature=None, bone="head", scale=1.0, contex
 
 
 # --------------------------------------------------------------------------------------------
-# Collision spheres
+# Collision shapes: spheres, capsules, planes
 
 
-def is_sphere_object(obj):
-    return obj.type == "MESH" or (obj.type == "EMPTY" and obj.empty_display_type == "SPHERE")
+def is_capsule_object(obj):
+    """A capsule: any object whose rigid body collision shape is Capsule (Physics > Rigid Body >
+    Collisions > Shape), sized as Blender sizes it: along the local Z axis, radius half the
+    larger of the X and Y extents."""
+    rb = getattr(obj, "rigid_body", None)
+    return rb is not None and rb.collision_shape == "CAPSULE"
 
 
-def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
-    """Raise :class:`ExportError` unless mesh ``obj`` is (close to) a sphere in world space: its
-    vertices all lie within ``tolerance`` (relative) of one radius around the box centre, and the
-    box is as wide as that sphere on every axis.  A body,
-    a cube or a stretched ellipsoid is refused, not silently turned into its bounding sphere."""
+def _mesh_points(obj, depsgraph):
+    """World-space vertices of mesh ``obj`` (modifiers applied)."""
     ob = obj.evaluated_get(depsgraph)
     world = _np_matrix(ob.matrix_world)
     mesh = ob.to_mesh()
@@ -200,10 +201,53 @@ def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
         mesh.vertices.foreach_get("co", co)
     finally:
         ob.to_mesh_clear()
-    if len(co) < 12:
-        raise ExportError(f"'{obj.name}' has {len(co) // 3} vertices; a collision sphere needs a "
+    return writer.transform_points(world, co.reshape(-1, 3)), co.reshape(-1, 3)
+
+
+def _flat_axis(obj, depsgraph):
+    """The local axis (0, 1 or 2) along which mesh ``obj`` has no thickness (a plane), or
+    ``None``."""
+    if obj.type != "MESH":
+        return None
+    _, local = _mesh_points(obj, depsgraph)
+    if len(local) < 3:
+        return None
+    ext = local.max(axis=0) - local.min(axis=0)
+    axis = int(np.argmin(ext))
+    return axis if ext[axis] <= 1e-6 * max(float(ext.max()), 1e-9) else None
+
+
+def collision_kind(obj, depsgraph=None):
+    """``"capsule"``, ``"plane"``, ``"sphere"`` or ``None`` (not a collision object)."""
+    if is_capsule_object(obj):
+        return "capsule"
+    if obj.type == "EMPTY" and obj.empty_display_type == "SPHERE":
+        return "sphere"
+    if obj.type == "MESH":
+        dg = depsgraph or bpy.context.evaluated_depsgraph_get()
+        return "plane" if _flat_axis(obj, dg) is not None else "sphere"
+    return None
+
+
+def is_sphere_object(obj):
+    """Whether ``obj`` can be exported as a collision shape (the old name: spheres came first)."""
+    return is_collision_object(obj)
+
+
+def is_collision_object(obj):
+    return is_capsule_object(obj) or obj.type == "MESH" or (
+        obj.type == "EMPTY" and obj.empty_display_type == "SPHERE")
+
+
+def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
+    """Raise :class:`ExportError` unless mesh ``obj`` is (close to) a sphere in world space: its
+    vertices all lie within ``tolerance`` (relative) of one radius around the box centre, and the
+    box is as wide as that sphere on every axis.  A body,
+    a cube or a stretched ellipsoid is refused, not silently turned into its bounding sphere."""
+    pts, _ = _mesh_points(obj, depsgraph)
+    if len(pts) < 4:
+        raise ExportError(f"'{obj.name}' has {len(pts)} vertices; a collision sphere needs a "
                           "sphere mesh (UV or ico sphere) or an empty shown as a sphere")
-    pts = writer.transform_points(world, co.reshape(-1, 3))
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     dist = np.linalg.norm(pts - (lo + hi) / 2.0, axis=1)
     r = float(dist.max())
@@ -214,7 +258,8 @@ def check_sphere_mesh(obj, depsgraph, tolerance=0.1):
         raise ExportError(
             f"'{obj.name}' is not a sphere (world size {ext[0]:.3g} x {ext[1]:.3g} x "
             f"{ext[2]:.3g} m, vertices {dist.min():.3g} to {r:.3g} m from its centre); collision "
-            "files hold spheres: select sphere meshes or empties shown as spheres only"
+            "files hold spheres, capsules (an object whose rigid body shape is Capsule) and "
+            "planes (a flat mesh): select only those"
         )
 
 
@@ -235,34 +280,97 @@ def object_sphere(obj, depsgraph):
     return centre, float(((hi - lo) * axis_scale).max() / 2.0)
 
 
+def object_capsule(obj, depsgraph):
+    """``(a (3,), b (3,), radius)`` of a capsule object in Blender world space: its bounding
+    box's centre, the local Z axis, radius half the larger world X or Y extent, ends inset by the
+    radius from the box's Z faces (Blender's own capsule for the box).  An empty's box is its
+    display size."""
+    ob = obj.evaluated_get(depsgraph)
+    world = _np_matrix(ob.matrix_world)
+    axis_scale = np.linalg.norm(world[:3, :3], axis=0)
+    if obj.type == "EMPTY":
+        s = float(obj.empty_display_size)
+        lo, hi = np.full(3, -s), np.full(3, s)
+    else:
+        box = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
+        lo, hi = box.min(axis=0), box.max(axis=0)
+    ext = (hi - lo) * axis_scale
+    radius = float(max(ext[0], ext[1]) / 2.0)
+    half = max(float(ext[2]) / 2.0 - radius, 0.0)
+    centre = writer.transform_points(world, ((lo + hi) / 2.0)[None, :])[0]
+    z = world[:3, 2] / max(float(axis_scale[2]), 1e-12)
+    if radius <= 0.0:
+        raise ExportError(f"capsule '{obj.name}' has no width (radius 0)")
+    return centre - z * half, centre + z * half, radius
+
+
+def object_plane(obj, depsgraph):
+    """``(point (3,), normal (3,))`` of a flat mesh in Blender world space: its bounding box's
+    centre and the normal of its flat local axis (the side it points to is the free side)."""
+    axis = _flat_axis(obj, depsgraph)
+    ob = obj.evaluated_get(depsgraph)
+    world = _np_matrix(ob.matrix_world)
+    box = np.array([tuple(c) for c in ob.bound_box], dtype=np.float64)
+    lo, hi = box.min(axis=0), box.max(axis=0)
+    centre = writer.transform_points(world, ((lo + hi) / 2.0)[None, :])[0]
+    local = np.zeros(3)
+    local[axis] = 1.0
+    # Normals go by the inverse transpose.
+    n = np.linalg.inv(world[:3, :3]).T @ local
+    return centre, n / np.linalg.norm(n)
+
+
 def collision_data(objects, armature=None, bone="head", scale=1.0, context=None):
-    objs = sorted((o for o in objects if is_sphere_object(o)), key=lambda o: o.name)
+    """The shapes of ``objects`` in the bone's frame, times ``scale``:
+    ``(centres, radii, bone_name, capsules, planes)``."""
+    objs = sorted((o for o in objects if is_collision_object(o)), key=lambda o: o.name)
     if not objs:
-        raise ExportError("no sphere objects selected (sphere meshes or empties shown as spheres)")
+        raise ExportError("no sphere objects selected (sphere meshes or empties shown as spheres, "
+                          "capsule rigid bodies, flat meshes for planes)")
     with rest_pose(context) as dg:
         ref = _reference(objs, context)
         frame = frame_matrix(armature, bone, reference=ref, depsgraph=dg)
         to_frame = writer.blender_to_frame(frame)
-        for o in objs:
-            if o.type == "MESH":
+        kinds = [collision_kind(o, dg) for o in objs]
+        for o, k in zip(objs, kinds):
+            if k == "sphere" and o.type == "MESH":
                 check_sphere_mesh(o, dg)
-        spheres = [object_sphere(o, dg) for o in objs]
-    centres = writer.transform_points(to_frame, np.array([c for c, _ in spheres]))
-    # A radius in the frame: world radius over the frame's (uniform) scale.
-    radii = np.array([r for _, r in spheres]) / writer.uniform_scale(frame)
+        spheres = [object_sphere(o, dg) for o, k in zip(objs, kinds) if k == "sphere"]
+        capsules = [object_capsule(o, dg) for o, k in zip(objs, kinds) if k == "capsule"]
+        planes = [object_plane(o, dg) for o, k in zip(objs, kinds) if k == "plane"]
     s = float(scale)
-    return centres * s, radii * s, (bone if armature is not None else "")
+    # A radius in the frame: world radius over the frame's (uniform) scale.
+    unit = writer.uniform_scale(frame)
+    centres = writer.transform_points(to_frame, np.array([c for c, _ in spheres]).reshape(-1, 3))
+    radii = np.array([r for _, r in spheres], dtype=np.float64) / unit
+    caps = [
+        (writer.transform_points(to_frame, a[None, :])[0] * s,
+         writer.transform_points(to_frame, b[None, :])[0] * s, r / unit * s)
+        for a, b, r in capsules
+    ]
+    # Directions: the rotation part of the frame change (it is rigid but for a uniform scale).
+    rot = to_frame[:3, :3]
+    pls = [
+        (writer.transform_points(to_frame, p[None, :])[0] * s,
+         np.linalg.inv(rot).T @ n / np.linalg.norm(np.linalg.inv(rot).T @ n))
+        for p, n in planes
+    ]
+    return centres * s, radii * s, (bone if armature is not None else ""), caps, pls
 
 
 def export_collision(filepath, objects, armature=None, bone="head", scale=1.0, context=None):
-    """Write sphere ``objects`` to a ``*.collision.xml``.  Returns the number of spheres."""
-    centres, radii, bone_name = collision_data(objects, armature, bone, scale, context)
-    objs = sorted((o for o in objects if is_sphere_object(o)), key=lambda o: o.name)
+    """Write the collision shapes among ``objects`` (sphere meshes and empties, capsule rigid
+    bodies, flat meshes as planes) to a ``*.collision.xml``.  Returns the number of shapes."""
+    centres, radii, bone_name, capsules, planes = collision_data(
+        objects, armature, bone, scale, context)
+    objs = sorted((o for o in objects if is_collision_object(o)), key=lambda o: o.name)
     units = frame_scale(armature, bone, _reference(objs, context), context)
     writer.write_text(
-        filepath, writer.collision_xml(centres, radii, scale, bone_name, bone_scale=units)
+        filepath,
+        writer.collision_xml(centres, radii, scale, bone_name, bone_scale=units,
+                             capsules=capsules, planes=planes),
     )
-    return len(radii)
+    return len(radii) + len(capsules) + len(planes)
 
 
 # --------------------------------------------------------------------------------------------

@@ -159,8 +159,8 @@ class EXPORT_SCENE_OT_cartoon_hair(_Common, bpy.types.Operator, ExportHelper):
 
 
 class EXPORT_SCENE_OT_cartoon_hair_collision(_Common, bpy.types.Operator, ExportHelper):
-    """Export the selected spheres (sphere meshes, sphere empties) as a bevy_cartoon_hair
-    collision shape"""
+    """Export the selected collision shapes (sphere meshes and empties, capsule rigid bodies,
+    flat meshes as planes) as a bevy_cartoon_hair collision file"""
 
     bl_idname = "export_scene.cartoon_hair_collision"
     bl_label = "Export Cartoon Hair Collision"
@@ -177,7 +177,7 @@ class EXPORT_SCENE_OT_cartoon_hair_collision(_Common, bpy.types.Operator, Export
         )
         if n is None:
             return {"CANCELLED"}
-        self.report({"INFO"}, f"Exported {n} spheres to {self.filepath}")
+        self.report({"INFO"}, f"Exported {n} collision shapes to {self.filepath}")
         return {"FINISHED"}
 
 
@@ -265,14 +265,14 @@ class VIEW3D_PT_cartoon_hair(bpy.types.Panel):
         col.prop(s, "scale")
 
         hair = gather.hair_objects(context.selected_objects)
-        spheres = [o for o in context.selected_objects if gather.is_sphere_object(o)]
+        spheres = [o for o in context.selected_objects if gather.is_collision_object(o)]
         layout.separator()
         col = layout.column()
-        col.label(text=f"Selected: {len(hair)} hair, {len(spheres)} sphere objects")
+        col.label(text=f"Selected: {len(hair)} hair, {len(spheres)} collision objects")
         col.operator(EXPORT_SCENE_OT_cartoon_hair.bl_idname, text="Export Hair", icon="CURVES")
         col.operator(
             EXPORT_SCENE_OT_cartoon_hair_collision.bl_idname,
-            text="Export Collision Spheres",
+            text="Export Collision Shapes",
             icon="MESH_UVSPHERE",
         )
         layout.separator()

@@ -36,7 +36,8 @@ MAX_STRANDS = 1_000_000
 MIN_PARTICLES, MAX_PARTICLES = 2, 256
 MAX_GROOM_PARTICLES = 2_000_000
 MIN_SEGMENT = 1e-6
-MAX_SPHERES = 4096
+MAX_SHAPES = 4096
+MAX_SPHERES = MAX_SHAPES  # the old name, from when collision files held spheres only
 MAX_KEYS = 256
 
 
@@ -242,16 +243,23 @@ def groom_xml(positions, counts, scale=1.0, bone="", check=True, bone_scale=1.0)
     return "".join(parts)
 
 
-def collision_xml(centers, radii, scale=1.0, bone="", bone_scale=1.0):
-    """The text of a ``*.collision.xml`` file; ``centers``/``radii`` already multiplied by
-    ``scale``."""
+def collision_xml(centers, radii, scale=1.0, bone="", bone_scale=1.0, capsules=(), planes=()):
+    """The text of a ``*.collision.xml`` file; ``centers``/``radii`` (spheres) and the points
+    and radii of ``capsules`` (``(a (3,), b (3,), radius)``) and ``planes`` (``(point (3,),
+    normal (3,))``) already multiplied by ``scale`` (normals are directions: not scaled)."""
     _check_scale(scale)
     centers = np.asarray(centers, dtype=np.float64).reshape(-1, 3)
     radii = np.asarray(radii, dtype=np.float64).reshape(-1)
-    if len(centers) == 0:
-        raise ExportError("no collision spheres to export (select sphere meshes or sphere empties)")
-    if len(centers) > MAX_SPHERES:
-        raise ExportError(f"{len(centers)} spheres; a collision shape may have at most {MAX_SPHERES}")
+    capsules = [(np.asarray(a, dtype=np.float64).reshape(3), np.asarray(b, dtype=np.float64).reshape(3),
+                 float(r)) for a, b, r in capsules]
+    planes = [(np.asarray(p, dtype=np.float64).reshape(3), np.asarray(n, dtype=np.float64).reshape(3))
+              for p, n in planes]
+    total = len(centers) + len(capsules) + len(planes)
+    if total == 0:
+        raise ExportError("no collision shapes to export (select sphere meshes, sphere empties, "
+                          "capsule rigid bodies or planes)")
+    if total > MAX_SHAPES:
+        raise ExportError(f"{total} shapes; a collision file may have at most {MAX_SHAPES}")
     if len(radii) != len(centers):
         raise ExportError("internal error: one radius per sphere needed")
     if not (np.isfinite(centers).all() and np.isfinite(radii).all()):
@@ -259,11 +267,36 @@ def collision_xml(centers, radii, scale=1.0, bone="", bone_scale=1.0):
     if (radii <= 0.0).any():
         i = int(np.flatnonzero(radii <= 0.0)[0])
         raise ExportError(f"sphere {i} has radius {radii[i]}; radii must be > 0")
+    for i, (a, b, r) in enumerate(capsules):
+        if not (np.isfinite(a).all() and np.isfinite(b).all() and math.isfinite(r)):
+            raise ExportError(f"capsule {i} has a non-finite end or radius")
+        if r <= 0.0:
+            raise ExportError(f"capsule {i} has radius {r}; radii must be > 0")
+    for i, (pt, n) in enumerate(planes):
+        if not (np.isfinite(pt).all() and np.isfinite(n).all()) or np.linalg.norm(n) <= 1e-9:
+            raise ExportError(f"plane {i} has a non-finite point or a zero normal")
     parts = [_header("collision", scale, bone, bone_scale)]
     for (x, y, z), r in zip(centers.tolist(), radii.tolist()):
         parts.append(
             f'  <sphere x="{fmt_float(x)}" y="{fmt_float(y)}" z="{fmt_float(z)}"'
             f' r="{fmt_float(r)}"/>\n'
+        )
+    for a, b, r in capsules:
+        parts.append(
+            "  <capsule "
+            + " ".join(f'{k}="{fmt_float(v)}"' for k, v in zip(("x0", "y0", "z0"), a.tolist()))
+            + " "
+            + " ".join(f'{k}="{fmt_float(v)}"' for k, v in zip(("x1", "y1", "z1"), b.tolist()))
+            + f' r="{fmt_float(r)}"/>\n'
+        )
+    for pt, n in planes:
+        n = n / np.linalg.norm(n)
+        parts.append(
+            "  <plane "
+            + " ".join(f'{k}="{fmt_float(v)}"' for k, v in zip("xyz", pt.tolist()))
+            + " "
+            + " ".join(f'{k}="{fmt_float(v)}"' for k, v in zip(("nx", "ny", "nz"), n.tolist()))
+            + "/>\n"
         )
     parts.append("</collision>\n")
     return "".join(parts)

@@ -10,7 +10,10 @@ exports it with the add-on's exporter at scale 10 to ``OUTDIR/fixture.hair.xml``
 first) in metres in the head bone's glTF node frame, i.e. what the loader must produce after
 dividing by the scale.  The expected values are computed separately with ``mathutils`` (the
 inverse of the bone's rest world matrix, Blender's bone axes; see tools/blender/README.md), not
-by the exporter's code.  Prints ``fixture: N strands``.
+by the exporter's code.  Also exports a sphere, a capsule rigid body and a plane on the same
+bone to ``OUTDIR/fixture.collision.xml`` with ``OUTDIR/fixture.collision.expected.txt`` (one
+line per shape: ``sphere x y z r``, ``capsule x0 y0 z0 x1 y1 z1 r``, ``plane x y z nx ny nz``,
+computed with ``mathutils``).  Prints ``fixture: N strands, M collision shapes``.
 """
 
 import os
@@ -57,7 +60,40 @@ def main(argv):
         i += c
     with open(os.path.join(out_dir, "fixture.expected.txt"), "w", encoding="utf-8", newline="\n") as f:
         f.write("\n".join(lines) + "\n")
-    print(f"fixture: {n} strands", flush=True)
+
+    # Collision shapes on the same bone: a sphere, a capsule rigid body, a plane.
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.09, location=(0.41, -0.28, 0.3))
+    sphere = bpy.context.object
+    bpy.ops.mesh.primitive_cylinder_add(radius=0.04, depth=0.25, location=(0.5, -0.2, 0.1),
+                                        rotation=(0.3, 1.1, 0.2))
+    capsule = bpy.context.object
+    bpy.ops.rigidbody.object_add()
+    capsule.rigid_body.collision_shape = "CAPSULE"
+    bpy.ops.mesh.primitive_plane_add(size=0.4, location=(0.4, -0.1, 0.2), rotation=(0.5, 0.2, 0.1))
+    plane = bpy.context.object
+    bpy.context.view_layer.update()
+    shapes = gather.export_collision(os.path.join(out_dir, "fixture.collision.xml"),
+                                     [sphere, capsule, plane], armature=arm, bone="head", scale=SCALE)
+    # Expected, with mathutils only: Blender's capsule for the cylinder's box is along local Z,
+    # ends inset by the radius; a plane's normal is its local Z by the inverse transpose.
+    cap_z = capsule.matrix_world.to_3x3().col[2].normalized()
+    cap_c = capsule.matrix_world.translation
+    half = 0.25 / 2.0 - 0.04
+    normal_world = (plane.matrix_world.to_3x3().inverted().transposed() @ Vector((0.0, 0.0, 1.0)))
+    normal = (to_bone.to_3x3().inverted().transposed() @ normal_world).normalized()
+
+    def fmt(vs):
+        return " ".join("%.9g" % (v + 0.0) for v in vs)
+
+    shape_lines = [
+        "sphere " + fmt([*(to_bone @ sphere.matrix_world.translation), 0.09]),
+        "capsule " + fmt([*(to_bone @ (cap_c - cap_z * half)), *(to_bone @ (cap_c + cap_z * half)), 0.04]),
+        "plane " + fmt([*(to_bone @ plane.matrix_world.translation), *normal]),
+    ]
+    with open(os.path.join(out_dir, "fixture.collision.expected.txt"), "w", encoding="utf-8",
+              newline="\n") as f:
+        f.write("\n".join(shape_lines) + "\n")
+    print(f"fixture: {n} strands, {shapes} collision shapes", flush=True)
     return 0
 
 

@@ -193,6 +193,53 @@ class CollisionExport(ExportTestCase):
         centres = np.array([(0.1, 0.05, 1.65), (0.0, -0.08, 1.55), (0.0, 0.0, 1.45)])
         np.testing.assert_allclose(xyz, writer.transform_points(to_bone, centres), atol=1e-5)
 
+    def test_capsules_and_planes(self):
+        arm = make_armature()
+        # An upper arm: a cylinder 0.3 long, 0.1 wide, turned and placed, with a capsule rigid body.
+        bpy.ops.mesh.primitive_cylinder_add(radius=0.05, depth=0.3, location=(0.3, 0.1, 1.3),
+                                            rotation=(0.0, 1.2, 0.4))
+        cap = bpy.context.object
+        cap.name = "a_arm"
+        bpy.ops.rigidbody.object_add()
+        cap.rigid_body.collision_shape = "CAPSULE"
+        # The back: a plane turned to face +Y.
+        bpy.ops.mesh.primitive_plane_add(size=0.5, location=(0.0, 0.12, 1.5), rotation=(-1.5708, 0.0, 0.0))
+        back = bpy.context.object
+        back.name = "b_back"
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1, location=(0.0, 0.0, 1.65))
+        skull = bpy.context.object
+        skull.name = "c_skull"
+        bpy.context.view_layer.update()
+        select_only([cap, back, skull])
+        out = self.path("c.collision.xml")
+        res = bpy.ops.export_scene.cartoon_hair_collision(
+            filepath=out, armature=arm.name, bone="head", scale=2.0
+        )
+        self.assertEqual(res, {"FINISHED"})
+        root = ET.parse(out).getroot()
+        self.assertEqual(len(root.findall("sphere")), 1)
+        (c,) = root.findall("capsule")
+        (pl,) = root.findall("plane")
+        to_bone = np.linalg.inv(matrix_np(arm.matrix_world) @ matrix_np(arm.data.bones["head"].matrix_local))
+        # Expected, from Blender's own matrices: the axis is the object's local Z, 0.3 - 2 x 0.05
+        # long between the cap centres.
+        m = matrix_np(cap.matrix_world)
+        z = m[:3, 2] / np.linalg.norm(m[:3, 2])
+        ends = np.array([m[:3, 3] - z * 0.1, m[:3, 3] + z * 0.1])
+        got = np.array([[float(c.get(k)) for k in ("x0", "y0", "z0")],
+                        [float(c.get(k)) for k in ("x1", "y1", "z1")]]) / 2.0
+        np.testing.assert_allclose(got, writer.transform_points(to_bone, ends), atol=1e-5)
+        self.assertAlmostEqual(float(c.get("r")) / 2.0, 0.05, places=5)
+        point = np.array([float(pl.get(k)) for k in "xyz"]) / 2.0
+        normal = np.array([float(pl.get(k)) for k in ("nx", "ny", "nz")])
+        np.testing.assert_allclose(point, writer.transform_points(to_bone, [(0.0, 0.12, 1.5)])[0], atol=1e-5)
+        # The plane's local +Z (turned -90 degrees about X: Blender's +Y), in the bone's frame.
+        local_z = matrix_np(back.matrix_world)[:3, 2]
+        np.testing.assert_allclose(local_z, [0.0, 1.0, 0.0], atol=1e-5)
+        want = to_bone[:3, :3] @ local_z
+        np.testing.assert_allclose(normal, want / np.linalg.norm(want), atol=1e-4)
+        self.assertAlmostEqual(float(np.linalg.norm(normal)), 1.0, places=5)
+
     def test_non_sphere_mesh_refused(self):
         # A body or a box selected by mistake must not become its bounding sphere silently.
         arm = make_armature()
