@@ -2,7 +2,8 @@
 //!
 //! - `sim_frame/*`: one 60 Hz frame (default substeps) of the whole app update, for the thesis
 //!   default (100 x 6), 1,000 x 16 and 10,000 x 16 strands; with a gusty wind; with hair–hair
-//!   volume (`*_volume`); with a body of colliders (`1000x16_body*`: head sphere, neck and
+//!   volume (`*_volume`); with a local force field reaching the hair and one out of reach
+//!   (`1000x16_fan*`); with a body of colliders (`1000x16_body*`: head sphere, neck and
 //!   shoulder capsules, a back plane, a swinging arm capsule, friction 0.3), with 300 more
 //!   capsules out of reach (the broad phase's cost), beside the head sphere alone.
 //! - `solver_frame/*`: the solver alone for the same workloads, one thread (no Bevy frame, no
@@ -235,6 +236,20 @@ fn bench_sim(c: &mut Criterion) {
         ..Default::default()
     });
     group.bench_function("1000x16_wind", |b| b.iter(|| app.update()));
+    // A local force field (a fan) reaching the whole hair, and one out of reach.
+    for (name, at) in [("1000x16_fan", 0.6), ("1000x16_fan_far", 20.0)] {
+        let mut app = hair_app(1_000, 16);
+        app.world_mut().spawn((
+            bevy_cartoon_hair::sim::HairForceField {
+                kind: bevy_cartoon_hair::sim::HairForceFieldKind::Directional,
+                speed: 8.0,
+                radius: 1.5,
+                ..Default::default()
+            },
+            Transform::from_xyz(at, 1.6, 0.0).looking_at(Vec3::new(0.0, 1.6, 0.0), Vec3::Y),
+        ));
+        group.bench_function(name, |b| b.iter(|| app.update()));
+    }
     // Colliders: the head sphere alone; a body of capsules, a plane and a swinging arm with
     // friction; the same with 300 capsules out of reach.
     let mut app = hair_app(1_000, 16);

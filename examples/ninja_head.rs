@@ -6,7 +6,8 @@
 //! Run: `tools/run-example.sh` (or `cargo run --example ninja_head`).
 //!
 //! Keys: arrows orbit the camera, Page Up / Page Down zoom, M toggles the tuning panel, P pauses
-//! the hair, Enter steps it one frame, G toggles a gusty 8 m/s wind.
+//! the hair, Enter steps it one frame, G toggles a gusty 8 m/s wind, F toggles a fan (a local
+//! `HairForceField`) blowing at the head from its right (the panel's Force fields edit it).
 //!
 //! Flags:
 //! - `--screenshot FILE`: save the window at frame 150 and exit.
@@ -124,7 +125,7 @@ fn main() {
     .add_systems(
         Update,
         // Typing a preset file name must not orbit the camera or pause the hair.
-        (orbit_keys, hair_keys).run_if(not(tuning_ui_wants_keyboard)),
+        (orbit_keys, hair_keys, fan_key).run_if(not(tuning_ui_wants_keyboard)),
     );
     if let Some(path) = args.screenshot {
         app.insert_resource(ScreenshotRequest(path))
@@ -160,6 +161,44 @@ fn orbit_keys(
             o.distance = (o.distance * (1.0 + dt)).min(6.0);
         }
         orbit.set_if_neq(o);
+    }
+}
+
+/// The fan F toggles.
+#[derive(Component)]
+struct Fan;
+
+/// F: a fan half a metre to the head's right, blowing at it, or none again.
+fn fan_key(
+    keys: Res<ButtonInput<KeyCode>>,
+    mut commands: Commands,
+    fans: Query<Entity, With<Fan>>,
+    hairs: Query<&GlobalTransform, With<Hair>>,
+) {
+    if keys.just_pressed(KeyCode::KeyF) {
+        if fans.is_empty() {
+            // A field's air goes along its -Z: looking at the head blows at it.
+            let head = hairs
+                .iter()
+                .next()
+                .map_or(Vec3::Y, GlobalTransform::translation);
+            commands.spawn((
+                Name::new("fan"),
+                Fan,
+                HairForceField {
+                    kind: HairForceFieldKind::Directional,
+                    speed: 12.0,
+                    radius: 1.2,
+                    ..default()
+                },
+                Transform::from_translation(head + Vec3::new(0.5, 0.1, 0.0))
+                    .looking_at(head, Vec3::Y),
+            ));
+        } else {
+            for fan in &fans {
+                commands.entity(fan).despawn();
+            }
+        }
     }
 }
 

@@ -179,7 +179,10 @@ pub use schedule::{HairSchedulePlugin, HairSystems};
 
 /// The things most apps need: `use bevy_cartoon_hair::prelude::*;`.
 pub mod prelude {
-    pub use crate::asset::{HairAnimation, HairGroom, HeadCollision};
+    pub use crate::asset::{
+        CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere, HairAnimation, HairGroom,
+        HeadCollision,
+    };
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::HairMeshSettings;
     pub use crate::mesh::highlights::SpecularQuads;
@@ -198,8 +201,9 @@ pub mod prelude {
     #[cfg(feature = "avian")]
     pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
-        AttachToBone, Hair, HairCollider, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
-        HairWind, HairWindOverride, Strand, StrandParticles,
+        AttachToBone, Hair, HairCollider, HairColliderMode, HairForceField, HairForceFieldKind,
+        HairSimControl, HairSimSettings, HairTime, HairTimeExt, HairWind, HairWindOverride, Strand,
+        StrandParticles,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

@@ -22,6 +22,15 @@ pub(crate) fn orthonormalise(v: Vec3, t: Vec3) -> Vec3 {
         .unwrap_or_else(|| t.any_orthonormal_vector())
 }
 
+/// The largest of an affine transform's axis scales (what a radius grows by).
+pub(crate) fn largest_scale(m: &Affine3A) -> f32 {
+    m.matrix3
+        .x_axis
+        .length()
+        .max(m.matrix3.y_axis.length())
+        .max(m.matrix3.z_axis.length())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

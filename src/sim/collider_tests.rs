@@ -398,3 +398,101 @@ fn broken_collider_shapes_are_skipped_not_spread() {
     assert!(matches!(shapes[0], LocalShape::Plane(_, n) if n == Vec3A::Y));
     assert!(matches!(shapes[1], LocalShape::Box(_, q, _) if q == Quat::IDENTITY));
 }
+
+/// Issue 15 item 1: a point field (a blast source coming up beside the head) and a directional
+/// one (a fan) push the hair their way, the same at 30, 60 and 144 fps; a field out of reach
+/// changes nothing, bit for bit.
+#[test]
+fn force_fields_blow_hair_their_way_at_any_frame_rate() {
+    let run = |fps: f64, field: Option<(HairForceField, Vec3, Vec3)>| {
+        let mut h = Harness::new(spiky_groom(16, 6), HairSimSettings::default(), fps);
+        let frames = |secs: f64| (secs * fps).round() as usize;
+        for _ in 0..frames(1.0) {
+            h.update();
+        }
+        let calm = h.strands();
+        let spawned = field.clone().map(|(f, from, _)| {
+            h.app
+                .world_mut()
+                .spawn((f, Transform::from_translation(BONE + from)))
+                .id()
+        });
+        let n = frames(1.0);
+        for i in 0..n {
+            if let (Some(e), Some((_, from, to))) = (spawned, &field) {
+                // The source moves past the head at a steady speed.
+                let at = BONE + from.lerp(*to, (i + 1) as f32 / n as f32);
+                *h.app.world_mut().get_mut::<Transform>(e).unwrap() =
+                    Transform::from_translation(at).looking_to(Vec3::X, Vec3::Y);
+            }
+            h.update();
+        }
+        (calm, h.strands())
+    };
+    // Mean shift of the tips along x.
+    let tips_x = |(calm, blown): &(Vec<Vec<Vec3>>, Vec<Vec<Vec3>>)| {
+        calm.iter()
+            .zip(blown)
+            .map(|(a, b)| b[5].x - a[5].x)
+            .sum::<f32>()
+            / calm.len() as f32
+    };
+    // A blast source coming up on the head's left (-x) from behind, ending beside it.
+    let blast = HairForceField {
+        speed: 15.0,
+        radius: 0.6,
+        ..default()
+    };
+    let left = (
+        blast.clone(),
+        Vec3::new(-0.3, 0.1, -0.4),
+        Vec3::new(-0.3, 0.1, 0.0),
+    );
+    let b60 = run(60.0, Some(left.clone()));
+    let (b30, b144) = (run(30.0, Some(left.clone())), run(144.0, Some(left)));
+    let pushed = tips_x(&b60);
+    let (d30, d144) = (
+        max_deviation(&b60.1, &b30.1),
+        max_deviation(&b60.1, &b144.1),
+    );
+    // A fan at the head's left blowing toward +x (its -Z turned to +x).
+    let fan = HairForceField {
+        kind: HairForceFieldKind::Directional,
+        speed: 10.0,
+        radius: 1.0,
+        ..default()
+    };
+    let fanned = tips_x(&run(
+        60.0,
+        Some((fan, Vec3::new(-0.4, 0.1, 0.0), Vec3::new(-0.4, 0.1, 0.0))),
+    ));
+    // Far away: nothing.
+    let far = run(
+        60.0,
+        Some((blast, Vec3::new(5.0, 0.0, 0.0), Vec3::new(5.0, 0.0, 0.0))),
+    );
+    let still = run(60.0, None);
+    let untouched = max_deviation(&far.1, &still.1);
+    println!(
+        "blast coming up on the left: tips {pushed:.4} m toward +x (60 vs 30 fps {d30:.5} m, 60 vs \
+         144 fps {d144:.5} m); fan: tips {fanned:.4} m toward +x; a field 5 m away moved the hair \
+         {untouched} m"
+    );
+    assert!(
+        pushed > 0.01,
+        "the blast did not push the hair away ({pushed} m)"
+    );
+    assert!(fanned > 0.01, "the fan did not blow the hair ({fanned} m)");
+    assert!(
+        d30 < 2e-3 && d144 < 2e-3,
+        "frame rate changed the result: {d30} {d144}"
+    );
+    assert_eq!(untouched, 0.0, "a field out of reach moved the hair");
+}
+
+fn max_deviation(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f32 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(s, t)| s.iter().zip(t).map(|(p, q)| p.distance(*q)))
+        .fold(0.0, f32::max)
+}

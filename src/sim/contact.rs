@@ -87,27 +87,18 @@ impl Contact {
     }
 }
 
-/// A non-uniform scale's largest factor: what radii grow by.
-fn radius_scale(pose: &Affine3A) -> f32 {
-    pose.matrix3
-        .x_axis
-        .length()
-        .max(pose.matrix3.y_axis.length())
-        .max(pose.matrix3.z_axis.length())
-}
-
 impl LocalShape {
     /// The shape at `pose` (which may scale it: radii by the largest axis scale).
     pub(crate) fn at(&self, pose: &Affine3A) -> ContactShape {
         match *self {
             Self::Sphere(c, r) => ContactShape::Sphere {
                 centre: pose.transform_point3a(c),
-                radius: r * radius_scale(pose),
+                radius: r * crate::math::largest_scale(pose),
             },
             Self::Capsule(a, b, r) => ContactShape::Capsule {
                 a: pose.transform_point3a(a),
                 b: pose.transform_point3a(b),
-                radius: r * radius_scale(pose),
+                radius: r * crate::math::largest_scale(pose),
             },
             Self::Plane(p, n) => ContactShape::Plane {
                 point: pose.transform_point3a(p),

@@ -58,7 +58,7 @@ pub use physics::HairCollisionGroups;
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
 pub use volume::{HairVolume, VolumeScratch, keep_apart};
-pub use wind::{HairWind, HairWindOverride};
+pub use wind::{FieldStep, HairForceField, HairForceFieldKind, HairWind, HairWindOverride};
 
 use bevy::prelude::*;
 
@@ -86,6 +86,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairWind>()
             .register_type::<HairVolume>()
             .register_type::<HairWindOverride>()
+            .register_type::<HairForceField>()
             .init_resource::<Time<HairTime>>()
             .add_systems(
                 First,

@@ -203,6 +203,10 @@ pub struct StepInput {
     pub bone_motion: Vec<Affine3A>,
     /// Wind, when there is any.
     pub wind: Option<WindInput>,
+    /// Local force fields at each substep: `fields[s * field_count + i]`.
+    pub fields: Vec<super::FieldStep>,
+    /// Force fields per substep.
+    pub field_count: usize,
     /// The number of substeps the hair had simulated before this frame (the signed-volume
     /// constraint runs on every other one).
     pub first_substep: u64,
@@ -427,6 +431,10 @@ impl Batch {
             if let (Some(w), Some(phases)) = (&input.wind, &phases) {
                 self.blow(w, s, phases, input);
             }
+            let f = input.field_count;
+            if f > 0 {
+                self.blow_fields(&input.fields[s * f..(s + 1) * f], input.damping);
+            }
             if let Some(m) = input.bone_motion.get(s) {
                 self.damp_in_bone_frame(m, input.damping);
             }
@@ -486,6 +494,24 @@ impl Batch {
             for c in 0..3 {
                 for l in 0..LANES {
                     node.p[c][l] += (carried[c][l] - node.x[c][l]) * k;
+                }
+            }
+        }
+    }
+
+    /// Force fields before a substep: each free node's velocity is pulled toward each field's
+    /// air (see [`FieldStep::blow`](super::FieldStep::blow)), written into its previous position
+    /// like the wind's.
+    fn blow_fields(&mut self, fields: &[super::FieldStep], damping: f32) {
+        let d = damping.max(1e-6);
+        for node in self.nodes.iter_mut().skip(PINNED) {
+            for l in 0..LANES {
+                let x = get3(&node.x, l);
+                let v = (x - get3(&node.p, l)) * d;
+                let blown = fields.iter().fold(v, |v, field| field.blow(x, v));
+                // Nodes no field reaches keep their state bit for bit.
+                if blown != v {
+                    set3(&mut node.p, l, x - blown / d);
                 }
             }
         }

@@ -17,13 +17,15 @@ use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
 use super::solver::{Batch, Contact, ContactShape, PINNED, StepInput, along};
-use super::wind::{HairWind, HairWindOverride};
+use super::wind::{FieldStep, HairForceField, HairWind, HairWindOverride};
 use super::{HairSimControl, HairTime};
 
-/// [`HairCollider`]s' poses last frame, so moving ones are interpolated per substep.
+/// [`HairCollider`]s' and [`HairForceField`]s' poses last frame, so moving ones are
+/// interpolated per substep.
 #[derive(Resource, Default)]
 pub(crate) struct ColliderHistory {
     poses: EntityHashMap<Affine3A>,
+    fields: EntityHashMap<Affine3A>,
 }
 
 /// Interpolates two affine transforms (translation and scale linearly, rotation by slerp).
@@ -59,7 +61,11 @@ pub(crate) fn step_hair_strands(
     )>,
     own: Query<(Entity, &HairCollider, &GlobalTransform)>,
     animations: Res<Assets<crate::asset::HairAnimation>>,
-    (global_wind, own_wind): (Option<Res<HairWind>>, Query<&HairWindOverride>),
+    (global_wind, own_wind, fields): (
+        Option<Res<HairWind>>,
+        Query<&HairWindOverride>,
+        Query<(Entity, &HairForceField, &GlobalTransform)>,
+    ),
 ) {
     // The hair's clock: zero while paused, one step when stepped.
     let dt = time.delta_secs();
@@ -75,6 +81,20 @@ pub(crate) fn step_hair_strands(
     history
         .poses
         .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
+    // Every force field that blows: its pose last frame and now.
+    let field_views: Vec<(Affine3A, Affine3A, &HairForceField)> = fields
+        .iter()
+        .filter(|(_, f, g)| !f.is_calm() && usable_frame(&g.affine()))
+        .map(|(e, field, g)| {
+            let now = g.affine();
+            let prev = history.fields.get(&e).copied().unwrap_or(now);
+            (prev, now, field)
+        })
+        .collect();
+    history.fields.clear();
+    history
+        .fields
+        .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = parallel::compute_pool();
     for (hair_entity, hair, global, settings, mut computed, mesh_settings) in &mut hairs {
         let computed = &mut *computed;
@@ -310,6 +330,44 @@ pub(crate) fn step_hair_strands(
         transpose(&mut input.spheres, spheres, substeps as usize);
         transpose(&mut input.sphere_shift, spheres, substeps as usize);
         transpose(&mut input.contacts, input.contact_count, substeps as usize);
+        // Force fields whose sphere meets the hair's reach this frame, per substep.
+        let mut field_templates: Vec<(&Affine3A, &Affine3A, &HairForceField)> = Vec::new();
+        for (prev, now, field) in &field_views {
+            let prev = if jumped(prev, now) { now } else { prev };
+            let near = reach.is_none_or(|(min, max)| {
+                [prev, now].iter().any(|pose| {
+                    let r = field.radius() * crate::math::largest_scale(pose);
+                    let c = pose.translation;
+                    (c - r).cmple(max).all() && (c + r).cmpge(min).all()
+                })
+            });
+            if near {
+                field_templates.push((prev, now, field));
+            }
+        }
+        input.field_count = field_templates.len();
+        for j in 0..substeps {
+            let t = if dt > 0.0 {
+                (start + (j + 1) as f32 * h) / dt
+            } else {
+                1.0
+            };
+            for &(prev, now, field) in &field_templates {
+                let pose = interpolate(prev, now, t);
+                input.fields.push(FieldStep {
+                    centre: pose.translation.into(),
+                    direction: match field.kind {
+                        super::HairForceFieldKind::Point => None,
+                        super::HairForceFieldKind::Directional => {
+                            Some(Vec3::from(-pose.matrix3.z_axis).normalize_or(Vec3::NEG_Z))
+                        }
+                    },
+                    speed_h: field.speed * h,
+                    radius: field.radius() * crate::math::largest_scale(&pose),
+                    pull: 1.0 - (-field.drag() * h).exp(),
+                });
+            }
+        }
         // Keyframe anchors for this frame.
         if let Some(anim) = hair
             .animation

@@ -1,5 +1,5 @@
 //! Wind: a global [`HairWind`] resource, or a [`HairWind`] component on a hair that overrides
-//! it. Each particle's velocity is pulled toward the wind's (a drag, so loose tips follow it
+//! it; and local [`HairForceField`]s (a fan, a passing car, a blast), spawned as entities. Each particle's velocity is pulled toward the wind's (a drag, so loose tips follow it
 //! more than anchored roots), and gusts vary its strength smoothly in time, each strand at its
 //! own phase (seeded). Wind is sampled at each substep's own time, so it does not depend on the
 //! frame rate.
@@ -72,6 +72,101 @@ impl HairWind {
         z = (z ^ (z >> 31)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z ^= z >> 29;
         (z >> 40) as f32 / (1u64 << 24) as f32 * 100.0
+    }
+}
+
+/// A local wind, spawned as an entity with a `Transform`: a passing car's draught, a fan, a
+/// blast. Inside its radius, particles' velocities are pulled toward the field's air velocity
+/// like [`HairWind`]'s (a drag, so loose tips follow more than anchored roots), the pull fading
+/// smoothly to nothing at the radius. The field moves, turns and scales with its entity and is
+/// followed per substep, so it does not depend on the frame rate. Every field may change every
+/// frame (the panel edits them); despawn the entity to end it.
+#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+#[require(Transform)]
+pub struct HairForceField {
+    /// Which way the air moves.
+    pub kind: HairForceFieldKind,
+    /// The air's speed, metres per second (negative: toward the centre, for a point field).
+    /// Default: `10.0`.
+    pub speed: f32,
+    /// How far the field reaches from its entity's origin, metres (times the entity's scale).
+    /// The pull fades as `(1 - (d / radius)^2)^2`. Clamped to `[0, 1000]`. Default: `1.0`.
+    pub radius: f32,
+    /// How fast a particle's velocity is pulled toward the air's at the centre, per second.
+    /// Clamped to `[0, 100]`. Default: `3.0`.
+    pub drag: f32,
+}
+
+/// The direction of a [`HairForceField`]'s air.
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Debug, Default, PartialEq)]
+pub enum HairForceFieldKind {
+    /// Away from the entity's origin (a blast, a fan blowing all round). Default.
+    #[default]
+    Point,
+    /// Along the entity's local `-Z` (its forward, like a camera or a light): a fan, a draught.
+    Directional,
+}
+
+impl Default for HairForceField {
+    fn default() -> Self {
+        Self {
+            kind: HairForceFieldKind::Point,
+            speed: 10.0,
+            radius: 1.0,
+            drag: 3.0,
+        }
+    }
+}
+
+impl HairForceField {
+    /// Radius after clamping.
+    pub fn radius(&self) -> f32 {
+        finite_or(self.radius, 1.0).clamp(0.0, 1000.0)
+    }
+
+    /// Drag after clamping.
+    pub fn drag(&self) -> f32 {
+        finite_or(self.drag, 3.0).clamp(0.0, 100.0)
+    }
+
+    /// Whether this field moves anything.
+    pub fn is_calm(&self) -> bool {
+        !self.speed.is_finite() || self.speed == 0.0 || self.radius() == 0.0 || self.drag() == 0.0
+    }
+}
+
+/// One force field for one substep, in world space, for the solver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FieldStep {
+    /// The field's origin.
+    pub centre: Vec3,
+    /// `Some(unit direction)` for a directional field; `None`: away from the centre.
+    pub direction: Option<Vec3>,
+    /// Air speed times the substep (metres per substep).
+    pub speed_h: f32,
+    /// Radius, metres.
+    pub radius: f32,
+    /// The share of the velocity gap closed at the centre this substep: `1 - exp(-drag h)`.
+    pub pull: f32,
+}
+
+impl FieldStep {
+    /// The velocity (per substep) `v` of a node at `x` becomes, under this field.
+    #[inline]
+    pub fn blow(&self, x: Vec3, v: Vec3) -> Vec3 {
+        let d = x - self.centre;
+        let q = d.length_squared() / (self.radius * self.radius);
+        if q.is_nan() || q >= 1.0 {
+            return v;
+        }
+        let fade = (1.0 - q) * (1.0 - q);
+        let dir = match self.direction {
+            Some(dir) => dir,
+            None => d.normalize_or_zero(),
+        };
+        v + (dir * self.speed_h - v) * (self.pull * fade)
     }
 }
 

@@ -17,7 +17,9 @@ use crate::render::{
     ToonLighting, ToonRamps,
 };
 use crate::silhouette::SilhouetteSettings;
-use crate::sim::{Hair, HairDampingFrame, HairSimSettings, HairWind};
+use crate::sim::{
+    Hair, HairDampingFrame, HairForceField, HairForceFieldKind, HairSimSettings, HairWind,
+};
 
 /// The hairs the window edits.
 type HairQuery<'w, 's> = Query<
@@ -41,6 +43,10 @@ fn hair_label(entity: Entity, name: Option<&Name>) -> String {
     }
 }
 
+/// The scene's force fields, for the panel.
+type FieldQuery<'w, 's> =
+    Query<'w, 's, (Entity, Option<&'static Name>, &'static mut HairForceField)>;
+
 /// The Hair properties window.
 pub(super) fn properties_window(
     mut contexts: EguiContexts,
@@ -49,7 +55,7 @@ pub(super) fn properties_window(
     mut hairs: HairQuery,
     mut outlines: Query<&mut ImageSpaceOutline>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
-    (ramps, mut wind): (Res<ToonRamps>, ResMut<HairWind>),
+    (ramps, mut wind, mut fields): (Res<ToonRamps>, ResMut<HairWind>, FieldQuery),
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
@@ -94,6 +100,15 @@ pub(super) fn properties_window(
             egui::CollapsingHeader::new("Wind (every hair)")
                 .default_open(false)
                 .show(ui, |ui| wind_controls(ui, &mut wind));
+            if !fields.is_empty() {
+                egui::CollapsingHeader::new("Force fields")
+                    .default_open(false)
+                    .show(ui, |ui| {
+                        for (entity, name, mut field) in &mut fields {
+                            field_controls(ui, entity, name, &mut field);
+                        }
+                    });
+            }
             egui::CollapsingHeader::new("Preset")
                 .default_open(true)
                 .show(ui, |ui| {
@@ -234,6 +249,35 @@ fn wind_controls(ui: &mut egui::Ui, wind: &mut ResMut<HairWind>) {
         **wind = w;
     }
 }
+
+/// One force field: kind, speed, radius, drag.
+fn field_controls(
+    ui: &mut egui::Ui,
+    entity: Entity,
+    name: Option<&Name>,
+    field: &mut Mut<HairForceField>,
+) {
+    let mut f = (**field).clone();
+    let label = name.map_or_else(|| format!("field {entity}"), |n| n.as_str().to_owned());
+    ui.label(&label);
+    // Each field's widgets under its own id, so two fields' combo boxes never share state.
+    ui.push_id(entity, |ui| {
+        egui::Grid::new("hair_field").num_columns(2).show(ui, |ui| {
+            combo_row(ui, "Kind", &mut f.kind, &FIELD_KINDS);
+            slider_row(ui, "Speed (m/s)", &mut f.speed, -50.0..=50.0);
+            slider_row(ui, "Radius (m)", &mut f.radius, 0.0..=5.0);
+            slider_row(ui, "Drag (1/s)", &mut f.drag, 0.0..=20.0);
+        });
+    });
+    if f != **field {
+        **field = f;
+    }
+}
+
+const FIELD_KINDS: [(HairForceFieldKind, &str); 2] = [
+    (HairForceFieldKind::Point, "Point (outward)"),
+    (HairForceFieldKind::Directional, "Directional (-Z)"),
+];
 
 fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
     let mut s = (**sim).clone();
