@@ -290,6 +290,40 @@ fn bench_sim(c: &mut Criterion) {
             });
         }
     }
+    // The same on a head: the head sphere keeps the hair spread as on a character (without
+    // it the hair falls through the head into one bundle), beside the frame with the head and
+    // no volume.
+    for (n, p) in [(1_000, 16), (10_000, 16)] {
+        let spacing = (std::f32::consts::TAU * 0.01 / n as f32).sqrt();
+        for (name, volume) in [
+            ("none", None),
+            ("touching", Some(Some(0.5 * spacing))),
+            ("16mm", Some(None)),
+        ] {
+            let mut app = hair_app(n, p);
+            app.world_mut().spawn((
+                HairCollider::spheres(vec![CollisionSphere {
+                    center: Vec3::ZERO,
+                    radius: 0.1,
+                }]),
+                Transform::from_xyz(0.0, 1.6, 0.0),
+            ));
+            let world = app.world_mut();
+            let mut q = world.query::<&mut HairSimSettings>();
+            for mut s in q.iter_mut(world) {
+                s.volume = volume.map(|radius| bevy_cartoon_hair::sim::HairVolume {
+                    radius,
+                    ..Default::default()
+                });
+            }
+            for _ in 0..30 {
+                app.update();
+            }
+            group.bench_function(format!("{n}x{p}_on_head_volume_{name}"), |b| {
+                b.iter(|| app.update());
+            });
+        }
+    }
     group.finish();
     let mut group = c.benchmark_group("rapier_chains");
     group.sample_size(10);
