@@ -431,14 +431,36 @@ fn report_failure(
 /// Spawns strand entities and solver state once a hair's assets are ready, and rebuilds them
 /// when a handle, a file (hot reload), the bone's scale or the structure offset changes. Failed
 /// assets and bone mismatches are reported once each.
+/// Whether the Attach stage's systems queued work this frame: each sync point after them runs
+/// only then, so a frame in which nothing attaches or rebuilds has none.
+#[derive(Resource, Default, Debug)]
+pub(crate) struct AttachWork {
+    /// `attach_to_bones` looked at a hair whose bone was not settled.
+    pub(crate) bones: bool,
+    /// `build_hair_strands` built, rebuilt or reported something.
+    pub(crate) strands: bool,
+}
+
+impl AttachWork {
+    pub(crate) fn bones(work: Res<Self>) -> bool {
+        work.bones
+    }
+
+    pub(crate) fn strands(work: Res<Self>) -> bool {
+        work.strands
+    }
+}
+
 pub(crate) fn build_hair_strands(
     mut commands: Commands,
+    mut work: ResMut<AttachWork>,
     mut hairs: HairBuildQuery,
     assets: HairAssets,
     names: Query<&Name>,
     helper: TransformHelper,
     head_colliders: Query<(Entity, &HeadColliderOf)>,
 ) {
+    work.strands = false;
     for (entity, hair, settings, mut global, computed, strands, status, search) in &mut hairs {
         let anim_id = hair.animation.as_ref().map(bevy::prelude::Handle::id);
         let collision_id = hair.collision.as_ref().map(bevy::prelude::Handle::id);
@@ -479,6 +501,8 @@ pub(crate) fn build_hair_strands(
         if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
             continue;
         }
+        // From here on this hair may queue commands.
+        work.strands = true;
         // Only now: a hair that is up to date is not marked changed every frame.
         let status = status.into_inner();
         let mut failed = |kind, id: UntypedAssetId| {

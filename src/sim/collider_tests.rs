@@ -496,3 +496,36 @@ fn max_deviation(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f32 {
         .flat_map(|(s, t)| s.iter().zip(t).map(|(p, q)| p.distance(*q)))
         .fold(0.0, f32::max)
 }
+
+/// Issue 16 item 4: once every hair is built, the Attach stage's sync points do not run; a new
+/// hair brings them back for the frames it needs.
+#[test]
+fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
+    let mut h = Harness::new(spiky_groom(10, 5), HairSimSettings::default(), 60.0);
+    h.update();
+    let work = |h: &Harness| {
+        let w = h.app.world().resource::<super::attach::AttachWork>();
+        (w.bones, w.strands)
+    };
+    assert_eq!(work(&h), (false, false), "steady state still syncs");
+    let bone = h.bone;
+    let groom = h.app.world().get::<Hair>(h.hair).unwrap().groom.clone();
+    let second = h
+        .app
+        .world_mut()
+        .spawn((
+            Hair { groom, ..default() },
+            HairSimSettings::default(),
+            AttachToBone::entity(bone),
+        ))
+        .id();
+    h.update();
+    assert_eq!(
+        work(&h),
+        (true, true),
+        "a new hair must get its sync points"
+    );
+    assert!(h.app.world().get::<ComputedHair>(second).is_some());
+    h.update();
+    assert_eq!(work(&h), (false, false));
+}

@@ -94,6 +94,7 @@ impl Plugin for HairSimulationPlugin {
                 clock::advance_hair_time.after(bevy::time::TimeSystems),
             )
             .init_resource::<step::ColliderHistory>()
+            .init_resource::<attach::AttachWork>()
             .register_type::<Hair>()
             .register_type::<HairSimSettings>()
             .register_type::<HairSimControl>()
@@ -110,10 +111,11 @@ impl Plugin for HairSimulationPlugin {
                 (
                     bone::attach_to_bones,
                     attach::mark_reloaded_hairs,
-                    // Strands are built on the bone found this frame.
-                    ApplyDeferred,
+                    // Strands are built on the bone found this frame. Each sync point runs only
+                    // in frames whose systems before it had work (see `AttachWork`).
+                    ApplyDeferred.run_if(attach::AttachWork::bones),
                     attach::build_hair_strands,
-                    ApplyDeferred,
+                    ApplyDeferred.run_if(attach::AttachWork::strands),
                 )
                     .chain()
                     .in_set(HairSystems::Attach),
