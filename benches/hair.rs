@@ -20,7 +20,7 @@
 //!   mesh, object-space strokes for a 1280x720 camera, specular quads), each beside the same app
 //!   without hair (`*_no_hair`): W1, the thesis default (100 x 6, 8 rings x 8 sides); W6, a
 //!   crowd of 16 heads of 160 x 7 at 2 to 24.5 m, half of them behind the camera, with culling
-//!   and with it off; W2, 10,000 x 16 on one hair. There is no render app here (no GPU on the
+//!   and level of detail and with both off; W2, 10,000 x 16 on one hair. There is no render app here (no GPU on the
 //!   bench machine): material assignment and the upload of meshes to the GPU are not measured.
 //!   After each, the stage times of `HairStageTimings` (smoothed over about ten frames) are
 //!   printed.
@@ -736,6 +736,10 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
                 ..default()
             },
             HairCulling { enabled: culling },
+            bevy_cartoon_hair::mesh::HairLod {
+                enabled: culling,
+                ..default()
+            },
             ChildOf(bone),
         ));
     }
@@ -760,10 +764,12 @@ fn print_stages(name: &str, app: &App) {
         .map(|(n, ms)| format!("{n} {ms:.3} ms"))
         .collect();
     println!(
-        "{name} stages: {}; culled {} of {} hairs",
+        "{name} stages: {}; culled {} of {} hairs, {} at level of detail 1, {} at 2",
         stages.join(", "),
         culled.culled,
-        culled.hairs
+        culled.hairs,
+        culled.reduced[0],
+        culled.reduced[1]
     );
 }
 
@@ -802,7 +808,7 @@ fn bench_frame(c: &mut Criterion) {
     for (name, heads, culling, samples) in [
         ("W1_thesis_100x6", &w1[..], true, 100),
         ("W6_crowd_16x160x7", &w6[..], true, 30),
-        ("W6_crowd_16x160x7_no_culling", &w6[..], false, 20),
+        ("W6_crowd_16x160x7_no_culling_no_lod", &w6[..], false, 20),
         ("W2_10000x16", &w2[..], true, 10),
     ] {
         group.sample_size(samples);

@@ -188,6 +188,7 @@ pub fn build_specular_quads(
             &HairStrands,
             Option<&HairHighlights>,
             &super::HairInView,
+            &super::HairLodLevel,
         ),
         (With<Hair>, With<ComputedHairMesh>),
     >,
@@ -207,10 +208,11 @@ pub fn build_specular_quads(
         .next()
         .map(|t| t.back().as_vec3())
         .unwrap_or(Vec3::Y);
-    for (hair, settings, mesh_settings, strand_list, highlights, in_view) in &hairs {
+    for (hair, settings, mesh_settings, strand_list, highlights, in_view, lod) in &hairs {
         let existing = highlights.and_then(|h| h.iter().next());
-        // Hair no camera sees gets no quads (see `culling`).
-        let shown = settings.enabled && in_view.0;
+        // Hair no camera sees gets no quads (see `culling`), nor hair at the smallest level of
+        // detail (see `lod`).
+        let shown = settings.enabled && in_view.0 && lod.level < 2;
         if let Some(e) = existing
             && let Ok(mut v) = visibility.get_mut(e)
         {
@@ -240,6 +242,15 @@ pub fn build_specular_quads(
             }
         };
         builder.clear();
+        // Level 1 of detail samples each strand half as often.
+        let settings = &SpecularQuads {
+            samples: if lod.level >= 1 {
+                (settings.samples / 2).max(4)
+            } else {
+                settings.samples
+            },
+            ..settings.clone()
+        };
         for e in strand_list.iter() {
             if let Ok((_, particles)) = strands.get(e) {
                 let radius_at =

@@ -13,10 +13,12 @@
 
 pub mod culling;
 pub mod highlights;
+pub mod lod;
 mod mass;
 pub mod tube;
 
 pub use culling::{HairCulling, HairCullingStats, HairInView};
+pub use lod::{HairLod, HairLodLevel};
 pub use mass::HairMassShape;
 
 use bevy::asset::RenderAssetUsages;
@@ -134,6 +136,10 @@ impl Plugin for HairMeshPlugin {
             .register_type::<culling::HairCullingStats>()
             .register_required_components::<Hair, culling::HairCulling>()
             .register_required_components::<Hair, culling::HairInView>()
+            .register_type::<lod::HairLod>()
+            .register_type::<lod::HairLodLevel>()
+            .register_required_components::<Hair, lod::HairLod>()
+            .register_required_components::<Hair, lod::HairLodLevel>()
             .init_resource::<culling::HairCullingStats>()
             .add_systems(
                 PostUpdate,
@@ -203,26 +209,54 @@ pub fn rebuild_strand_meshes(
         &HairStrands,
         Option<&mut ComputedHairMesh>,
         &ComputedHair,
-        (&HairCulling, &mut HairInView),
+        (
+            &HairCulling,
+            &mut HairInView,
+            &lod::HairLod,
+            &mut lod::HairLodLevel,
+        ),
     )>,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
     (mut aabbs, cameras, mut stats): (
         Query<&mut Aabb, With<HairMeshOf>>,
-        Query<(&Camera, &Frustum), With<Camera3d>>,
+        Query<(&Camera, &Frustum, &GlobalTransform), With<Camera3d>>,
         ResMut<HairCullingStats>,
     ),
     mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let pool = parallel::compute_pool();
     let mut counted = HairCullingStats::default();
-    let any_camera = cameras.iter().any(|(c, _)| c.is_active);
+    let any_camera = cameras.iter().any(|(c, ..)| c.is_active);
     for (hair, hair_assets, settings, global, strand_list, mut computed, sim, culling) in &mut hairs
     {
-        let (culling, mut in_view) = culling;
+        let (culling, mut in_view, lod, mut level) = culling;
         // A character scaled at run time keeps its tubes in proportion.
         let radius = settings.radius * sim.size();
+        // Level of detail from the hair's size on screen, by last frame's bounds (the mesh's
+        // bounds are this frame's particles, known only after the topology is chosen). A hair
+        // no camera sees keeps its level, so it comes back as it left.
+        let pixels = computed
+            .as_ref()
+            .and_then(|c| aabbs.get(c.entity).ok())
+            .and_then(|aabb| {
+                cameras
+                    .iter()
+                    .filter(|(c, ..)| c.is_active)
+                    .filter_map(|(c, _, view)| lod::screen_height(c, view, aabb))
+                    .reduce(f32::max)
+            });
+        let next = match pixels {
+            Some(px) if in_view.0 => lod::HairLodLevel {
+                level: lod.level_for(px, level.level),
+                pixels: px,
+            },
+            _ if !lod.enabled => lod::HairLodLevel::default(),
+            _ => *level,
+        };
+        level.set_if_neq(next);
         let (rings, sides) = settings_topology(settings);
+        let (rings, sides) = lod::lod_topology(rings, sides, level.level);
         let count = strand_list.len();
         let rebuild = computed.as_ref().is_none_or(|c| {
             c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
@@ -323,11 +357,17 @@ pub fn rebuild_strand_meshes(
             || bounds.is_none_or(|b| {
                 culling::seen_by_any(
                     &b,
-                    cameras.iter().filter(|(c, _)| c.is_active).map(|(_, f)| f),
+                    cameras
+                        .iter()
+                        .filter(|(c, ..)| c.is_active)
+                        .map(|(_, f, _)| f),
                 )
             });
         in_view.set_if_neq(HairInView(seen));
         counted.hairs += 1;
+        if level.level > 0 {
+            counted.reduced[usize::from(level.level.min(2)) - 1] += 1;
+        }
         if !seen {
             counted.culled += 1;
             continue;

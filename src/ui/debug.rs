@@ -77,6 +77,14 @@ pub(super) fn debug_window(
                 culling.culled, culling.hairs
             ))
             .on_hover_text("Hair no camera sees: simulated, but no mesh, strokes or highlights");
+            ui.label(format!(
+                "Reduced: {} at level 1, {} at level 2",
+                culling.reduced[0], culling.reduced[1]
+            ))
+            .on_hover_text(
+                "Hair small on screen: fewer tube rings and sides (HairLod); level 2 has no \
+                 specular quads",
+            );
 
             ui.separator();
             let Some(computed) = tuning.hair.and_then(|h| hairs.get(h).ok()) else {
