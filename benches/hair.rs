@@ -24,6 +24,10 @@
 //!   bench machine): material assignment and the upload of meshes to the GPU are not measured.
 //!   After each, the stage times of `HairStageTimings` (smoothed over about ten frames) are
 //!   printed.
+//! - `thesis/*`: the thesis's performance tables 5.3-5.5 reproduced on the W1 hair (resolution
+//!   x outline method, outline width, anchor stiffness x skeleton and hair animation), printed
+//!   as a table beside the thesis's frame rates at the end of the group. Image-space outlines
+//!   and dilation are GPU work: on the CPU those rows are the frame without strokes.
 #![expect(
     missing_docs,
     reason = "criterion's macros define undocumented functions"
@@ -819,8 +823,225 @@ fn bench_frame(c: &mut Criterion) {
     group.finish();
 }
 
+/// One row of the thesis's tables 5.3-5.5: the W1 hair (100 x 6) with these settings.
+#[derive(Clone, Copy)]
+struct ThesisRow {
+    /// The thesis's table and its row's frame rate (frames per second, its whole app: CPU
+    /// and GPU, 2013 hardware).
+    table: &'static str,
+    thesis_fps: &'static str,
+    label: &'static str,
+    rings: u32,
+    sides: u32,
+    /// Object-space strokes (`Some(stroke limit px)`), or the image-space outline (`None`),
+    /// which is GPU work only: no CPU stage.
+    strokes: Option<f32>,
+    anchor: f32,
+    skeleton: bool,
+    hair_animation: bool,
+}
+
+/// Turns every bone marked `Nod` (the skeleton animation of table 5.5).
+#[derive(Component)]
+struct Nod;
+
+fn nod(time: Res<Time>, mut bones: Query<&mut Transform, With<Nod>>) {
+    for mut t in &mut bones {
+        let s = time.elapsed_secs();
+        t.rotation = Quat::from_rotation_y(0.6 * (2.0 * s).sin())
+            * Quat::from_rotation_x(0.2 * (3.0 * s).sin());
+    }
+}
+
+fn thesis_app(row: &ThesisRow) -> App {
+    use bevy_cartoon_hair::asset::{HairAnimation, HairKeyframe};
+    use bevy_cartoon_hair::mesh::{HairMeshPlugin, HairMeshSettings};
+    use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
+    let mut app = App::new();
+    app.add_plugins((
+        minimal_plugins(),
+        TransformPlugin,
+        AssetPlugin::default(),
+        bevy::diagnostic::DiagnosticsPlugin,
+        HairAssetPlugin,
+        HairSchedulePlugin,
+        HairSimulationPlugin,
+        HairMeshPlugin,
+        HairSilhouettePlugin,
+        bevy_cartoon_hair::debug::HairStageTimingsPlugin,
+    ))
+    .init_asset::<Mesh>()
+    .add_systems(Update, nod)
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )));
+    bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    let base = HairGroom::from_strands("head", strands(100, 6)).unwrap();
+    let animation = row.hair_animation.then(|| {
+        // Two styles: the base and the tips swept back.
+        let swept = HairGroom::from_strands(
+            "head",
+            base.strands().map(|s| {
+                s.iter()
+                    .enumerate()
+                    .map(|(k, p)| *p + Vec3::new(0.0, 0.0, -0.02 * k as f32))
+                    .collect::<Vec<_>>()
+            }),
+        )
+        .unwrap();
+        HairAnimation::new(
+            vec![
+                HairKeyframe {
+                    time: 0.0,
+                    pose: base.clone(),
+                },
+                HairKeyframe {
+                    time: 0.5,
+                    pose: swept,
+                },
+            ],
+            true,
+            1.0,
+        )
+        .unwrap()
+    });
+    let world = app.world_mut();
+    let groom = world.resource_mut::<Assets<HairGroom>>().add(base);
+    let animation = animation.map(|a| world.resource_mut::<Assets<HairAnimation>>().add(a));
+    let mut bone = world.spawn(Transform::from_xyz(0.0, -0.1, -0.8));
+    if row.skeleton {
+        bone.insert(Nod);
+    }
+    let bone = bone.id();
+    world.spawn((
+        Hair {
+            groom,
+            animation,
+            ..default()
+        },
+        HairSimSettings {
+            anchor_stiffness: bevy_cartoon_hair::curve::QuadraticCurve::new(0.0, 0.0, row.anchor),
+            ..default()
+        },
+        HairMeshSettings {
+            hair_resolution: row.rings,
+            shape_resolution: row.sides,
+            ..default()
+        },
+        SilhouetteSettings {
+            enabled: row.strokes.is_some(),
+            stroke_limit_px: row.strokes.unwrap_or(8.0),
+            width_px: row.strokes.unwrap_or(4.0),
+            ..default()
+        },
+        // The thesis's frame had no culling or level of detail.
+        bevy_cartoon_hair::mesh::HairLod {
+            enabled: false,
+            ..default()
+        },
+        ChildOf(bone),
+    ));
+    for _ in 0..5 {
+        app.update();
+    }
+    app
+}
+
+/// Issue 16 item 6: the thesis's performance tables 5.3 (hair and shape resolution x outline
+/// method), 5.4 (outline width) and 5.5 (anchor stiffness and animation), our CPU frame beside
+/// its frame rate, printed as a table at the end of the group.
+fn bench_thesis_tables(c: &mut Criterion) {
+    let row = |table, thesis_fps, label, rings, sides, strokes| ThesisRow {
+        table,
+        thesis_fps,
+        label,
+        rings,
+        sides,
+        strokes,
+        anchor: 0.5,
+        skeleton: false,
+        hair_animation: false,
+    };
+    let obj = Some(8.0);
+    let mut rows = vec![
+        row("5.3", "37", "6 samples x 4 sides, object-space", 6, 4, obj),
+        row("5.3", "28", "8 x 8, object-space", 8, 8, obj),
+        row("5.3", "3", "32 x 32, object-space", 32, 32, obj),
+        row("5.3", "44", "6 x 4, image-space", 6, 4, None),
+        row("5.3", "32", "8 x 8, image-space", 8, 8, None),
+        row("5.3", "4", "32 x 32, image-space", 32, 32, None),
+        row("5.4", "32", "dilation 1 (image-space)", 8, 8, None),
+        row("5.4", "23", "dilation 12 (image-space)", 8, 8, None),
+        // The thesis's stroke limits 0.1 and 1 (1 as thick as dilation 12): 1.2 and 12 px here.
+        row("5.4", "28", "stroke limit 0.1 (1.2 px)", 8, 8, Some(1.2)),
+        row("5.4", "28", "stroke limit 1 (12 px)", 8, 8, Some(12.0)),
+    ];
+    for (fps, label, anchor, skeleton, hair_animation) in [
+        ("28", "anchors 0.01, static", 0.01, false, false),
+        ("28", "anchors 0.01, skeleton", 0.01, true, false),
+        ("26", "anchors 0.01, skeleton + hair", 0.01, true, true),
+        ("23-26", "anchors 0, skeleton + hair", 0.0, true, true),
+        ("23-26", "anchors 1, skeleton + hair", 1.0, true, true),
+    ] {
+        rows.push(ThesisRow {
+            anchor,
+            skeleton,
+            hair_animation,
+            ..row("5.5", fps, label, 8, 8, obj)
+        });
+    }
+    let mut group = c.benchmark_group("thesis");
+    group.sample_size(30);
+    // Each bench's samples (ms per frame), for the table's medians.
+    let timed = |group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+                 name: String,
+                 app: &mut App| {
+        let mut samples = Vec::new();
+        group.bench_function(name, |b| {
+            b.iter_custom(|iters| {
+                let start = std::time::Instant::now();
+                for _ in 0..iters {
+                    app.update();
+                }
+                let took = start.elapsed();
+                samples.push(took.as_secs_f64() * 1e3 / iters as f64);
+                took
+            });
+        });
+        samples.sort_by(f64::total_cmp);
+        samples.get(samples.len() / 2).copied().unwrap_or(0.0)
+    };
+    let none = timed(&mut group, "no_hair".into(), &mut frame_app(&[], true));
+    let mut printed = Vec::new();
+    for (i, row) in rows.iter().enumerate() {
+        let ms = timed(
+            &mut group,
+            format!("{}_{i:02}", row.table),
+            &mut thesis_app(row),
+        );
+        printed.push((row, ms));
+    }
+    group.finish();
+    println!("\nThesis tables 5.3-5.5, 100 x 6 strands (W1), this machine's CPU frame (no GPU):");
+    println!(
+        "| table | row | thesis FPS (whole app, 2013) | our frame, ms (median sample) | hair share, ms |"
+    );
+    println!("|---|---|---|---|---|");
+    for (row, ms) in printed {
+        println!(
+            "| {} | {} | {} | {ms:.2} | {:.2} |",
+            row.table,
+            row.label,
+            row.thesis_fps,
+            ms - none
+        );
+    }
+    println!("(no-hair frame: {none:.2} ms)");
+}
+
 criterion_group!(
     benches,
+    bench_thesis_tables,
     bench_frame,
     bench_sim,
     bench_solver,

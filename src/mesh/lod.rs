@@ -125,7 +125,7 @@ pub fn screen_height(camera: &Camera, view: &GlobalTransform, bounds: &Aabb) -> 
     let clip = clip_from_view * centre.extend(1.0);
     // Perspective: w is the depth; orthographic: 1.
     let w = clip.w;
-    if !(w > 1e-6) {
+    if w.is_nan() || w <= 1e-6 {
         return None;
     }
     let radius = Vec3::from(bounds.half_extents).length();

@@ -73,17 +73,13 @@ pub(super) fn debug_window(
                     }
                 });
             ui.label(format!(
-                "Culled: {} of {} hairs",
-                culling.culled, culling.hairs
-            ))
-            .on_hover_text("Hair no camera sees: simulated, but no mesh, strokes or highlights");
-            ui.label(format!(
-                "Reduced: {} at level 1, {} at level 2",
-                culling.reduced[0], culling.reduced[1]
+                "Culled: {} of {} hairs; reduced: {} + {}",
+                culling.culled, culling.hairs, culling.reduced[0], culling.reduced[1]
             ))
             .on_hover_text(
-                "Hair small on screen: fewer tube rings and sides (HairLod); level 2 has no \
-                 specular quads",
+                "Culled: hair no camera sees, simulated but with no mesh, strokes or \
+                 highlights. Reduced: hair small on screen drawn at level of detail 1 + level 2 \
+                 (HairLod: fewer tube rings and sides; level 2 has no specular quads)",
             );
 
             ui.separator();
@@ -99,19 +95,30 @@ pub(super) fn debug_window(
                         ("Substeps", s.substeps),
                     ],
                     [("Teleports", s.teleports), ("Resets", s.strand_resets)],
-                    [("Colliders", s.colliders), ("Volume pairs", s.volume_pairs)],
+                    [
+                        ("Colliders", s.colliders),
+                        ("Bad bones", s.invalid_bone_frames),
+                    ],
                 ];
-                for row in rows {
-                    for (name, value) in row {
-                        ui.label(name);
+                let hints = [
+                    "",
+                    "Substeps simulated last frame",
+                    "Frames the bone jumped and carried the hair",
+                    "Strands reset after their state stopped being finite",
+                    "Collider shapes tested against this hair last frame (after the broad phase)",
+                    "Frames skipped: the bone's transform was not usable",
+                ];
+                for (r, row) in rows.into_iter().enumerate() {
+                    for (c, (name, value)) in row.into_iter().enumerate() {
+                        let label = ui.label(name);
+                        let hint = hints[r * 2 + c];
+                        if !hint.is_empty() {
+                            label.on_hover_text(hint);
+                        }
                         ui.monospace(value.to_string());
                     }
                     ui.end_row();
                 }
-                ui.label("Bad bone frames")
-                    .on_hover_text("Frames skipped: the bone's transform was not usable");
-                ui.monospace(s.invalid_bone_frames.to_string());
-                ui.end_row();
             });
         });
 }
