@@ -532,7 +532,7 @@ impl Rng {
 
 const SEEDS: [&str; 3] = [
     "<?xml version=\"1.0\"?>\n<groom version=\"1\" units=\"meters\" scale=\"10\" bone=\"head\">\n  <strand>0 0 0  0 1 0  0 2 0</strand>\n  <strand>1 0 0 1 1 0</strand>\n</groom>\n",
-    "<collision version=\"1\" scale=\"1\" bone=\"head\">\n  <sphere x=\"0\" y=\"0.1\" z=\"0\" r=\"0.11\"/>\n  <sphere x=\"0\" y=\"0.05\" z=\"0.04\" r=\"0.09\"/>\n</collision>\n",
+    "<collision version=\"1\" scale=\"1\" bone=\"head\">\n  <sphere x=\"0\" y=\"0.1\" z=\"0\" r=\"0.11\"/>\n  <capsule x0=\"0\" y0=\"0\" z0=\"0\" x1=\"0\" y1=\"-0.1\" z1=\"0\" r=\"0.05\"/>\n  <plane x=\"0\" y=\"0\" z=\"-0.1\" nx=\"0\" ny=\"0\" nz=\"1\"/>\n</collision>\n",
     "<hairanim version=\"1\" loop=\"true\" duration=\"2.4\">\n  <key time=\"0.0\" groom=\"a.hair.xml\"/>\n  <key time=\"0.8\" groom=\"b.hair.xml\"/>\n</hairanim>\n",
 ];
 
@@ -626,6 +626,16 @@ fn check_one(text: &str) -> usize {
                     .iter()
                     .all(|s| s.center.is_finite() && s.radius > 0.0 && s.radius <= MAX_COORDINATE)
             );
+            assert!(c.capsules.iter().all(|k| k.a.is_finite()
+                && k.b.is_finite()
+                && k.radius > 0.0
+                && k.radius <= MAX_COORDINATE));
+            assert!(
+                c.planes
+                    .iter()
+                    .all(|p| p.point.is_finite() && (p.normal.length() - 1.0).abs() < 1e-5)
+            );
+            assert!(c.spheres.len() + c.capsules.len() + c.planes.len() <= MAX_SHAPES);
         }
         Err(e) => assert!(e.line >= 1, "unlocated: {e} for {text:?}"),
     }

@@ -117,6 +117,9 @@ pub struct ComputedHair {
     /// The hair–hair volume pass's buffers.
     #[reflect(ignore)]
     pub(crate) volume: super::VolumeScratch,
+    /// The step's per-frame buffers.
+    #[reflect(ignore)]
+    pub(crate) scratch: super::step::StepScratch,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }

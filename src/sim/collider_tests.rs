@@ -411,7 +411,7 @@ fn force_fields_blow_hair_their_way_at_any_frame_rate() {
             h.update();
         }
         let calm = h.strands();
-        let spawned = field.clone().map(|(f, from, _)| {
+        let spawned = field.map(|(f, from, _)| {
             h.app
                 .world_mut()
                 .spawn((f, Transform::from_translation(BONE + from)))
@@ -443,13 +443,9 @@ fn force_fields_blow_hair_their_way_at_any_frame_rate() {
         radius: 0.6,
         ..default()
     };
-    let left = (
-        blast.clone(),
-        Vec3::new(-0.3, 0.1, -0.4),
-        Vec3::new(-0.3, 0.1, 0.0),
-    );
-    let b60 = run(60.0, Some(left.clone()));
-    let (b30, b144) = (run(30.0, Some(left.clone())), run(144.0, Some(left)));
+    let left = (blast, Vec3::new(-0.3, 0.1, -0.4), Vec3::new(-0.3, 0.1, 0.0));
+    let b60 = run(60.0, Some(left));
+    let (b30, b144) = (run(30.0, Some(left)), run(144.0, Some(left)));
     let pushed = tips_x(&b60);
     let (d30, d144) = (
         max_deviation(&b60.1, &b30.1),
@@ -528,4 +524,46 @@ fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
     assert!(h.app.world().get::<ComputedHair>(second).is_some());
     h.update();
     assert_eq!(work(&h), (false, false));
+}
+
+/// Issue 16 item 4: in steady state the step reuses every per-frame buffer (none is
+/// reallocated across 60 frames), with colliders, friction, wind and a force field in play.
+#[test]
+fn a_steady_frame_reuses_the_step_buffers() {
+    let mut h = Harness::new(spiky_groom(40, 6), one_margin(0.005), 60.0);
+    h.app.insert_resource(HairWind {
+        velocity: Vec3::new(3.0, 0.0, 0.0),
+        ..default()
+    });
+    h.app.world_mut().spawn((
+        HairCollider {
+            capsules: vec![CollisionCapsule {
+                a: Vec3::new(-0.2, 0.0, 0.0),
+                b: Vec3::new(0.2, 0.0, 0.0),
+                radius: 0.05,
+            }],
+            ..default()
+        },
+        Transform::from_translation(BONE + Vec3::new(0.0, -0.15, 0.0)),
+    ));
+    h.app.world_mut().spawn((
+        HairForceField::default(),
+        Transform::from_translation(BONE + Vec3::new(-0.5, 0.0, 0.0)),
+    ));
+    for _ in 0..10 {
+        h.update();
+    }
+    let before = h.computed().scratch.footprint();
+    for _ in 0..60 {
+        h.update();
+    }
+    let after = h.computed().scratch.footprint();
+    assert!(
+        before.iter().any(|&(_, capacity)| capacity > 0),
+        "the buffers were never filled"
+    );
+    assert_eq!(
+        before, after,
+        "a step buffer was reallocated in steady state"
+    );
 }

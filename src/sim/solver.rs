@@ -397,25 +397,31 @@ impl Batch {
     /// baseline is 4-wide SSE2). Rust never fuses `a * b + c` on its own, so both paths give
     /// bit-identical results.
     pub fn step(&mut self, input: &StepInput) {
+        self.step_with(input, &input.anchor_factor);
+    }
+
+    /// [`Batch::step`] with the anchor factors per node given apart from `input` (whose own
+    /// `anchor_factor` is then not read), so batches of different chain lengths share one input.
+    pub fn step_with(&mut self, input: &StepInput, anchors: &[f32]) {
         #[cfg(target_arch = "x86_64")]
         if crate::simd::avx2() {
             // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
-            unsafe { self.step_avx2(input) };
+            unsafe { self.step_avx2(input, anchors) };
             return;
         }
-        self.step_portable(input);
+        self.step_portable(input, anchors);
     }
 
     /// [`Batch::step`] compiled with AVX2 enabled.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn step_avx2(&mut self, input: &StepInput) {
-        self.step_portable(input);
+    unsafe fn step_avx2(&mut self, input: &StepInput, anchors: &[f32]) {
+        self.step_portable(input, anchors);
     }
 
     /// The solver loop; inlined into each target-feature variant.
     #[inline(always)]
-    fn step_portable(&mut self, input: &StepInput) {
+    fn step_portable(&mut self, input: &StepInput, anchors: &[f32]) {
         let n = self.nodes.len();
         let phases = input
             .wind
@@ -443,7 +449,7 @@ impl Batch {
             // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
             let volumes =
                 (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
-            self.integrate_and_solve(input, bone, volumes);
+            self.integrate_and_solve(input, anchors, bone, volumes);
             self.collide(input, s, true);
         }
         // Once a frame, after the last substep; then the last substep's collisions again, so
@@ -601,7 +607,13 @@ impl Batch {
     /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
     /// then the anchor spring of the node three back, which no later spring touches this
     /// substep. Fusing them walks each node once per substep.
-    fn integrate_and_solve(&mut self, input: &StepInput, bone: &Affine3A, volumes: bool) {
+    fn integrate_and_solve(
+        &mut self,
+        input: &StepInput,
+        anchors: &[f32],
+        bone: &Affine3A,
+        volumes: bool,
+    ) {
         let g = input.gravity_h2.to_array();
         let d = input.damping;
         let n = self.nodes.len();
@@ -649,18 +661,18 @@ impl Batch {
             nk.x = xk;
             // Node k-3 is touched by no later spring this substep: its anchor can go now.
             if k >= PINNED + 3 {
-                self.solve_anchor(k - 3, input, bone);
+                self.solve_anchor(k - 3, anchors, bone);
             }
         }
         for k in n.saturating_sub(3).max(PINNED)..n {
-            self.solve_anchor(k, input, bone);
+            self.solve_anchor(k, anchors, bone);
         }
     }
 
     /// Pulls node `k` toward its anchor (the last change to it in a substep before collisions).
     #[inline(always)]
-    fn solve_anchor(&mut self, k: usize, input: &StepInput, bone: &Affine3A) {
-        let f = input.anchor_factor.get(k).copied().unwrap_or(0.0);
+    fn solve_anchor(&mut self, k: usize, anchors: &[f32], bone: &Affine3A) {
+        let f = anchors.get(k).copied().unwrap_or(0.0);
         if f <= 0.0 {
             return;
         }

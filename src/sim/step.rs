@@ -21,11 +21,57 @@ use super::wind::{FieldStep, HairForceField, HairWind, HairWindOverride};
 use super::{HairSimControl, HairTime};
 
 /// [`HairCollider`]s' and [`HairForceField`]s' poses last frame, so moving ones are
-/// interpolated per substep.
+/// interpolated per substep; and this frame's shapes and fields, in buffers reused every frame.
 #[derive(Resource, Default)]
 pub(crate) struct ColliderHistory {
     poses: EntityHashMap<Affine3A>,
     fields: EntityHashMap<Affine3A>,
+    /// Every `HairCollider` shape this frame: pose last frame, now, shape, keep inside.
+    shapes: Vec<ShapeView>,
+    /// Every force field that blows: pose last frame, now, field.
+    field_views: Vec<(Affine3A, Affine3A, HairForceField)>,
+}
+
+/// A collider shape over one frame: its pose last frame and now, the shape in its space, and
+/// whether particles are kept inside it.
+type ShapeView = (Affine3A, Affine3A, LocalShape, bool);
+
+/// One hair's per-frame buffers, kept between frames so a steady frame allocates none of them.
+#[derive(Clone, Debug, Default)]
+pub struct StepScratch {
+    input: StepInput,
+    templates: Vec<ShapeView>,
+    fields: Vec<(Affine3A, Affine3A, HairForceField)>,
+    /// Each template's origin at the previous substep (friction follows its motion).
+    origins: Vec<Vec3A>,
+    /// Anchor factors per node, for each chain length.
+    factors: Vec<(usize, Vec<f32>)>,
+}
+
+impl StepScratch {
+    /// Where each buffer's memory is and how much it holds: equal across two frames when
+    /// nothing was reallocated.
+    #[cfg(test)]
+    pub(crate) fn footprint(&self) -> Vec<(usize, usize)> {
+        fn of<T>(v: &Vec<T>) -> (usize, usize) {
+            (v.as_ptr() as usize, v.capacity())
+        }
+        let i = &self.input;
+        let mut out = vec![
+            of(&i.bones),
+            of(&i.spheres),
+            of(&i.sphere_shift),
+            of(&i.contacts),
+            of(&i.fields),
+            of(&i.bone_motion),
+            of(&self.templates),
+            of(&self.fields),
+            of(&self.origins),
+            of(&self.factors),
+        ];
+        out.extend(self.factors.iter().map(|(_, f)| of(f)));
+        out
+    }
 }
 
 /// Interpolates two affine transforms (translation and scale linearly, rotation by slerp).
@@ -69,28 +115,31 @@ pub(crate) fn step_hair_strands(
 ) {
     // The hair's clock: zero while paused, one step when stepped.
     let dt = time.delta_secs();
-    // Every HairCollider: its pose last frame and now, and its spheres (in its space).
-    let own_views: Vec<(Affine3A, Affine3A, &HairCollider)> = own
-        .iter()
-        .map(|(e, collider, g)| {
-            let now = g.affine();
-            (history.poses.get(&e).copied().unwrap_or(now), now, collider)
-        })
-        .collect();
+    // Every HairCollider shape: its pose last frame and now (into last frame's buffers).
+    let history = &mut *history;
+    history.shapes.clear();
+    for (e, collider, g) in &own {
+        let now = g.affine();
+        let prev = history.poses.get(&e).copied().unwrap_or(now);
+        let inside = collider.inside();
+        history
+            .shapes
+            .extend(collider.shapes().map(|shape| (prev, now, shape, inside)));
+    }
     history.poses.clear();
     history
         .poses
         .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
     // Every force field that blows: its pose last frame and now.
-    let field_views: Vec<(Affine3A, Affine3A, &HairForceField)> = fields
-        .iter()
-        .filter(|(_, f, g)| !f.is_calm() && usable_frame(&g.affine()))
-        .map(|(e, field, g)| {
-            let now = g.affine();
-            let prev = history.fields.get(&e).copied().unwrap_or(now);
-            (prev, now, field)
-        })
-        .collect();
+    history.field_views.clear();
+    for (e, field, g) in &fields {
+        let now = g.affine();
+        if field.is_calm() || !usable_frame(&now) {
+            continue;
+        }
+        let prev = history.fields.get(&e).copied().unwrap_or(now);
+        history.field_views.push((prev, now, *field));
+    }
     history.fields.clear();
     history
         .fields
@@ -156,32 +205,49 @@ pub(crate) fn step_hair_strands(
             continue;
         }
 
-        let mut input = StepInput {
-            h,
-            gravity_h2: settings.gravity() * computed.size * h * h,
-            damping: settings.damping_factor(),
-            alpha: [
-                settings.edge_stiffness,
-                settings.bend_stiffness,
-                settings.torsion_stiffness,
-            ]
-            .map(|s| alpha_tilde(s, h)),
-            style_limit: settings.style_limit() * computed.size,
-            // Loose edges (stiffness 0) ask for stretchy hair: no limit then.
-            max_stretch: if compliance_factor(settings.edge_stiffness, h, 1.0) > 0.0 {
-                settings.max_stretch()
-            } else {
-                f32::INFINITY
-            },
-            ..default()
+        let mut scratch = std::mem::take(&mut computed.scratch);
+        let StepScratch {
+            input,
+            templates,
+            fields: field_templates,
+            origins,
+            factors,
+        } = &mut scratch;
+        let mut wind_times = input.wind.take().map(|w| w.times).unwrap_or_default();
+        input.h = h;
+        input.gravity_h2 = settings.gravity() * computed.size * h * h;
+        input.damping = settings.damping_factor();
+        input.alpha = [
+            settings.edge_stiffness,
+            settings.bend_stiffness,
+            settings.torsion_stiffness,
+        ]
+        .map(|s| alpha_tilde(s, h));
+        input.style_limit = settings.style_limit() * computed.size;
+        // Loose edges (stiffness 0) ask for stretchy hair: no limit then.
+        input.max_stretch = if compliance_factor(settings.edge_stiffness, h, 1.0) > 0.0 {
+            settings.max_stretch()
+        } else {
+            f32::INFINITY
         };
-        for j in 0..substeps {
-            let t = if dt > 0.0 {
+        for v in [&mut input.bones, &mut input.bone_motion] {
+            v.clear();
+        }
+        input.spheres.clear();
+        input.sphere_shift.clear();
+        input.contacts.clear();
+        input.shapes.clear();
+        input.fields.clear();
+        input.anchor_factor.clear();
+        let substep_t = |j: u32| {
+            if dt > 0.0 {
                 (start + (j + 1) as f32 * h) / dt
             } else {
                 1.0
-            };
-            input.bones.push(interpolate(&from, &bone, t));
+            }
+        };
+        for j in 0..substeps {
+            input.bones.push(interpolate(&from, &bone, substep_t(j)));
         }
         // Wind: the hair's own, else the world's; sampled at each substep's time.
         let wind = own_wind
@@ -192,26 +258,23 @@ pub(crate) fn step_hair_strands(
             .filter(|w| !w.is_calm());
         if let Some(wind) = wind {
             let first = computed.substeps_done;
+            wind_times.clear();
+            wind_times.extend((0..substeps).map(|j| (first + u64::from(j) + 1) as f32 * h));
             input.wind = Some(super::solver::WindInput {
                 wind: wind.clone(),
                 pull: 1.0 - (-wind.drag() * h).exp(),
-                times: (0..substeps)
-                    .map(|j| (first + u64::from(j) + 1) as f32 * h)
-                    .collect(),
+                times: wind_times,
             });
         }
         input.first_substep = computed.substeps_done;
         computed.substeps_done += u64::from(substeps);
+        let start_t = if dt > 0.0 {
+            (start / dt).clamp(0.0, 1.0)
+        } else {
+            1.0
+        };
         if settings.damping_frame == HairDampingFrame::Bone {
-            let mut prev = interpolate(
-                &from,
-                &bone,
-                if dt > 0.0 {
-                    (start / dt).clamp(0.0, 1.0)
-                } else {
-                    1.0
-                },
-            );
+            let mut prev = interpolate(&from, &bone, start_t);
             for now in &input.bones {
                 input.bone_motion.push(*now * prev.inverse());
                 prev = *now;
@@ -240,17 +303,16 @@ pub(crate) fn step_hair_strands(
         let jumped = |prev: &Affine3A, now: &Affine3A| -> bool {
             !usable_frame(prev) || prev.translation.distance(now.translation) > jump
         };
-        let mut templates: Vec<(&Affine3A, &Affine3A, LocalShape, bool)> = Vec::new();
+        templates.clear();
         // A collider whose pose is not usable (NaN, zero scale) is skipped until it is.
-        for (prev, now, collider) in own_views.iter().filter(|(_, now, _)| usable_frame(now)) {
-            let prev = if jumped(prev, now) { now } else { prev };
-            let inside = collider.inside();
-            templates.extend(
-                collider
-                    .shapes()
-                    .filter(|shape| meets(shape, prev, now, inside))
-                    .map(|shape| (prev, now, shape, inside)),
-            );
+        for &(prev, now, shape, inside) in &history.shapes {
+            if !usable_frame(&now) {
+                continue;
+            }
+            let prev = if jumped(&prev, &now) { now } else { prev };
+            if meets(&shape, &prev, &now, inside) {
+                templates.push((prev, now, shape, inside));
+            }
         }
         let seen = world
             .seen_by
@@ -262,16 +324,16 @@ pub(crate) fn step_hair_strands(
             .filter(|c| usable_frame(&c.now))
         {
             let prev = if jumped(&collider.prev, &collider.now) {
-                &collider.now
+                collider.now
             } else {
-                &collider.prev
+                collider.prev
             };
             match &collider.shape {
                 WorldShape::Local(shapes) => templates.extend(
                     shapes
                         .iter()
-                        .filter(|shape| meets(shape, prev, &collider.now, false))
-                        .map(|&shape| (prev, &collider.now, shape, false)),
+                        .filter(|shape| meets(shape, &prev, &collider.now, false))
+                        .map(|&shape| (prev, collider.now, shape, false)),
                 ),
                 #[cfg(any(feature = "rapier", feature = "avian"))]
                 WorldShape::Other(kind) => {
@@ -288,52 +350,44 @@ pub(crate) fn step_hair_strands(
         }
         computed.stats.colliders =
             u32::try_from(templates.len() + input.shapes.len()).unwrap_or(u32::MAX);
-        // Outside spheres that move little take the solver's fast path; everything else is a
-        // contact, tested along each particle's path.
+        // Outside spheres that move little take the solver's fast path (first); everything
+        // else is a contact, tested along each particle's path.
+        templates.sort_by_key(|(prev, now, shape, inside)| {
+            !fast_path(shape, *inside, prev, now, substeps)
+        });
         let spheres = templates
             .iter()
-            .filter(|&&(prev, now, shape, inside)| fast_path(&shape, inside, prev, now, substeps))
+            .take_while(|(prev, now, shape, inside)| fast_path(shape, *inside, prev, now, substeps))
             .count();
         input.sphere_count = spheres;
         input.contact_count = templates.len() - spheres;
         input.friction = settings.friction();
-        let start_t = if dt > 0.0 {
-            (start / dt).clamp(0.0, 1.0)
-        } else {
-            1.0
-        };
-        for &(prev, now, shape, inside) in &templates {
-            let mut before = interpolate(prev, now, start_t).transform_point3a(shape.origin());
-            let is_sphere = fast_path(&shape, inside, prev, now, substeps);
-            for j in 0..substeps {
-                let t = if dt > 0.0 {
-                    (start + (j + 1) as f32 * h) / dt
-                } else {
-                    1.0
-                };
-                let pose = interpolate(prev, now, t);
+        origins.clear();
+        origins.extend(templates.iter().map(|(prev, now, shape, _)| {
+            interpolate(prev, now, start_t).transform_point3a(shape.origin())
+        }));
+        // Substep-major: `spheres[s * sphere_count + i]`, `contacts[s * contact_count + i]`.
+        for j in 0..substeps {
+            let t = substep_t(j);
+            for (i, &(prev, now, shape, inside)) in templates.iter().enumerate() {
+                let pose = interpolate(&prev, &now, t);
                 let origin = pose.transform_point3a(shape.origin());
-                let shift = origin - before;
-                before = origin;
+                let shift = origin - origins[i];
+                origins[i] = origin;
                 let contact = Contact::new(shape.at(&pose), inside, shift, max_margin);
-                if is_sphere {
-                    if let ContactShape::Sphere { centre, radius } = contact.shape {
+                match contact.shape {
+                    ContactShape::Sphere { centre, radius } if i < spheres => {
                         input.spheres.push((centre, radius));
                         input.sphere_shift.push(shift);
                     }
-                } else {
-                    input.contacts.push(contact);
+                    _ => input.contacts.push(contact),
                 }
             }
         }
-        // Per substep, not per shape: `spheres[s * count + i]`.
-        transpose(&mut input.spheres, spheres, substeps as usize);
-        transpose(&mut input.sphere_shift, spheres, substeps as usize);
-        transpose(&mut input.contacts, input.contact_count, substeps as usize);
         // Force fields whose sphere meets the hair's reach this frame, per substep.
-        let mut field_templates: Vec<(&Affine3A, &Affine3A, &HairForceField)> = Vec::new();
-        for (prev, now, field) in &field_views {
-            let prev = if jumped(prev, now) { now } else { prev };
+        field_templates.clear();
+        for &(prev, now, field) in &history.field_views {
+            let prev = if jumped(&prev, &now) { now } else { prev };
             let near = reach.is_none_or(|(min, max)| {
                 [prev, now].iter().any(|pose| {
                     let r = field.radius() * crate::math::largest_scale(pose);
@@ -347,12 +401,8 @@ pub(crate) fn step_hair_strands(
         }
         input.field_count = field_templates.len();
         for j in 0..substeps {
-            let t = if dt > 0.0 {
-                (start + (j + 1) as f32 * h) / dt
-            } else {
-                1.0
-            };
-            for &(prev, now, field) in &field_templates {
+            let t = substep_t(j);
+            for (prev, now, field) in field_templates.iter() {
                 let pose = interpolate(prev, now, t);
                 input.fields.push(FieldStep {
                     centre: pose.translation.into(),
@@ -362,7 +412,7 @@ pub(crate) fn step_hair_strands(
                             Some(Vec3::from(-pose.matrix3.z_axis).normalize_or(Vec3::NEG_Z))
                         }
                     },
-                    speed_h: field.speed * h,
+                    speed_h: field.speed() * h,
                     radius: field.radius() * crate::math::largest_scale(&pose),
                     pull: 1.0 - (-field.drag() * h).exp(),
                 });
@@ -384,23 +434,18 @@ pub(crate) fn step_hair_strands(
         // Step batches in parallel; each group of equal chain length shares anchor factors.
         let batches = &mut computed.batches;
         let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
-        let factors = anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()));
+        anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()), factors);
         let last = &input.bones.last().copied().unwrap_or(bone);
         let resets = AtomicU32::new(0);
+        let (input, factors) = (&*input, &*factors);
         parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
-            let mut local = StepInput {
-                anchor_factor: Vec::new(),
-                ..input.clone()
-            };
             for b in part {
                 let f = factors
                     .iter()
                     .find(|(n, _)| *n == b.nodes.len())
                     .map(|(_, f)| f.as_slice())
                     .unwrap_or(&[]);
-                local.anchor_factor.clear();
-                local.anchor_factor.extend_from_slice(f);
-                b.step(&local);
+                b.step_with(input, f);
                 // A strand whose state stopped being finite starts again on its anchors.
                 let bad = b.non_finite_lanes();
                 if bad != 0 {
@@ -415,10 +460,12 @@ pub(crate) fn step_hair_strands(
                 }
             }
         });
+        let no_substeps = input.bones.is_empty();
+        computed.scratch = scratch;
         computed.stats.strand_resets += resets.load(Ordering::Relaxed);
         // Hair–hair volume, once a frame after the last substep.
         computed.stats.volume_pairs = 0;
-        if let (Some(volume), false) = (settings.volume, input.bones.is_empty()) {
+        if let (Some(volume), false) = (settings.volume, no_substeps) {
             let radius = volume
                 .radius
                 .or(mesh_settings.map(|m| m.radius))
@@ -452,19 +499,6 @@ fn fast_path(
         .transform_point3a(centre)
         .distance(now.transform_point3a(centre));
     !inside && travel <= 0.25 * radius * substeps.max(1) as f32
-}
-
-/// Reorders `items` from shape-major (`[shape][substep]`) to substep-major
-/// (`[substep][shape]`).
-fn transpose<T: Copy>(items: &mut [T], shapes: usize, substeps: usize) {
-    if shapes <= 1 || substeps <= 1 {
-        return;
-    }
-    let by_shape = items.to_vec();
-    for (i, item) in items.iter_mut().enumerate() {
-        let (s, shape) = (i / shapes, i % shapes);
-        *item = by_shape[shape * substeps + s];
-    }
 }
 
 /// Where the hair's particles can be this frame: its rest shape's bounds at the frame's first
@@ -509,30 +543,36 @@ fn alpha_tilde(stiffness: f32, h: f32) -> f32 {
     }
 }
 
-/// Anchor correction factors per node, for every distinct chain length.
+/// Anchor correction factors per node, for every distinct chain length, into `out` (its
+/// buffers reused).
 fn anchor_factors(
     settings: &HairSimSettings,
     h: f32,
     lengths: impl Iterator<Item = usize>,
-) -> Vec<(usize, Vec<f32>)> {
-    let mut out: Vec<(usize, Vec<f32>)> = Vec::new();
+    out: &mut Vec<(usize, Vec<f32>)>,
+) {
+    let mut used = 0;
     for n in lengths {
-        if out.iter().any(|(m, _)| *m == n) {
+        if out[..used].iter().any(|(m, _)| *m == n) {
             continue;
         }
-        let f = (0..n)
-            .map(|k| {
-                if k < PINNED {
-                    0.0
-                } else {
-                    let s = settings.anchor_stiffness.eval_unit(along(k, n));
-                    compliance_factor(s, h, 1.0)
-                }
-            })
-            .collect();
-        out.push((n, f));
+        if used == out.len() {
+            out.push((n, Vec::new()));
+        }
+        let (m, f) = &mut out[used];
+        *m = n;
+        f.clear();
+        f.extend((0..n).map(|k| {
+            if k < PINNED {
+                0.0
+            } else {
+                let s = settings.anchor_stiffness.eval_unit(along(k, n));
+                compliance_factor(s, h, 1.0)
+            }
+        }));
+        used += 1;
     }
-    out
+    out.truncate(used);
 }
 
 /// Copies solver state into each strand entity's [`StrandParticles`], in parallel over strands.

@@ -81,14 +81,14 @@ impl HairWind {
 /// smoothly to nothing at the radius. The field moves, turns and scales with its entity and is
 /// followed per substep, so it does not depend on the frame rate. Every field may change every
 /// frame (the panel edits them); despawn the entity to end it.
-#[derive(Component, Reflect, Clone, Debug, PartialEq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component, Default, Debug, PartialEq)]
 #[require(Transform)]
 pub struct HairForceField {
     /// Which way the air moves.
     pub kind: HairForceFieldKind,
     /// The air's speed, metres per second (negative: toward the centre, for a point field).
-    /// Default: `10.0`.
+    /// Clamped to `[-1000, 1000]`. Default: `10.0`.
     pub speed: f32,
     /// How far the field reaches from its entity's origin, metres (times the entity's scale).
     /// The pull fades as `(1 - (d / radius)^2)^2`. Clamped to `[0, 1000]`. Default: `1.0`.
@@ -131,9 +131,14 @@ impl HairForceField {
         finite_or(self.drag, 3.0).clamp(0.0, 100.0)
     }
 
+    /// Speed after clamping to `[-1000, 1000]` m/s (`0` when not finite).
+    pub fn speed(&self) -> f32 {
+        finite_or(self.speed, 0.0).clamp(-1000.0, 1000.0)
+    }
+
     /// Whether this field moves anything.
     pub fn is_calm(&self) -> bool {
-        !self.speed.is_finite() || self.speed == 0.0 || self.radius() == 0.0 || self.drag() == 0.0
+        self.speed() == 0.0 || self.radius() == 0.0 || self.drag() == 0.0
     }
 }
 

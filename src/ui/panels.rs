@@ -257,7 +257,7 @@ fn field_controls(
     name: Option<&Name>,
     field: &mut Mut<HairForceField>,
 ) {
-    let mut f = (**field).clone();
+    let mut f = **field;
     let label = name.map_or_else(|| format!("field {entity}"), |n| n.as_str().to_owned());
     ui.label(&label);
     // Each field's widgets under its own id, so two fields' combo boxes never share state.
