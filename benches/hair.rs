@@ -739,7 +739,10 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
                 enabled: true,
                 ..default()
             },
-            HairCulling { enabled: culling },
+            HairCulling {
+                enabled: culling,
+                ..default()
+            },
             bevy_cartoon_hair::mesh::HairLod {
                 enabled: culling,
                 ..default()

@@ -3,7 +3,8 @@
 //! Every frame, after Bevy has updated the cameras' frusta, the hair's bounds (its particles,
 //! grown by the thickest tube) are tested against the frustum of every active 3D camera. Hair
 //! outside all of them ([`HairInView`] false) keeps simulating, so it is right when it comes
-//! back, but its tube mesh is not rebuilt and it gets no strokes or specular quads. A hair that
+//! back (at [`HairCulling::culled_substep_rate`], a quarter of the default rate), but its tube
+//! mesh is not rebuilt and it gets no strokes or specular quads. A hair that
 //! comes into view is rebuilt in that same frame (the test uses this frame's bounds and
 //! frusta), so nothing stale is ever drawn. In an app with no active 3D camera (a server, a
 //! simulation test) nothing is culled.
@@ -18,16 +19,26 @@ use bevy::prelude::*;
 /// Whether a hair's mesh, strokes and specular quads are skipped while no camera sees it (see
 /// the [module docs](self)). A component on the [`Hair`](crate::sim::Hair) entity, inserted with
 /// defaults when missing.
-#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
 #[reflect(Component, Default, Debug, PartialEq)]
 pub struct HairCulling {
     /// Skip the work of hair outside every camera's view. Default: `true`.
     pub enabled: bool,
+    /// Substeps per second while the hair is culled: hair no camera sees keeps simulating, so it
+    /// is in place when it comes back, but coarser (its mesh is not rebuilt meanwhile, so the
+    /// difference is never drawn). At or above the hair's own
+    /// [`HairSimSettings::substep_rate`](crate::sim::HairSimSettings::substep_rate), or not
+    /// finite: the full rate. Default: `60.0` (one substep a 60 Hz frame, a quarter of the
+    /// default 240).
+    pub culled_substep_rate: f32,
 }
 
 impl Default for HairCulling {
     fn default() -> Self {
-        Self { enabled: true }
+        Self {
+            enabled: true,
+            culled_substep_rate: 60.0,
+        }
     }
 }
 

@@ -346,9 +346,28 @@ mod app_tests {
     use crate::mesh::{ComputedHairMesh, HairCullingStats, HairMeshPlugin};
     use crate::sim::{Hair, HairSimSettings, HairSimulationPlugin};
 
+    /// An app with the hair's simulation and meshes, no render app.
+    pub(super) fn lod_app() -> App {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            TransformPlugin,
+            AssetPlugin::default(),
+            HairAssetPlugin,
+            HairSchedulePlugin,
+            HairSimulationPlugin,
+            HairMeshPlugin,
+        ))
+        .init_asset::<Mesh>()
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+            1.0 / 60.0,
+        )));
+        app
+    }
+
     /// A 1280x720 camera at the origin looking down -Z (its frustum and projection set by hand:
     /// there is no render app).
-    fn camera(world: &mut World) {
+    pub(super) fn camera(world: &mut World) {
         let transform = Transform::IDENTITY;
         let projection = PerspectiveProjection {
             aspect_ratio: 16.0 / 9.0,
@@ -374,7 +393,7 @@ mod app_tests {
     }
 
     /// A hair in front of the camera at `z` (negative: in view).
-    fn hair(app: &mut App, z: f32) -> (Entity, Entity) {
+    pub(super) fn hair(app: &mut App, z: f32) -> (Entity, Entity) {
         let groom = HairGroom::from_strands(
             "head",
             (0..40).map(|i| {
@@ -410,20 +429,7 @@ mod app_tests {
     /// drops to level 2 (8 x 6) and is counted; brought near, it goes back to full.
     #[test]
     fn far_hair_gets_coarser_tubes_and_comes_back() {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            TransformPlugin,
-            AssetPlugin::default(),
-            HairAssetPlugin,
-            HairSchedulePlugin,
-            HairSimulationPlugin,
-            HairMeshPlugin,
-        ))
-        .init_asset::<Mesh>()
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-            1.0 / 60.0,
-        )));
+        let mut app = lod_app();
         camera(app.world_mut());
         let (_, near) = hair(&mut app, -0.8);
         let (far_bone, far) = hair(&mut app, -20.0);
@@ -446,5 +452,36 @@ mod app_tests {
         app.update();
         assert_eq!(mesh_of(&app, far), (0, 16, 8));
         assert_eq!(app.world().resource::<HairCullingStats>().reduced, [0, 0]);
+    }
+}
+
+#[cfg(test)]
+mod culled_rate_tests {
+    use super::app_tests::{camera, hair, lod_app};
+    use crate::sim::ComputedHair;
+    use bevy::prelude::*;
+
+    /// Issue 16 item 2: hair no camera sees simulates at a quarter of the default rate (one
+    /// substep a 60 Hz frame), and at the full rate again once it is seen.
+    #[test]
+    fn culled_hair_simulates_coarser_and_comes_back_at_full_rate() {
+        let mut app = lod_app();
+        camera(app.world_mut());
+        let (_, seen) = hair(&mut app, -0.8);
+        // Behind the camera.
+        let (behind_bone, behind) = hair(&mut app, 5.0);
+        for _ in 0..6 {
+            app.update();
+        }
+        let substeps = |app: &App, e| app.world().get::<ComputedHair>(e).unwrap().stats.substeps;
+        assert_eq!((substeps(&app, seen), substeps(&app, behind)), (4, 1));
+        app.world_mut()
+            .get_mut::<Transform>(behind_bone)
+            .unwrap()
+            .translation
+            .z = -0.8;
+        app.update();
+        app.update();
+        assert_eq!(substeps(&app, behind), 4);
     }
 }

@@ -112,8 +112,11 @@ pub struct ComputedHair {
     pub(crate) longest: f32,
     pub(crate) accumulator: f32,
     pub(crate) animation_time: f32,
-    /// Substeps simulated since the hair was built: the wind's clock (exact at any frame rate).
+    /// Substeps simulated since the hair was built (the signed volume runs on every other one).
     pub(crate) substeps_done: u64,
+    /// Simulated time since the hair was built, seconds: the wind's clock (the substep length
+    /// changes while the hair is culled).
+    pub(crate) time_done: f64,
     /// The hair–hair volume pass's buffers.
     #[reflect(ignore)]
     pub(crate) volume: super::VolumeScratch,

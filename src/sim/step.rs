@@ -104,6 +104,7 @@ pub(crate) fn step_hair_strands(
         &HairSimSettings,
         &mut ComputedHair,
         Option<&crate::mesh::HairMeshSettings>,
+        Option<(&crate::mesh::HairCulling, &crate::mesh::HairInView)>,
     )>,
     own: Query<(Entity, &HairCollider, &GlobalTransform)>,
     animations: Res<Assets<crate::asset::HairAnimation>>,
@@ -145,7 +146,7 @@ pub(crate) fn step_hair_strands(
         .fields
         .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = parallel::compute_pool();
-    for (hair_entity, hair, global, settings, mut computed, mesh_settings) in &mut hairs {
+    for (hair_entity, hair, global, settings, mut computed, mesh_settings, culling) in &mut hairs {
         let computed = &mut *computed;
         let full = global.affine();
         if !usable_frame(&full) {
@@ -191,7 +192,15 @@ pub(crate) fn step_hair_strands(
         };
         computed.last_bone = Some(bone);
 
-        let h = settings.substep();
+        // Hair no camera saw last frame simulates coarser (see `HairCulling`).
+        let h = match culling {
+            Some((c, in_view)) if c.enabled && !in_view.0 && c.culled_substep_rate.is_finite() => {
+                settings
+                    .substep()
+                    .max(1.0 / c.culled_substep_rate.clamp(30.0, 2000.0))
+            }
+            _ => settings.substep(),
+        };
         let dt = dt.clamp(0.0, settings.frame_clamp());
         let start = -computed.accumulator;
         computed.accumulator += dt;
@@ -257,9 +266,10 @@ pub(crate) fn step_hair_strands(
             .or(global_wind.as_deref())
             .filter(|w| !w.is_calm());
         if let Some(wind) = wind {
-            let first = computed.substeps_done;
+            let first = computed.time_done;
             wind_times.clear();
-            wind_times.extend((0..substeps).map(|j| (first + u64::from(j) + 1) as f32 * h));
+            wind_times
+                .extend((0..substeps).map(|j| (first + f64::from(j + 1) * f64::from(h)) as f32));
             input.wind = Some(super::solver::WindInput {
                 wind: wind.clone(),
                 pull: 1.0 - (-wind.drag() * h).exp(),
@@ -268,6 +278,7 @@ pub(crate) fn step_hair_strands(
         }
         input.first_substep = computed.substeps_done;
         computed.substeps_done += u64::from(substeps);
+        computed.time_done += f64::from(substeps) * f64::from(h);
         let start_t = if dt > 0.0 {
             (start / dt).clamp(0.0, 1.0)
         } else {

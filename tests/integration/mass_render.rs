@@ -437,10 +437,10 @@ fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Fa
         .into());
     }
     // With culling off, the hair aside is rebuilt where its particles are.
-    r.app
-        .world_mut()
-        .entity_mut(seen)
-        .insert(HairCulling { enabled: false });
+    r.app.world_mut().entity_mut(seen).insert(HairCulling {
+        enabled: false,
+        ..default()
+    });
     r.capture()?;
     let rebuilt = centre_x(&mut r, seen)?;
     if (rebuilt + 20.0).abs() > 2.0 {
