@@ -771,12 +771,13 @@ fn print_stages(name: &str, app: &App) {
         .map(|(n, ms)| format!("{n} {ms:.3} ms"))
         .collect();
     println!(
-        "{name} stages: {}; culled {} of {} hairs, {} at level of detail 1, {} at 2",
+        "{name} stages: {}; culled {} of {} hairs, {} at level of detail 1, {} at 2, {} at 3",
         stages.join(", "),
         culled.culled,
         culled.hairs,
         culled.reduced[0],
-        culled.reduced[1]
+        culled.reduced[1],
+        culled.reduced[2]
     );
 }
 

@@ -63,8 +63,8 @@ pub struct HairCullingStats {
     pub hairs: usize,
     /// Of those, hairs no camera saw: not rebuilt, no strokes, no specular quads.
     pub culled: usize,
-    /// Of those, hairs drawn at a lower level of detail (see `lod`): level 1 and level 2.
-    pub reduced: [usize; 2],
+    /// Of those, hairs drawn at a lower level of detail (see `lod`): at level 1, 2 and 3.
+    pub reduced: [usize; 3],
 }
 
 /// Whether world-space `bounds` meet the frustum of any of `frusta`.

@@ -8,14 +8,15 @@
 //! |---|---|---|---|---|
 //! | 0 | 240 px and more | the settings' | the settings' | the settings' |
 //! | 1 | 80 to 240 px | three quarters (at least 4) | the settings' | half the samples |
-//! | 2 | under 80 px | half (at least 3) | three quarters (at least 3) | none |
+//! | 2 | 40 to 80 px | half (at least 3) | three quarters (at least 3) | none |
+//! | 3 | under 40 px | a quarter (at least 3) | half (at least 3) | none |
 //!
 //! Going back up waits until the hair is [`HairLod::hysteresis`] times larger than the threshold
 //! it went down at, so a hair at the edge does not flicker between levels. The steps are as
 //! coarse as keeps a switch from showing: the test `lod_switches_move_the_silhouette_by_at_most_two_pixels`
-//! renders a spiky hair at each threshold and finds 4 of 6,271 covered pixels changing at 240 px
-//! and 15 of 703 at 80 px (one of them a pixel of gap opening between two strands, the rest
-//! within two pixels of the finer silhouette). Fewer sides at 240 px changed 108 pixels, a
+//! renders a spiky hair at each threshold and finds 4 of 6,271 covered pixels changing at 240 px,
+//! 15 of 703 at 80 px and 5 of 171 at 40 px (at most one of them a pixel of gap opening between
+//! two strands, the rest within two pixels of the finer silhouette). Fewer sides at 240 px changed 108 pixels, a
 //! quarter of the rings at 80 px 30. The screen height is the
 //! bounding sphere's diameter, so a hair "240 px" tall covers less than that. The strokes
 //! follow the tube (they are built from its edges), so they get cheaper with it.
@@ -32,9 +33,9 @@ use super::tube;
 pub struct HairLod {
     /// Lower the resolution of hair small on screen. Default: `true`.
     pub enabled: bool,
-    /// Screen heights, in pixels, under which the hair drops to level 1 and level 2.
-    /// Default: `[240.0, 80.0]`.
-    pub thresholds: [f32; 2],
+    /// Screen heights, in pixels, under which the hair drops to level 1, 2 and 3.
+    /// Default: `[240.0, 80.0, 40.0]`.
+    pub thresholds: [f32; 3],
     /// How much larger than a threshold the hair must grow to go back up a level. Clamped to
     /// `[1, 4]`. Default: `1.25`.
     pub hysteresis: f32,
@@ -44,18 +45,18 @@ impl Default for HairLod {
     fn default() -> Self {
         Self {
             enabled: true,
-            thresholds: [240.0, 80.0],
+            thresholds: [240.0, 80.0, 40.0],
             hysteresis: 1.25,
         }
     }
 }
 
-/// The level a hair is drawn at (0 = full) and its height on screen last frame, in pixels
+/// The level a hair is drawn at (0 = full, 3 = coarsest) and its height on screen last frame, in pixels
 /// (largest over the active 3D cameras; 0 when no camera sees it).
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
 #[reflect(Component, Default, Debug, PartialEq)]
 pub struct HairLodLevel {
-    /// 0 (full), 1 or 2.
+    /// 0 (full) to 3.
     pub level: u8,
     /// Height on screen, pixels.
     pub pixels: f32,
@@ -78,7 +79,7 @@ impl HairLod {
             .iter()
             .filter(|&&t| pixels < t)
             .count()
-            .min(2) as u8;
+            .min(3) as u8;
         if wanted >= current {
             return wanted;
         }
@@ -101,10 +102,11 @@ pub fn lod_topology(rings: usize, sides: usize, level: u8) -> (usize, usize) {
     let (rings, sides) = match level {
         0 => (rings, sides),
         1 => ((rings * 3 / 4).max(4.min(rings)), sides),
-        _ => (
+        2 => (
             (rings / 2).max(3.min(rings)),
             (sides * 3 / 4).max(3.min(sides)),
         ),
+        _ => ((rings / 4).max(3.min(rings)), (sides / 2).max(3.min(sides))),
     };
     (
         rings.clamp(tube::MIN_RINGS, tube::MAX_RINGS),
@@ -264,7 +266,11 @@ mod tests {
         let height = 720.0;
         let focal = height * 0.5 / (std::f32::consts::FRAC_PI_4 * 0.5).tan();
         let lod = HairLod::default();
-        for (level, threshold) in [(1u8, lod.thresholds[0]), (2, lod.thresholds[1])] {
+        for (level, threshold) in [
+            (1u8, lod.thresholds[0]),
+            (2, lod.thresholds[1]),
+            (3, lod.thresholds[2]),
+        ] {
             // `screen_height`'s measure: the bounding sphere's diameter, 2 r focal / d.
             let distance = 2.0 * radius * focal / threshold;
             let eye = centre + Vec3::Z * distance;
@@ -317,6 +323,9 @@ mod tests {
         assert_eq!(lod.level_for(90.0, 2), 2);
         assert_eq!(lod.level_for(101.0, 2), 1);
         assert_eq!(lod.level_for(400.0, 2), 0);
+        assert_eq!(lod.level_for(30.0, 0), 3);
+        assert_eq!(lod.level_for(45.0, 3), 3);
+        assert_eq!(lod.level_for(51.0, 3), 2);
         let off = HairLod {
             enabled: false,
             ..lod
@@ -326,6 +335,7 @@ mod tests {
         assert_eq!(lod_topology(16, 8, 0), (16, 8));
         assert_eq!(lod_topology(16, 8, 1), (12, 8));
         assert_eq!(lod_topology(16, 8, 2), (8, 6));
+        assert_eq!(lod_topology(16, 8, 3), (4, 4));
         assert_eq!(lod_topology(4, 3, 2), (3, 3));
     }
 }
@@ -426,7 +436,7 @@ mod app_tests {
     }
 
     /// Issue 16 item 3: a hair 0.8 m from the camera keeps its 16 x 8 tubes; one 20 m away
-    /// drops to level 2 (8 x 6) and is counted; brought near, it goes back to full.
+    /// drops to level 3 (4 x 4) and is counted; brought near, it goes back to full.
     #[test]
     fn far_hair_gets_coarser_tubes_and_comes_back() {
         let mut app = lod_app();
@@ -440,8 +450,11 @@ mod app_tests {
         let far_px = app.world().get::<HairLodLevel>(far).unwrap().pixels;
         println!("near hair {near_px:.0} px tall, far hair {far_px:.0} px");
         assert_eq!(mesh_of(&app, near), (0, 16, 8), "near: {near_px} px");
-        assert_eq!(mesh_of(&app, far), (2, 8, 6), "far: {far_px} px");
-        assert_eq!(app.world().resource::<HairCullingStats>().reduced, [0, 1]);
+        assert_eq!(mesh_of(&app, far), (3, 4, 4), "far: {far_px} px");
+        assert_eq!(
+            app.world().resource::<HairCullingStats>().reduced,
+            [0, 0, 1]
+        );
         // Brought to 0.8 m, it is back to full resolution within two frames.
         app.world_mut()
             .get_mut::<Transform>(far_bone)
@@ -451,7 +464,10 @@ mod app_tests {
         app.update();
         app.update();
         assert_eq!(mesh_of(&app, far), (0, 16, 8));
-        assert_eq!(app.world().resource::<HairCullingStats>().reduced, [0, 0]);
+        assert_eq!(
+            app.world().resource::<HairCullingStats>().reduced,
+            [0, 0, 0]
+        );
     }
 }
 

@@ -366,7 +366,7 @@ pub fn rebuild_strand_meshes(
         in_view.set_if_neq(HairInView(seen));
         counted.hairs += 1;
         if level.level > 0 {
-            counted.reduced[usize::from(level.level.min(2)) - 1] += 1;
+            counted.reduced[usize::from(level.level.min(3)) - 1] += 1;
         }
         if !seen {
             counted.culled += 1;

@@ -73,13 +73,17 @@ pub(super) fn debug_window(
                     }
                 });
             ui.label(format!(
-                "Culled: {} of {} hairs; reduced: {} + {}",
-                culling.culled, culling.hairs, culling.reduced[0], culling.reduced[1]
+                "Culled: {} of {} hairs; reduced: {} + {} + {}",
+                culling.culled,
+                culling.hairs,
+                culling.reduced[0],
+                culling.reduced[1],
+                culling.reduced[2]
             ))
             .on_hover_text(
                 "Culled: hair no camera sees, simulated but with no mesh, strokes or \
-                 highlights. Reduced: hair small on screen drawn at level of detail 1 + level 2 \
-                 (HairLod: fewer tube rings and sides; level 2 has no specular quads)",
+                 highlights. Reduced: hair small on screen drawn at level of detail 1 + 2 + 3 \
+                 (HairLod: fewer tube rings and sides; levels 2 and 3 have no specular quads)",
             );
 
             ui.separator();
