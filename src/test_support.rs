@@ -24,3 +24,31 @@ impl Rng {
         Vec3::new(self.next(), self.next(), self.next()) * scale
     }
 }
+
+/// Spiky strands of `particles` particles on the upper half of a head of radius `head` at the
+/// origin, spread evenly (golden angle): each leaves the scalp 2 mm out along its normal, runs
+/// `length` outward and curls `curl` sideways at the tip.
+pub(crate) fn spiky_strands(
+    strands: usize,
+    particles: usize,
+    head: f32,
+    length: f32,
+    curl: f32,
+) -> Vec<Vec<Vec3>> {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..strands)
+        .map(|i| {
+            let y = 1.0 - (i as f32 + 0.5) / strands as f32;
+            let r = (1.0 - y * y).sqrt();
+            let a = golden * i as f32;
+            let n = Vec3::new(r * a.cos(), y, r * a.sin()).normalize();
+            let side = n.any_orthonormal_vector();
+            (0..particles)
+                .map(|k| {
+                    let t = k as f32 / (particles - 1) as f32;
+                    n * (head + 0.002 + length * t) + side * (curl * t * t)
+                })
+                .collect()
+        })
+        .collect()
+}

@@ -141,22 +141,7 @@ mod tests {
 
     /// Spiky strands on the upper half of a head of radius 0.1 at the origin.
     fn spiky(strands: usize, particles: usize) -> Vec<Vec<Vec3>> {
-        let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-        (0..strands)
-            .map(|i| {
-                let y = 1.0 - (i as f32 + 0.5) / strands as f32;
-                let r = (1.0 - y * y).sqrt();
-                let a = golden * i as f32;
-                let n = Vec3::new(r * a.cos(), y, r * a.sin());
-                let side = n.any_orthonormal_vector();
-                (0..particles)
-                    .map(|k| {
-                        let t = k as f32 / (particles - 1) as f32;
-                        n * (0.102 + 0.15 * t) + side * (0.04 * t * t)
-                    })
-                    .collect()
-            })
-            .collect()
+        crate::test_support::spiky_strands(strands, particles, 0.1, 0.15, 0.04)
     }
 
     /// Which pixels of a `w` x `h` image the tubes of `strands` at `rings` x `sides` cover,

@@ -19,22 +19,9 @@ pub(super) const HEAD_RADIUS: f32 = 0.1;
 /// A spiky groom on a head of radius 0.1 at the bone origin: strands leave the scalp along the
 /// normal and curve sideways.
 pub(super) fn spiky_groom(strands: usize, particles: usize) -> HairGroom {
-    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
     HairGroom::from_strands(
         "head",
-        (0..strands).map(|i| {
-            let y = 1.0 - (i as f32 + 0.5) / strands as f32; // upper hemisphere
-            let r = (1.0 - y * y).sqrt();
-            let a = golden * i as f32;
-            let n = Vec3::new(r * a.cos(), y, r * a.sin()).normalize();
-            let side = n.any_orthonormal_vector();
-            (0..particles)
-                .map(|k| {
-                    let t = k as f32 / (particles - 1) as f32;
-                    n * (HEAD_RADIUS + 0.002 + 0.12 * t) + side * (0.03 * t * t)
-                })
-                .collect()
-        }),
+        crate::test_support::spiky_strands(strands, particles, HEAD_RADIUS, 0.12, 0.03),
     )
     .unwrap()
 }
