@@ -187,6 +187,7 @@ fn spawn_ninja_scene(
         ))
         .observe(play_idle_when_ready)
         .observe(shade_scalp_as_hair)
+        .observe(add_shoulder_collider)
         .id();
     let hair_material = hair_materials.add(material);
     // The hair is built with everything on it; the plugin hangs it on the ninja's head bone.
@@ -285,6 +286,37 @@ fn shade_scalp_as_hair(
                 .entity(child)
                 .remove::<MeshMaterial3d<StandardMaterial>>()
                 .insert(MeshMaterial3d(scene.hair_material.clone()));
+        }
+    }
+}
+
+/// The ninja's shoulders as a capsule on its `spine` bone, so hair long or blown enough to reach
+/// them rests on them instead of passing into the body (the head's own spheres come from the
+/// collision file).
+fn add_shoulder_collider(
+    ready: On<WorldInstanceReady>,
+    mut commands: Commands,
+    children: Query<&Children>,
+    names: Query<&Name>,
+) {
+    for child in children.iter_descendants(ready.entity) {
+        if names.get(child).is_ok_and(|name| name.as_str() == "spine") {
+            // The spine bone runs up from the hips (0.9 m) to the neck (1.42 m) along its +Y,
+            // its other axes the character's; the shoulders are at 1.395 m, 0.195 m out
+            // (`tools/blender/author_ninja.py`).
+            commands.spawn((
+                Name::new("ninja shoulders"),
+                crate::sim::HairCollider {
+                    capsules: vec![crate::asset::CollisionCapsule {
+                        a: Vec3::new(-0.195, 0.495, 0.0),
+                        b: Vec3::new(0.195, 0.495, 0.0),
+                        radius: 0.06,
+                    }],
+                    ..default()
+                },
+                Transform::default(),
+                ChildOf(child),
+            ));
         }
     }
 }

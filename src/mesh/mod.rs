@@ -427,20 +427,22 @@ pub fn rebuild_strand_meshes(
             ((&mut [[f32; 3]], &mut [[f32; 3]]), &mut [[f32; 4]]),
             &[(u32, Vec<Vec3>)],
         )| {
-            let mut tmp = TubeScratch::default();
-            for (((p, n), t), (index, particles)) in pos
-                .chunks_mut(per)
-                .zip(nrm.chunks_mut(per))
-                .zip(tan.chunks_mut(per))
-                .zip(group)
-            {
-                let params = params_for(*index);
-                tube::build_tube(topology, particles, &params, &mut tmp, p, n, Some(t));
-                along_strand(n, t);
-                if let Some(mass) = &mass {
-                    mass.apply(p, n);
+            // Each worker thread keeps its spline buffers from frame to frame.
+            TUBE_SCRATCH.with_borrow_mut(|tmp| {
+                for (((p, n), t), (index, particles)) in pos
+                    .chunks_mut(per)
+                    .zip(nrm.chunks_mut(per))
+                    .zip(tan.chunks_mut(per))
+                    .zip(group)
+                {
+                    let params = params_for(*index);
+                    tube::build_tube(topology, particles, &params, tmp, p, n, Some(t));
+                    along_strand(n, t);
+                    if let Some(mass) = &mass {
+                        mass.apply(p, n);
+                    }
                 }
-            }
+            });
         };
         parallel::run_parts(pool, parts, &build);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
@@ -448,6 +450,12 @@ pub fn rebuild_strand_meshes(
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
     }
     stats.set_if_neq(counted);
+}
+
+thread_local! {
+    /// The tube builder's buffers, one per thread that builds tubes.
+    static TUBE_SCRATCH: std::cell::RefCell<TubeScratch> =
+        std::cell::RefCell::new(TubeScratch::default());
 }
 
 /// The box around every finite particle, grown by `pad`; `None` if there is none.
