@@ -567,3 +567,62 @@ fn a_steady_frame_reuses_the_step_buffers() {
         "a step buffer was reallocated in steady state"
     );
 }
+
+/// Hostile collider and field values (huge, NaN, zero, negative) never make a particle
+/// non-finite and never panic: shapes with non-finite numbers are skipped, the rest are
+/// clamped by the solver's own limits, and strands that still blow up are reset.
+#[test]
+fn hostile_colliders_and_fields_keep_the_hair_finite() {
+    let mut h = Harness::new(spiky_groom(20, 6), HairSimSettings::default(), 60.0);
+    let world = h.app.world_mut();
+    world.spawn((
+        HairCollider {
+            spheres: vec![CollisionSphere {
+                center: Vec3::ZERO,
+                radius: 1e30,
+            }],
+            capsules: vec![CollisionCapsule {
+                a: Vec3::splat(f32::MAX),
+                b: Vec3::splat(-f32::MAX),
+                radius: -1.0,
+            }],
+            planes: vec![CollisionPlane {
+                point: Vec3::new(0.0, 1e20, 0.0),
+                normal: Vec3::new(0.0, 1e-30, 0.0),
+            }],
+            boxes: vec![CollisionBox {
+                center: Vec3::ZERO,
+                half_extents: Vec3::new(f32::INFINITY, 0.0, -1.0),
+                rotation: Quat::from_xyzw(f32::NAN, 0.0, 0.0, 1.0),
+            }],
+            mode: HairColliderMode::Inside,
+        },
+        Transform::from_translation(BONE),
+    ));
+    world.spawn((
+        HairForceField {
+            speed: f32::INFINITY,
+            radius: f32::NAN,
+            drag: -5.0,
+            ..default()
+        },
+        Transform::from_translation(BONE),
+    ));
+    world.spawn((
+        HairForceField {
+            speed: 1e30,
+            radius: 1e30,
+            drag: 1e30,
+            ..default()
+        },
+        Transform::from_translation(BONE).with_scale(Vec3::splat(1e20)),
+    ));
+    for _ in 0..30 {
+        h.update();
+    }
+    let strands = h.strands();
+    assert!(
+        strands.iter().flatten().all(|p| p.is_finite()),
+        "a particle is not finite"
+    );
+}
