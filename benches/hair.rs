@@ -699,10 +699,11 @@ struct Head {
 
 /// The app of the `frame` benches: every CPU stage of the hair, a camera at the origin looking
 /// down -Z, and `heads` (none: the app's own cost).
-fn frame_app(heads: &[Head], culling: bool) -> App {
-    use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
-    use bevy_cartoon_hair::mesh::{HairCulling, HairMeshPlugin, HairMeshSettings};
-    use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
+/// Every CPU stage of the hair, stage timings, 60 Hz frames, and a camera at the origin looking
+/// down -Z: what the `frame` and `thesis` apps share.
+fn stages_app() -> App {
+    use bevy_cartoon_hair::mesh::HairMeshPlugin;
+    use bevy_cartoon_hair::silhouette::HairSilhouettePlugin;
     let mut app = App::new();
     app.add_plugins((
         minimal_plugins(),
@@ -721,6 +722,14 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
         1.0 / 60.0,
     )));
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    app
+}
+
+fn frame_app(heads: &[Head], culling: bool) -> App {
+    use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
+    use bevy_cartoon_hair::mesh::{HairCulling, HairMeshSettings};
+    use bevy_cartoon_hair::silhouette::SilhouetteSettings;
+    let mut app = stages_app();
     for head in heads {
         let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
         let world = app.world_mut();
@@ -859,27 +868,10 @@ fn nod(time: Res<Time>, mut bones: Query<&mut Transform, With<Nod>>) {
 
 fn thesis_app(row: &ThesisRow) -> App {
     use bevy_cartoon_hair::asset::{HairAnimation, HairKeyframe};
-    use bevy_cartoon_hair::mesh::{HairMeshPlugin, HairMeshSettings};
-    use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
-    let mut app = App::new();
-    app.add_plugins((
-        minimal_plugins(),
-        TransformPlugin,
-        AssetPlugin::default(),
-        bevy::diagnostic::DiagnosticsPlugin,
-        HairAssetPlugin,
-        HairSchedulePlugin,
-        HairSimulationPlugin,
-        HairMeshPlugin,
-        HairSilhouettePlugin,
-        bevy_cartoon_hair::debug::HairStageTimingsPlugin,
-    ))
-    .init_asset::<Mesh>()
-    .add_systems(Update, nod)
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 60.0,
-    )));
-    bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    use bevy_cartoon_hair::mesh::HairMeshSettings;
+    use bevy_cartoon_hair::silhouette::SilhouetteSettings;
+    let mut app = stages_app();
+    app.add_systems(Update, nod);
     let base = HairGroom::from_strands("head", strands(100, 6)).unwrap();
     let animation = row.hair_animation.then(|| {
         // Two styles: the base and the tips swept back.

@@ -10,8 +10,6 @@ use super::xml::Xml;
 
 /// Most shapes (spheres, capsules and planes together) a collision file may have.
 pub const MAX_SHAPES: usize = 4096;
-/// The old name of [`MAX_SHAPES`], from when collision files held spheres only.
-pub const MAX_SPHERES: usize = MAX_SHAPES;
 /// Largest collision file the loader reads: [`HEADER_BYTES`](super::HEADER_BYTES) plus 256
 /// bytes per shape (about 0.1 MB plus 1 MB).
 pub const COLLISION_BYTE_LIMIT: usize = HEADER_BYTES + MAX_SHAPES * BYTES_PER_ELEMENT;

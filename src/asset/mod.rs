@@ -36,7 +36,7 @@ pub use animation::{
 };
 pub use collision::{
     COLLISION_BYTE_LIMIT, CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere,
-    HeadCollision, HeadCollisionLoader, MAX_SHAPES, MAX_SPHERES, parse_collision,
+    HeadCollision, HeadCollisionLoader, MAX_SHAPES, parse_collision,
 };
 pub use error::{BYTES_PER_ELEMENT, HairAssetError, MAX_COORDINATE, SCALE_RANGE};
 pub use groom::{

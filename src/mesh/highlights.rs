@@ -210,8 +210,8 @@ pub fn build_specular_quads(
         .unwrap_or(Vec3::Y);
     for (hair, settings, mesh_settings, strand_list, highlights, in_view, lod) in &hairs {
         let existing = highlights.and_then(|h| h.iter().next());
-        // Hair no camera sees gets no quads (see `culling`), nor hair at the smallest level of
-        // detail (see `lod`).
+        // Hair no camera sees gets no quads (see `culling`), nor hair at level of detail 2 or
+        // coarser (see `lod`).
         let shown = settings.enabled && in_view.0 && lod.level < 2;
         if let Some(e) = existing
             && let Ok(mut v) = visibility.get_mut(e)

@@ -215,11 +215,13 @@ impl ContactShape {
         if inside {
             return self.resolve(x, margin, true);
         }
-        if self.surface(x).0 >= margin {
+        let (d, n) = self.surface(x);
+        if d >= margin {
             return None;
         }
         if self.surface(from).0 < margin {
-            return self.resolve(x, margin, false);
+            // It was already within the margin: out along the surface's normal.
+            return Some(x + n * (margin - d));
         }
         // The first point of the path within the margin, to a hundredth of the path.
         let (mut lo, mut hi) = (0.0f32, 1.0f32);
@@ -242,70 +244,27 @@ impl ContactShape {
     /// `None` when it already does.
     #[inline]
     pub fn resolve(&self, x: Vec3A, margin: f32, inside: bool) -> Option<Vec3A> {
-        match *self {
-            Self::Sphere { centre, radius } => round(x, centre, radius, margin, inside),
-            Self::Capsule { a, b, radius } => {
-                let ab = b - a;
-                let t = ((x - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
-                round(x, a + ab * t, radius, margin, inside)
-            }
-            Self::Plane { point, normal } => {
-                let d = (x - point).dot(normal);
-                (d < margin).then(|| x + normal * (margin - d))
-            }
-            Self::Box { centre, axes, half } => {
-                let q = axes.transpose() * (x - centre);
-                let local = if inside {
+        if inside {
+            match *self {
+                Self::Box { centre, axes, half } => {
+                    // Within every face by the margin.
+                    let q = axes.transpose() * (x - centre);
                     let room = (half - margin).max(Vec3A::ZERO);
                     let c = q.clamp(-room, room);
-                    (c != q).then_some(c)
-                } else {
-                    let c = q.clamp(-half, half);
-                    let out = q - c;
-                    let d = out.length();
-                    if d >= margin {
-                        None
-                    } else if d > 1e-9 {
-                        Some(c + out * (margin / d))
-                    } else {
-                        // Inside: out through the nearest face.
-                        let gap = half - q.abs();
-                        let axis = if gap.x <= gap.y && gap.x <= gap.z {
-                            0
-                        } else if gap.y <= gap.z {
-                            1
-                        } else {
-                            2
-                        };
-                        let mut c = q;
-                        let s = if q[axis] < 0.0 { -1.0 } else { 1.0 };
-                        c[axis] = s * (half[axis] + margin);
-                        Some(c)
-                    }
-                };
-                local.map(|l| centre + axes * l)
+                    return (c != q).then(|| centre + axes * c);
+                }
+                Self::Sphere { radius, .. } | Self::Capsule { radius, .. } => {
+                    // Within `radius - margin` of the centre (or the axis).
+                    let (d, n) = self.surface(x);
+                    let (from_axis, room) = (d + radius, (radius - margin).max(0.0));
+                    return (from_axis > room).then(|| x - n * (from_axis - room));
+                }
+                // A plane keeps the side its normal points to either way.
+                Self::Plane { .. } => {}
             }
         }
-    }
-}
-
-/// Keeps `x` `margin` outside (or inside) a ball of `radius` around `c`.
-#[inline]
-fn round(x: Vec3A, c: Vec3A, radius: f32, margin: f32, inside: bool) -> Option<Vec3A> {
-    let d = x - c;
-    let len = d.length();
-    if inside {
-        let room = (radius - margin).max(0.0);
-        (len > room).then(|| c + d * (room / len))
-    } else {
-        let reach = radius + margin;
-        if len >= reach {
-            None
-        } else if len > 1e-9 {
-            Some(c + d * (reach / len))
-        } else {
-            Some(c + Vec3A::Y * reach)
-        }
+        let (d, n) = self.surface(x);
+        (d < margin).then(|| x + n * (margin - d))
     }
 }
 

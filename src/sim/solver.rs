@@ -685,7 +685,7 @@ impl Batch {
         }
     }
 
-    /// Pushes free nodes out of spheres grown by each lane's margin; with `friction`, the
+    /// Pushes free particles out of spheres grown by each lane's margin; with `friction`, the
     /// push also slows their motion along the sphere (relative to its `shifts`).
     #[inline(always)]
     fn collide_spheres(&mut self, spheres: &[(Vec3A, f32)], shifts: &[Vec3A], friction: f32) {
@@ -731,7 +731,7 @@ impl Batch {
         }
     }
 
-    /// Keeps free nodes the margin outside (or inside) analytic shapes, along their path
+    /// Keeps free particles the margin outside (or inside) analytic shapes, along their path
     /// relative to the shape this substep (so a fast shape pushes them ahead instead of passing
     /// them), with friction.
     fn collide_contacts(&mut self, contacts: &[Contact], friction: f32, swept: bool) {
@@ -770,8 +770,8 @@ impl Batch {
         }
     }
 
-    /// Pushes free nodes out of arbitrary shapes (the engine's point projection), keeping the
-    /// margin.
+    /// Pushes free particles out of arbitrary shapes (the engine's point projection), keeping
+    /// the margin.
     fn collide_shapes(&mut self, shapes: &[ShapeCollider], friction: f32) {
         for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
             for l in 0..LANES {

@@ -239,9 +239,8 @@ pub(crate) fn step_hair_strands(
         } else {
             f32::INFINITY
         };
-        for v in [&mut input.bones, &mut input.bone_motion] {
-            v.clear();
-        }
+        input.bones.clear();
+        input.bone_motion.clear();
         input.spheres.clear();
         input.sphere_shift.clear();
         input.contacts.clear();
@@ -363,13 +362,15 @@ pub(crate) fn step_hair_strands(
             u32::try_from(templates.len() + input.shapes.len()).unwrap_or(u32::MAX);
         // Outside spheres that move little take the solver's fast path (first); everything
         // else is a contact, tested along each particle's path.
-        templates.sort_by_key(|(prev, now, shape, inside)| {
-            !fast_path(shape, *inside, prev, now, substeps)
-        });
-        let spheres = templates
-            .iter()
-            .take_while(|(prev, now, shape, inside)| fast_path(shape, *inside, prev, now, substeps))
-            .count();
+        let mut spheres = 0;
+        for i in 0..templates.len() {
+            let (prev, now, shape, inside) = &templates[i];
+            if fast_path(shape, *inside, prev, now, substeps) {
+                // Stable: spheres keep their order, so do the rest.
+                templates[spheres..=i].rotate_right(1);
+                spheres += 1;
+            }
+        }
         input.sphere_count = spheres;
         input.contact_count = templates.len() - spheres;
         input.friction = settings.friction();
@@ -399,12 +400,12 @@ pub(crate) fn step_hair_strands(
         field_templates.clear();
         for &(prev, now, field) in &history.field_views {
             let prev = if jumped(&prev, &now) { now } else { prev };
+            // Everything the field's sphere swept through this frame.
             let near = reach.is_none_or(|(min, max)| {
-                [prev, now].iter().any(|pose| {
-                    let r = field.radius() * crate::math::largest_scale(pose);
-                    let c = pose.translation;
-                    (c - r).cmple(max).all() && (c + r).cmpge(min).all()
-                })
+                let r = field.radius()
+                    * crate::math::largest_scale(&prev).max(crate::math::largest_scale(&now));
+                let (a, b) = (prev.translation, now.translation);
+                (a.min(b) - r).cmple(max).all() && (a.max(b) + r).cmpge(min).all()
             });
             if near {
                 field_templates.push((prev, now, field));
@@ -513,8 +514,9 @@ fn fast_path(
 }
 
 /// Where the hair's particles can be this frame: its rest shape's bounds at the frame's first
-/// and last bone pose, grown by the longest strand at the strain limit (no particle strays
-/// farther from its rest place). `None` (test every collider) without a strain limit or bounds.
+/// and last bone pose, grown by twice the longest strand at the strain limit (a particle is
+/// within a stretched strand's length of its root, which is inside the rest bounds; twice that
+/// leaves room for a substep's overshoot before the limit applies). `None` (test every collider) without a strain limit or bounds.
 fn hair_reach(
     computed: &ComputedHair,
     from: &Affine3A,

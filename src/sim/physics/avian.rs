@@ -1,7 +1,6 @@
 //! avian colliders (feature `avian`).
 
 use avian3d::prelude::{Collider, ColliderDensity, CollisionLayers, Sensor};
-use bevy::math::Vec3A;
 use bevy::prelude::*;
 
 use super::{GatherColliders, LocalShape, ShapeKind, WorldColliders, WorldShape};
@@ -81,8 +80,8 @@ fn gather(
             .map(|(e, _)| e);
         // avian's shape is already scaled (`shape_scaled`).
         let scaled = collider.shape_scaled();
-        let shape = match local_shape(scaled) {
-            Some(shape) => WorldShape::Local(vec![shape]),
+        let shape = match local_shapes(scaled) {
+            Some(shapes) => WorldShape::Local(shapes),
             None => WorldShape::Other(ShapeKind::Avian(
                 collider.clone(),
                 Vec3::ZERO,
@@ -93,30 +92,4 @@ fn gather(
     }
 }
 
-/// An avian shape as an analytic shape in the collider's space, when it is a ball, capsule,
-/// cuboid or half space.
-fn local_shape(shape: &avian3d::parry::shape::SharedShape) -> Option<LocalShape> {
-    let v = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
-    if let Some(ball) = shape.as_ball() {
-        Some(LocalShape::Sphere(Vec3A::ZERO, ball.radius))
-    } else if let Some(c) = shape.as_capsule() {
-        let (a, b) = (c.segment.a, c.segment.b);
-        Some(LocalShape::Capsule(
-            v(a.x, a.y, a.z),
-            v(b.x, b.y, b.z),
-            c.radius,
-        ))
-    } else if let Some(c) = shape.as_cuboid() {
-        let h = c.half_extents;
-        Some(LocalShape::Box(
-            Vec3A::ZERO,
-            Quat::IDENTITY,
-            v(h.x, h.y, h.z),
-        ))
-    } else {
-        shape.as_halfspace().map(|h| {
-            let n = h.normal;
-            LocalShape::Plane(Vec3A::ZERO, v(n.x, n.y, n.z).normalize_or(Vec3A::Y))
-        })
-    }
-}
+super::local_shapes_for!(avian3d::parry);

@@ -32,6 +32,60 @@ pub use avian::HairCollisionLayers;
 #[cfg(feature = "rapier")]
 pub use rapier::HairCollisionGroups;
 
+/// `fn local_shapes(&SharedShape) -> Option<Vec<LocalShape>>` for one engine's `parry` (rapier
+/// and avian depend on different `parry3d` releases, whose types differ but read the same): a
+/// ball, capsule, cuboid or half space, or a compound of only those, as analytic shapes in the
+/// collider's space; `None` for any other shape.
+#[cfg(any(feature = "rapier", feature = "avian"))]
+macro_rules! local_shapes_for {
+    ($($parry:ident)::+) => {
+        fn local_shapes(
+            shape: &$($parry)::+::shape::SharedShape,
+        ) -> Option<Vec<LocalShape>> {
+            use bevy::math::{Quat, Vec3A};
+            use $($parry)::+::shape::Shape;
+            fn one(shape: &dyn Shape, at: Vec3A, rotation: Quat) -> Option<LocalShape> {
+                let v = |x: f32, y: f32, z: f32| Vec3A::new(x, y, z);
+                if let Some(ball) = shape.as_ball() {
+                    Some(LocalShape::Sphere(at, ball.radius))
+                } else if let Some(c) = shape.as_capsule() {
+                    let (a, b) = (c.segment.a, c.segment.b);
+                    Some(LocalShape::Capsule(
+                        at + rotation * v(a.x, a.y, a.z),
+                        at + rotation * v(b.x, b.y, b.z),
+                        c.radius,
+                    ))
+                } else if let Some(c) = shape.as_cuboid() {
+                    let h = c.half_extents;
+                    Some(LocalShape::Box(at, rotation, v(h.x, h.y, h.z)))
+                } else {
+                    shape.as_halfspace().map(|h| {
+                        let n = rotation * v(h.normal.x, h.normal.y, h.normal.z);
+                        LocalShape::Plane(at, n.normalize_or(Vec3A::Y))
+                    })
+                }
+            }
+            match shape.as_compound() {
+                Some(compound) => compound
+                    .shapes()
+                    .iter()
+                    .map(|(pose, s)| {
+                        let (r, t) = (pose.rotation, pose.translation);
+                        one(
+                            &**s,
+                            Vec3A::new(t.x, t.y, t.z),
+                            Quat::from_xyzw(r.x, r.y, r.z, r.w),
+                        )
+                    })
+                    .collect(),
+                None => one(&**shape, Vec3A::ZERO, Quat::IDENTITY).map(|s| vec![s]),
+            }
+        }
+    };
+}
+#[cfg(any(feature = "rapier", feature = "avian"))]
+use local_shapes_for;
+
 /// The engines' gathering systems run in this set, after last frame's colliders are cleared
 /// and before the hairs are stepped.
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]

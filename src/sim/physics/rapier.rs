@@ -1,6 +1,5 @@
 //! rapier colliders (feature `rapier`).
 
-use bevy::math::Vec3A;
 use bevy::prelude::*;
 use bevy_rapier3d::prelude::{Collider, CollisionGroups, Group, Sensor};
 
@@ -97,43 +96,4 @@ fn gather(
     }
 }
 
-/// A rapier shape as analytic shapes in the collider's space, when it is a ball, capsule,
-/// cuboid or half space, or a compound of those.
-fn local_shapes(shape: &bevy_rapier3d::parry::shape::SharedShape) -> Option<Vec<LocalShape>> {
-    use bevy_rapier3d::parry::shape::Shape;
-    fn one(shape: &dyn Shape, at: Vec3A, rotation: Quat) -> Option<LocalShape> {
-        let v = |v: bevy_rapier3d::parry::math::Vector| Vec3A::new(v.x, v.y, v.z);
-        if let Some(ball) = shape.as_ball() {
-            Some(LocalShape::Sphere(at, ball.radius))
-        } else if let Some(c) = shape.as_capsule() {
-            Some(LocalShape::Capsule(
-                at + rotation * v(c.segment.a),
-                at + rotation * v(c.segment.b),
-                c.radius,
-            ))
-        } else if let Some(c) = shape.as_cuboid() {
-            Some(LocalShape::Box(at, rotation, v(c.half_extents)))
-        } else {
-            shape
-                .as_halfspace()
-                .map(|h| LocalShape::Plane(at, (rotation * v(h.normal)).normalize_or(Vec3A::Y)))
-        }
-    }
-    if let Some(compound) = shape.as_compound() {
-        compound
-            .shapes()
-            .iter()
-            .map(|(pose, s)| {
-                let r = pose.rotation;
-                let t = pose.translation;
-                one(
-                    &**s,
-                    Vec3A::new(t.x, t.y, t.z),
-                    Quat::from_xyzw(r.x, r.y, r.z, r.w),
-                )
-            })
-            .collect()
-    } else {
-        one(&**shape, Vec3A::ZERO, Quat::IDENTITY).map(|s| vec![s])
-    }
-}
+super::local_shapes_for!(bevy_rapier3d::parry);

@@ -229,12 +229,8 @@ def collision_kind(obj, depsgraph=None):
     return None
 
 
-def is_sphere_object(obj):
-    """Whether ``obj`` can be exported as a collision shape (the old name: spheres came first)."""
-    return is_collision_object(obj)
-
-
 def is_collision_object(obj):
+    """Whether ``obj`` can be exported as a collision shape (sphere, capsule or plane)."""
     return is_capsule_object(obj) or obj.type == "MESH" or (
         obj.type == "EMPTY" and obj.empty_display_type == "SPHERE")
 

@@ -37,7 +37,6 @@ MIN_PARTICLES, MAX_PARTICLES = 2, 256
 MAX_GROOM_PARTICLES = 2_000_000
 MIN_SEGMENT = 1e-6
 MAX_SHAPES = 4096
-MAX_SPHERES = MAX_SHAPES  # the old name, from when collision files held spheres only
 MAX_KEYS = 256
 
 
