@@ -272,7 +272,7 @@ fn bench_sim(c: &mut Criterion) {
     }
     // The same frames with hair–hair volume: with a radius of half the roots' spacing (the
     // strands touch at the roots, as guide strands a tube apart do), and with the default 16 mm
-    // (tubes overlapping many times over: the worst case, bounded by `MAX_PUSHES`).
+    // (tubes overlapping many times over: the worst case, bounded by `MAX_PAIRS`).
     for (n, p) in [(100, 6), (1_000, 16), (10_000, 16)] {
         // Roots on a 0.1 m half sphere: spacing sqrt(2 pi 0.1^2 / n).
         let spacing = (std::f32::consts::TAU * 0.01 / n as f32).sqrt();
@@ -293,6 +293,40 @@ fn bench_sim(c: &mut Criterion) {
                 b.iter(|| app.update());
             });
         }
+    }
+    // The same while the head nods (0.6 rad at 2 rad/s, 0.2 at 3): the hair moves against the
+    // head every frame, so the volume's pair list is rebuilt as often as the motion needs.
+    for (name, volume) in [
+        ("none", None),
+        (
+            "touching",
+            Some(Some(0.5 * (std::f32::consts::TAU * 0.01 / 1_000.0).sqrt())),
+        ),
+        ("16mm", Some(None)),
+    ] {
+        let mut app = hair_app(1_000, 16);
+        let world = app.world_mut();
+        let bone = world
+            .query_filtered::<&ChildOf, With<Hair>>()
+            .iter(world)
+            .next()
+            .map(ChildOf::parent)
+            .unwrap();
+        world.entity_mut(bone).insert(Nod);
+        let mut q = world.query::<&mut HairSimSettings>();
+        for mut s in q.iter_mut(world) {
+            s.volume = volume.map(|radius| bevy_cartoon_hair::sim::HairVolume {
+                radius,
+                ..Default::default()
+            });
+        }
+        app.add_systems(Update, nod);
+        for _ in 0..30 {
+            app.update();
+        }
+        group.bench_function(format!("1000x16_nodding_volume_{name}"), |b| {
+            b.iter(|| app.update());
+        });
     }
     // The same on a head: the head sphere keeps the hair spread as on a character (without
     // it the hair falls through the head into one bundle), beside the frame with the head and

@@ -488,7 +488,7 @@ pub(crate) fn step_hair_strands(
                 volume: scratch,
                 ..
             } = computed;
-            let pairs = super::keep_apart(batches, radius, volume.stiffness, scratch);
+            let pairs = super::keep_apart(batches, radius, volume.stiffness, last, scratch);
             computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
         }
     }
