@@ -72,6 +72,7 @@ pub struct VolumeScratch {
     /// Grid scratch of a build: each particle's cell; where each cell's particles start in
     /// the sorted arrays (`cells + 1`); the particles sorted by cell (position, cell, index).
     cell: Vec<u32>,
+    cell_xyz: Vec<[u32; 3]>,
     start: Vec<u32>,
     sorted: Vec<Vec3A>,
     sorted_cell: Vec<[u32; 3]>,
@@ -127,10 +128,11 @@ pub fn keep_apart(
     s.slot.clear();
     // Free particles only: nodes 2i + 1 past the pinned root.
     for (b, batch) in batches.iter().enumerate() {
-        for l in 0..batch.count.min(LANES) {
-            for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
-                let x = &batch.nodes[k].x;
-                let p = Vec3A::new(x[0][l], x[1][l], x[2][l]);
+        for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
+            let [xs, ys, zs] = &batch.nodes[k].x;
+            let lanes = xs.iter().zip(ys).zip(zs).take(batch.count.min(LANES));
+            for (l, ((&x, &y), &z)) in lanes.enumerate() {
+                let p = Vec3A::new(x, y, z);
                 if !p.is_finite() {
                     continue;
                 }
@@ -247,36 +249,40 @@ fn build_pairs(s: &mut VolumeScratch, range: f32) {
             (c.z.max(0.0) as usize).min(dz - 1) as u32,
         ]
     };
-    // Counting sort by cell.
+    // Counting sort by cell: counts, then running totals (`start[c]` is where cell `c` ends),
+    // then each particle, last first, taken off its cell's end (so `start[c]` becomes where
+    // the cell begins and a cell keeps its particles in gathered order).
     s.start.clear();
     s.start.resize(cells + 1, 0);
     s.cell.clear();
+    s.cell_xyz.clear();
     for &p in &s.pos {
-        let c = index(cell_of(p));
+        let xyz = cell_of(p);
+        let c = index(xyz);
         s.cell.push(c as u32);
-        s.start[c + 1] += 1;
+        s.cell_xyz.push(xyz);
+        s.start[c] += 1;
     }
-    for i in 0..cells {
-        s.start[i + 1] += s.start[i];
+    let mut total = 0;
+    for count in &mut s.start[..cells] {
+        total += *count;
+        *count = total;
     }
+    s.start[cells] = n as u32;
     s.sorted.resize(n, Vec3A::ZERO);
     s.sorted_cell.resize(n, [0; 3]);
     s.sorted_from.resize(n, 0);
-    for (i, &c) in s.cell.iter().enumerate() {
-        // `start[c]` walks through the cell's slots; it is put back below.
-        let to = s.start[c as usize] as usize;
-        s.start[c as usize] += 1;
+    for i in (0..n).rev() {
+        let c = s.cell[i] as usize;
+        s.start[c] -= 1;
+        let to = s.start[c] as usize;
         s.sorted[to] = s.pos[i];
-        s.sorted_cell[to] = cell_of(s.pos[i]);
+        s.sorted_cell[to] = s.cell_xyz[i];
         s.sorted_from[to] = i as u32;
     }
-    for i in (1..=cells).rev() {
-        s.start[i] = s.start[i - 1];
-    }
-    s.start[0] = 0;
-    s.pairs.clear();
     let range2 = range * range;
     let (last_x, last_y, last_z) = (dx as u32 - 1, dy as u32 - 1, dz as u32 - 1);
+    s.pairs.clear();
     for i in 0..n {
         let (p, [x, y, z]) = (s.sorted[i], s.sorted_cell[i]);
         let from = s.sorted_from[i];
