@@ -8,19 +8,26 @@
 //! Keys: arrows orbit the camera, Page Up / Page Down zoom, M toggles the tuning panel, P pauses
 //! the hair, Enter steps it one frame, G toggles a gusty 8 m/s wind, F toggles a fan (a local
 //! `HairForceField`) blowing at the head from its right (the panel's Force fields edit it).
+//! Three props show the other collider kinds (the panel's Colliders section lists them): H
+//! toggles a hood (a sphere keeping the hair inside), W a wall behind the head (a plane), B a
+//! board sweeping over the head (a box).
 //!
 //! Flags:
 //! - `--screenshot FILE`: save the window at frame 150 and exit.
 //! - `--preset FILE|LOOK`: start from a hair preset (saved from the panel's Preset section), or
 //!   one of the shipped looks by name (`thesis`, `clean_anime`, `sketch`; `assets/presets/`).
 //! - `--no-ui`: start with the tuning panel hidden.
+//! - `--hood`, `--wall`, `--board`: start with that prop (also in headless clips).
+//! - `--yaw RADIANS`: headless clips look from this angle around the head (0: the face).
 //! - `--headless --frames N --out DIR`: no window; render N consecutive frames at 1/30 s each
 //!   to `DIR/frame_0000.png`, ... (any Vulkan adapter, lavapipe included), then exit.
 //!   `--size WxH` sets the image size (default 640x360).
 
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
-use bevy_cartoon_hair::demo::{ClipSettings, NinjaOrbit, NinjaScenePlugin, record_clip};
+use bevy_cartoon_hair::demo::{
+    ClipSettings, NinjaOrbit, NinjaProps, NinjaScenePlugin, record_clip,
+};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::ui::tuning_ui_wants_keyboard;
 
@@ -46,6 +53,13 @@ fn parse_args() -> Result<Args, String> {
             "--preset" => parsed.preset = Some(value()?),
             "--headless" => parsed.headless = true,
             "--no-ui" => parsed.no_ui = true,
+            "--hood" => parsed.clip.props.hood = true,
+            "--wall" => parsed.clip.props.wall = true,
+            "--board" => parsed.clip.props.board = true,
+            "--yaw" => {
+                let v = value()?;
+                parsed.clip.orbit.yaw = v.parse().map_err(|e| format!("--yaw {v:?}: {e}"))?;
+            }
             "--frames" => {
                 let v = value()?;
                 parsed.clip.frames = v.parse().map_err(|e| format!("--frames {v:?}: {e}"))?;
@@ -122,6 +136,7 @@ fn main() {
         visible: !args.no_ui,
         ..default()
     })
+    .insert_resource(args.clip.props)
     .add_systems(
         Update,
         // Typing a preset file name must not orbit the camera or pause the hair.
@@ -207,7 +222,17 @@ fn hair_keys(
     mut hair_time: ResMut<Time<HairTime>>,
     mut ui: ResMut<HairTuningUi>,
     mut wind: ResMut<HairWind>,
+    mut props: ResMut<NinjaProps>,
 ) {
+    if keys.just_pressed(KeyCode::KeyH) {
+        props.hood = !props.hood;
+    }
+    if keys.just_pressed(KeyCode::KeyW) {
+        props.wall = !props.wall;
+    }
+    if keys.just_pressed(KeyCode::KeyB) {
+        props.board = !props.board;
+    }
     if keys.just_pressed(KeyCode::KeyG) {
         // A gusty breeze from the character's left, or calm again.
         wind.velocity = if wind.velocity == Vec3::ZERO {

@@ -31,7 +31,10 @@ use crate::mesh::ComputedHairMesh;
 use crate::plugins::CartoonHairPlugins;
 use crate::preset::HairPreset;
 use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps, ToonShading};
-use crate::sim::{AttachToBone, ComputedHair, Hair, HairAssetFailed, HairSimSettings};
+use crate::sim::{
+    AttachToBone, ComputedHair, Hair, HairAssetFailed, HairCollider, HairColliderMode,
+    HairSimSettings,
+};
 
 /// The demo hair's colour (orange).
 pub const HAIR_COLOR: Color = Color::srgb(0.98, 0.62, 0.12);
@@ -117,7 +120,16 @@ impl Plugin for NinjaScenePlugin {
                 (stop_without_assets, spawn_ninja_scene, spawn_ninja_stage).chain(),
             )
             .add_observer(stop_on_failed_hair_asset)
-            .add_systems(Update, place_orbit_cameras);
+            .init_resource::<NinjaProps>()
+            .register_type::<NinjaProps>()
+            .add_systems(
+                Update,
+                (
+                    place_orbit_cameras,
+                    show_ninja_props.run_if(resource_changed::<NinjaProps>),
+                    sweep_board,
+                ),
+            );
     }
 }
 
@@ -321,6 +333,134 @@ fn add_shoulder_collider(
     }
 }
 
+/// Props that show the collider kinds on the ninja; each is in the scene while its flag is on
+/// (the example's H, W and B keys, its `--hood`, `--wall` and `--board` flags, and
+/// [`ClipSettings::props`]).
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Resource, Default, Debug, PartialEq)]
+pub struct NinjaProps {
+    /// A hood: a sphere of radius 0.2 m around the head in [`HairColliderMode::Inside`] mode,
+    /// so the spikes (up to 0.31 m out) fold in under it.
+    pub hood: bool,
+    /// A wall 0.2 m behind the head: a plane; the spikes swept back flatten against it as the
+    /// head turns.
+    pub wall: bool,
+    /// A board sweeping over the head, 0.6 m either side at 0.5 Hz (up to 1.9 m/s): a box; the
+    /// top spikes bend as it passes.
+    pub board: bool,
+}
+
+/// Which [`NinjaProps`] prop an entity is.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NinjaProp {
+    /// The hood (a child of the hair).
+    Hood,
+    /// The wall.
+    Wall,
+    /// The board.
+    Board,
+}
+
+/// Where the board sweeps: above the head's rest position, across the character.
+const BOARD_CENTRE: Vec3 = Vec3::new(0.0, 1.92, -0.01);
+
+/// Spawns and despawns the props as [`NinjaProps`] says.
+fn show_ninja_props(
+    props: Res<NinjaProps>,
+    mut commands: Commands,
+    existing: Query<(Entity, &NinjaProp)>,
+    hairs: Query<Entity, With<Hair>>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    mut materials: ResMut<Assets<StandardMaterial>>,
+) {
+    let want = [
+        (NinjaProp::Hood, props.hood),
+        (NinjaProp::Wall, props.wall),
+        (NinjaProp::Board, props.board),
+    ];
+    for (prop, on) in want {
+        let have: Vec<Entity> = existing
+            .iter()
+            .filter(|(_, p)| **p == prop)
+            .map(|(e, _)| e)
+            .collect();
+        if !on {
+            for e in have {
+                commands.entity(e).despawn();
+            }
+            continue;
+        }
+        if !have.is_empty() {
+            continue;
+        }
+        let wood = materials.add(Color::srgb(0.55, 0.42, 0.3));
+        match prop {
+            // The head's centre in the hair's space (bone `head`), as in its collision file.
+            NinjaProp::Hood => {
+                for hair in &hairs {
+                    commands.spawn((
+                        Name::new("hood (inside sphere)"),
+                        prop,
+                        HairCollider {
+                            spheres: vec![crate::asset::CollisionSphere {
+                                center: Vec3::new(0.0, 0.09, -0.01),
+                                radius: 0.2,
+                            }],
+                            mode: HairColliderMode::Inside,
+                            ..default()
+                        },
+                        ChildOf(hair),
+                    ));
+                }
+            }
+            NinjaProp::Wall => {
+                commands.spawn((
+                    Name::new("wall (plane)"),
+                    prop,
+                    HairCollider {
+                        planes: vec![crate::asset::CollisionPlane {
+                            point: Vec3::ZERO,
+                            normal: Vec3::Z,
+                        }],
+                        ..default()
+                    },
+                    Mesh3d(meshes.add(Cuboid::new(0.8, 0.9, 0.02))),
+                    MeshMaterial3d(wood),
+                    Transform::from_xyz(0.0, 1.55, -0.21),
+                ));
+            }
+            NinjaProp::Board => {
+                let half = Vec3::new(0.25, 0.04, 0.15);
+                commands.spawn((
+                    Name::new("board (box)"),
+                    prop,
+                    HairCollider {
+                        boxes: vec![crate::asset::CollisionBox {
+                            center: Vec3::ZERO,
+                            half_extents: half,
+                            rotation: Quat::IDENTITY,
+                        }],
+                        ..default()
+                    },
+                    Mesh3d(meshes.add(Cuboid::from_size(2.0 * half))),
+                    MeshMaterial3d(wood),
+                    Transform::from_translation(BOARD_CENTRE + Vec3::X * 0.6),
+                ));
+            }
+        }
+    }
+}
+
+/// Moves the board across the head.
+fn sweep_board(time: Res<Time>, mut boards: Query<(&NinjaProp, &mut Transform)>) {
+    for (prop, mut t) in &mut boards {
+        if *prop == NinjaProp::Board {
+            let phase = std::f32::consts::TAU * 0.5 * time.elapsed_secs();
+            t.translation = BOARD_CENTRE + Vec3::X * (0.6 * phase.cos());
+        }
+    }
+}
+
 fn place_orbit_cameras(mut cameras: Query<(&NinjaOrbit, &mut Transform), Changed<NinjaOrbit>>) {
     for (orbit, mut transform) in &mut cameras {
         *transform = orbit.transform();
@@ -345,6 +485,10 @@ pub struct ClipSettings {
     pub frame_time: f32,
     /// Draw the tuning panel into the frames (feature `ui`). Default: `false`.
     pub show_ui: bool,
+    /// Props in the scene (a hood, a wall, a board). Default: none.
+    pub props: NinjaProps,
+    /// Where the camera looks from. Default: [`NinjaOrbit::default`] (the face, from its left).
+    pub orbit: NinjaOrbit,
 }
 
 impl Default for ClipSettings {
@@ -357,6 +501,8 @@ impl Default for ClipSettings {
             height: 360,
             frame_time: 1.0 / 30.0,
             show_ui: false,
+            props: NinjaProps::default(),
+            orbit: NinjaOrbit::default(),
         }
     }
 }
@@ -474,6 +620,7 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
             ..default()
         });
     }
+    renderer.app.insert_resource(settings.props);
     // Nothing moves until the scene is ready: the clip starts from the same state every time.
     renderer
         .app
@@ -485,6 +632,10 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
     let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
     for (bone, mut hair) in hairs.iter_mut(world) {
         hair.reset(bone);
+    }
+    let mut orbits = world.query::<&mut NinjaOrbit>();
+    for mut orbit in orbits.iter_mut(world) {
+        orbit.set_if_neq(settings.orbit.clone());
     }
     let step = Duration::from_secs_f32(settings.frame_time.max(0.0));
     renderer

@@ -18,7 +18,8 @@ use crate::render::{
 };
 use crate::silhouette::SilhouetteSettings;
 use crate::sim::{
-    Hair, HairDampingFrame, HairForceField, HairForceFieldKind, HairSimSettings, HairWind,
+    Hair, HairCollider, HairColliderMode, HairDampingFrame, HairForceField, HairForceFieldKind,
+    HairSimSettings, HairWind,
 };
 
 /// The hairs the window edits.
@@ -47,6 +48,10 @@ fn hair_label(entity: Entity, name: Option<&Name>) -> String {
 type FieldQuery<'w, 's> =
     Query<'w, 's, (Entity, Option<&'static Name>, &'static mut HairForceField)>;
 
+/// The scene's hair colliders, for the panel.
+type ColliderQuery<'w, 's> =
+    Query<'w, 's, (Entity, Option<&'static Name>, &'static mut HairCollider)>;
+
 /// The Hair properties window.
 pub(super) fn properties_window(
     mut contexts: EguiContexts,
@@ -55,7 +60,12 @@ pub(super) fn properties_window(
     mut hairs: HairQuery,
     mut outlines: Query<&mut ImageSpaceOutline>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
-    (ramps, mut wind, mut fields): (Res<ToonRamps>, ResMut<HairWind>, FieldQuery),
+    (ramps, mut wind, mut fields, mut colliders): (
+        Res<ToonRamps>,
+        ResMut<HairWind>,
+        FieldQuery,
+        ColliderQuery,
+    ),
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
@@ -106,6 +116,15 @@ pub(super) fn properties_window(
                     .show(ui, |ui| {
                         for (entity, name, mut field) in &mut fields {
                             field_controls(ui, entity, name, &mut field);
+                        }
+                    });
+            }
+            if !colliders.is_empty() {
+                egui::CollapsingHeader::new("Colliders")
+                    .default_open(false)
+                    .show(ui, |ui| {
+                        for (entity, name, mut collider) in &mut colliders {
+                            collider_controls(ui, entity, name, &mut collider);
                         }
                     });
             }
@@ -273,6 +292,49 @@ fn field_controls(
         **field = f;
     }
 }
+
+/// One collider: what shapes it has, and which side of them hair is kept on.
+fn collider_controls(
+    ui: &mut egui::Ui,
+    entity: Entity,
+    name: Option<&Name>,
+    collider: &mut Mut<HairCollider>,
+) {
+    let label = name.map_or_else(|| format!("collider {entity}"), |n| n.as_str().to_owned());
+    let c = &**collider;
+    let counts = [
+        (c.spheres.len(), "sphere"),
+        (c.capsules.len(), "capsule"),
+        (c.planes.len(), "plane"),
+        (c.boxes.len(), "box"),
+    ];
+    let shapes: Vec<String> = counts
+        .iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|&(n, kind)| match (n, kind) {
+            (1, _) => format!("1 {kind}"),
+            (_, "box") => format!("{n} boxes"),
+            _ => format!("{n} {kind}s"),
+        })
+        .collect();
+    ui.label(format!("{label}: {}", shapes.join(", ")));
+    let mut mode = c.mode;
+    ui.push_id(entity, |ui| {
+        egui::Grid::new("hair_collider")
+            .num_columns(2)
+            .show(ui, |ui| {
+                combo_row(ui, "Keep hair", &mut mode, &COLLIDER_MODES);
+            });
+    });
+    if mode != collider.mode {
+        collider.mode = mode;
+    }
+}
+
+const COLLIDER_MODES: [(HairColliderMode, &str); 2] = [
+    (HairColliderMode::Outside, "Outside (a body)"),
+    (HairColliderMode::Inside, "Inside (a hood)"),
+];
 
 const FIELD_KINDS: [(HairForceFieldKind, &str); 2] = [
     (HairForceFieldKind::Point, "Point (outward)"),

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 use bevy::asset::RenderAssetUsages;
 use bevy::image::{CompressedImageFormats, ImageSampler, ImageType};
 use bevy::prelude::*;
-use bevy_cartoon_hair::demo::{ClipSettings, NinjaScenePlugin, ninja_scene_ready, record_clip};
+use bevy_cartoon_hair::demo::{
+    ClipSettings, NinjaProps, NinjaScenePlugin, ninja_scene_ready, record_clip,
+};
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::ui::HairDebugDraw;
@@ -26,6 +28,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "tuning_panel_and_debug_drawing_render",
         tuning_panel_and_debug_drawing_render,
+    ),
+    (
+        "demo_props_hood_and_board_shape_the_hair",
+        demo_props_hood_and_board_shape_the_hair,
     ),
 ];
 
@@ -170,6 +176,85 @@ fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
     let particles = frame.count(|[r, g, b, _]| r > 200 && g < 90 && (110..200).contains(&b));
     if particles < 50 {
         return Err(format!("only {particles} magenta particle pixels").into());
+    }
+    Ok(())
+}
+
+/// The ninja example's props, rendered 1.5 s in (the head is upright and the board over it):
+/// - the hood (a sphere keeping hair inside) lowers the hair's top by at least 10 px of 240
+///   (its spikes reach 0.31 m from the head's centre, the hood 0.2 m);
+/// - above the board (a box) there is almost no hair, where without it the spikes stand.
+fn demo_props_hood_and_board_shape_the_hair() -> Result<(), Failed> {
+    let clip = |name: &str, props: NinjaProps| -> Result<CapturedFrame, Failed> {
+        let out = temp_dir(&format!("props_{name}"));
+        let paths = record_clip(&ClipSettings {
+            frames: 46,
+            out: out.clone(),
+            width: 320,
+            height: 240,
+            props,
+            ..default()
+        })?;
+        let frame = read_png(paths.last().ok_or("no frames")?)?;
+        if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+            frame.save_png(Path::new(&dir).join(format!("props_{name}.png")))?;
+        }
+        let _ = std::fs::remove_dir_all(&out);
+        Ok(frame)
+    };
+    let none = clip("none", NinjaProps::default())?;
+    let hood = clip(
+        "hood",
+        NinjaProps {
+            hood: true,
+            ..default()
+        },
+    )?;
+    let board = clip(
+        "board",
+        NinjaProps {
+            board: true,
+            ..default()
+        },
+    )?;
+    let row_count = |f: &CapturedFrame, y: u32, test: &dyn Fn([u8; 4]) -> bool| {
+        (0..f.width).filter(|&x| test(f.pixel(x, y))).count()
+    };
+    let top = |f: &CapturedFrame| (0..f.height).find(|&y| row_count(f, y, &is_hair) >= 2);
+    let (Some(top_none), Some(top_hood)) = (top(&none), top(&hood)) else {
+        return Err("no hair in the frames".into());
+    };
+    println!("hair top row: {top_none} without props, {top_hood} under the hood");
+    if top_hood < top_none + 10 {
+        return Err(
+            format!("the hood lowered the hair's top from {top_none} to {top_hood}").into(),
+        );
+    }
+    // The board's wood, lit or shaded: warm and unsaturated, unlike the hair, sky and skin.
+    let is_wood = |[r, g, b, _]: [u8; 4]| {
+        let (r, g, b) = (f32::from(r), f32::from(g), f32::from(b));
+        r > g && g > b && r - b > 30.0 && r - b < 110.0 && b > 0.55 * g && r < 230.0
+    };
+    let rows: Vec<u32> = (0..board.height / 2)
+        .filter(|&y| row_count(&board, y, &is_wood) >= 20)
+        .collect();
+    let Some(&board_bottom) = rows.last() else {
+        return Err("no board in the frame".into());
+    };
+    let above = |f: &CapturedFrame| {
+        (0..board_bottom)
+            .map(|y| row_count(f, y, &is_hair))
+            .sum::<usize>()
+    };
+    let (with_board, without) = (above(&board), above(&none));
+    println!(
+        "hair pixels above the board's bottom row {board_bottom}: {with_board} (without the \
+         board: {without})"
+    );
+    if without < 100 || with_board * 20 > without {
+        return Err(
+            format!("hair above the board: {with_board} pixels, {without} without it").into(),
+        );
     }
     Ok(())
 }
