@@ -60,6 +60,8 @@ pub struct VolumeScratch {
     pos: Vec<Vec3A>,
     owner: Vec<u32>,
     slot: Vec<(u32, u8, u16)>,
+    /// The batches' layout `slot` and `owner` were made for: lanes and nodes per batch.
+    layout: Vec<(usize, usize)>,
     /// The pair list: every pair of particles of different strands that was closer than
     /// `reach + skin` when it was built, as indices into `pos`.
     pairs: Vec<(u32, u32)>,
@@ -123,25 +125,7 @@ pub fn keep_apart(
     }
     let reach = 2.0 * radius;
     let s = scratch;
-    s.pos.clear();
-    s.owner.clear();
-    s.slot.clear();
-    // Free particles only: nodes 2i + 1 past the pinned root.
-    for (b, batch) in batches.iter().enumerate() {
-        for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
-            let [xs, ys, zs] = &batch.nodes[k].x;
-            let lanes = xs.iter().zip(ys).zip(zs).take(batch.count.min(LANES));
-            for (l, ((&x, &y), &z)) in lanes.enumerate() {
-                let p = Vec3A::new(x, y, z);
-                if !p.is_finite() {
-                    continue;
-                }
-                s.pos.push(p);
-                s.owner.push((b * LANES + l) as u32);
-                s.slot.push((b as u32, l as u8, k as u16));
-            }
-        }
-    }
+    gather(batches, s);
     let n = s.pos.len();
     if n < 2 {
         return 0;
@@ -165,7 +149,8 @@ pub fn keep_apart(
         let (i, j) = (i as usize, j as usize);
         let d = s.pos[i] - s.pos[j];
         let d2 = d.length_squared();
-        if d2 >= reach2 || d2 <= 1e-18 {
+        // (Not finite: not pushed.)
+        if !(d2 < reach2 && d2 > 1e-18) {
             continue;
         }
         let dist = d2.sqrt();
@@ -192,6 +177,48 @@ pub fn keep_apart(
     pushed
 }
 
+/// Copies the free particles' positions (nodes 2i + 1 past the pinned root) into `s.pos`, in
+/// batch, node, lane order. Which strand and slot each one is are only worked out again when
+/// the batches' layout changed. Positions that are not finite are kept (so indices stay put)
+/// and left out of pairs.
+fn gather(batches: &[Batch], s: &mut VolumeScratch) {
+    let layout_holds = s.layout.len() == batches.len()
+        && batches
+            .iter()
+            .zip(&s.layout)
+            .all(|(b, &(count, nodes))| b.count.min(LANES) == count && b.nodes.len() == nodes);
+    if !layout_holds {
+        s.layout.clear();
+        s.owner.clear();
+        s.slot.clear();
+        for (b, batch) in batches.iter().enumerate() {
+            let lanes = batch.count.min(LANES);
+            s.layout.push((lanes, batch.nodes.len()));
+            for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
+                for l in 0..lanes {
+                    s.owner.push((b * LANES + l) as u32);
+                    s.slot.push((b as u32, l as u8, k as u16));
+                }
+            }
+        }
+        // A new layout: the pair list's indices mean other particles now.
+        s.built.clear();
+    }
+    s.pos.resize(s.slot.len(), Vec3A::ZERO);
+    let mut to = s.pos.iter_mut();
+    for batch in batches {
+        let lanes = batch.count.min(LANES);
+        for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
+            let [xs, ys, zs] = &batch.nodes[k].x;
+            for ((&x, &y), &z) in xs.iter().zip(ys).zip(zs).take(lanes) {
+                if let Some(p) = to.next() {
+                    *p = Vec3A::new(x, y, z);
+                }
+            }
+        }
+    }
+}
+
 /// Whether the pair list built earlier still holds every pair now closer than `reach`: same
 /// particles and reach, and none moved more than half the skin from where the bone would have
 /// carried it since the build (two particles then closed in by less than the skin).
@@ -213,11 +240,17 @@ fn list_holds(s: &VolumeScratch, bone: &Affine3A, reach: f32) -> bool {
 /// Builds the pair list: the pairs of particles of different strands closer than `range`,
 /// found in a grid of cells at least `range` wide.
 fn build_pairs(s: &mut VolumeScratch, range: f32) {
-    let n = s.pos.len();
-    let (mut min, mut max) = (s.pos[0], s.pos[0]);
-    for &p in &s.pos {
+    s.pairs.clear();
+    // Particles that are not finite are left out of the grid.
+    let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+    let mut n = 0;
+    for &p in s.pos.iter().filter(|p| p.is_finite()) {
         min = min.min(p);
         max = max.max(p);
+        n += 1;
+    }
+    if n < 2 {
+        return;
     }
     // A dense grid over the particles' bounds, so a particle's neighbours are in the 27 cells
     // around its own. In f64: the bounds of hostile positions can be wider than f32 holds.
@@ -257,6 +290,11 @@ fn build_pairs(s: &mut VolumeScratch, range: f32) {
     s.cell.clear();
     s.cell_xyz.clear();
     for &p in &s.pos {
+        if !p.is_finite() {
+            s.cell.push(u32::MAX);
+            s.cell_xyz.push([0; 3]);
+            continue;
+        }
         let xyz = cell_of(p);
         let c = index(xyz);
         s.cell.push(c as u32);
@@ -272,8 +310,11 @@ fn build_pairs(s: &mut VolumeScratch, range: f32) {
     s.sorted.resize(n, Vec3A::ZERO);
     s.sorted_cell.resize(n, [0; 3]);
     s.sorted_from.resize(n, 0);
-    for i in (0..n).rev() {
+    for i in (0..s.pos.len()).rev() {
         let c = s.cell[i] as usize;
+        if c == u32::MAX as usize {
+            continue;
+        }
         s.start[c] -= 1;
         let to = s.start[c] as usize;
         s.sorted[to] = s.pos[i];
@@ -282,7 +323,6 @@ fn build_pairs(s: &mut VolumeScratch, range: f32) {
     }
     let range2 = range * range;
     let (last_x, last_y, last_z) = (dx as u32 - 1, dy as u32 - 1, dz as u32 - 1);
-    s.pairs.clear();
     for i in 0..n {
         let (p, [x, y, z]) = (s.sorted[i], s.sorted_cell[i]);
         let from = s.sorted_from[i];
