@@ -34,8 +34,8 @@ use super::solver::{Batch, LANES, PINNED};
 #[reflect(Default, Debug, PartialEq)]
 pub struct HairVolume {
     /// Share of each overlap removed per frame, 0 (none) to 1 (all at once), where a particle
-    /// overlaps one or two others; a particle crowded by more moves by the average push times
-    /// two ([`RELAXATION`]). Default: `0.5`.
+    /// overlaps one or two others; a particle crowded by more moves by the average of its
+    /// pushes times two. Default: `0.5`.
     pub stiffness: f32,
     /// Particles of different strands closer than twice this (metres, at the character's
     /// built size) are pushed apart. `None`: the hair's tube radius
