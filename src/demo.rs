@@ -393,7 +393,7 @@ fn show_ninja_props(
         if !have.is_empty() {
             continue;
         }
-        let wood = materials.add(Color::srgb(0.55, 0.42, 0.3));
+        let wood = Color::srgb(0.55, 0.42, 0.3);
         match prop {
             // The head's centre in the hair's space (bone `head`), as in its collision file.
             NinjaProp::Hood => {
@@ -425,7 +425,7 @@ fn show_ninja_props(
                         ..default()
                     },
                     Mesh3d(meshes.add(Cuboid::new(0.8, 0.9, 0.02))),
-                    MeshMaterial3d(wood),
+                    MeshMaterial3d(materials.add(wood)),
                     Transform::from_xyz(0.0, 1.55, -0.21),
                 ));
             }
@@ -443,7 +443,7 @@ fn show_ninja_props(
                         ..default()
                     },
                     Mesh3d(meshes.add(Cuboid::from_size(2.0 * half))),
-                    MeshMaterial3d(wood),
+                    MeshMaterial3d(materials.add(wood)),
                     Transform::from_translation(BOARD_CENTRE + Vec3::X * 0.6),
                 ));
             }

@@ -1,6 +1,29 @@
 //! What several test modules share.
 
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
 use bevy::math::Vec3;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+
+/// An app with the hair assets and simulation and no render app, stepping `1 / fps` seconds
+/// of time per update.
+pub(crate) fn sim_app(fps: f64) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        TransformPlugin,
+        AssetPlugin::default(),
+        crate::asset::HairAssetPlugin,
+        crate::schedule::HairSchedulePlugin,
+        crate::sim::HairSimulationPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / fps,
+    )));
+    app
+}
 
 /// A small deterministic generator (xorshift) for random test inputs.
 pub(crate) struct Rng(pub u64);

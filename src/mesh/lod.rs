@@ -327,36 +327,19 @@ mod tests {
 
 #[cfg(test)]
 mod app_tests {
-    use std::time::Duration;
-
-    use bevy::asset::AssetPlugin;
     use bevy::camera::primitives::Frustum;
     use bevy::camera::{CameraProjection, RenderTargetInfo};
     use bevy::prelude::*;
-    use bevy::time::TimeUpdateStrategy;
 
     use super::*;
-    use crate::HairSchedulePlugin;
-    use crate::asset::{HairAssetPlugin, HairGroom};
+    use crate::asset::HairGroom;
     use crate::mesh::{ComputedHairMesh, HairCullingStats, HairMeshPlugin};
-    use crate::sim::{Hair, HairSimSettings, HairSimulationPlugin};
+    use crate::sim::{Hair, HairSimSettings};
 
     /// An app with the hair's simulation and meshes, no render app.
     pub(super) fn lod_app() -> App {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            TransformPlugin,
-            AssetPlugin::default(),
-            HairAssetPlugin,
-            HairSchedulePlugin,
-            HairSimulationPlugin,
-            HairMeshPlugin,
-        ))
-        .init_asset::<Mesh>()
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-            1.0 / 60.0,
-        )));
+        let mut app = crate::test_support::sim_app(60.0);
+        app.add_plugins(HairMeshPlugin).init_asset::<Mesh>();
         app
     }
 

@@ -2,17 +2,14 @@
 
 use std::time::Duration;
 
-use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 
 use super::solver::{Batch, LANES, PINNED, build_chain};
 use super::*;
-use crate::asset::{
-    CollisionSphere, HairAnimation, HairAssetPlugin, HairGroom, HairKeyframe, HeadCollision,
-};
+use crate::asset::{CollisionSphere, HairAnimation, HairGroom, HairKeyframe, HeadCollision};
+use crate::curve::QuadraticCurve;
 use crate::test_support::Rng;
-use crate::{curve::QuadraticCurve, schedule::HairSchedulePlugin};
 
 pub(super) const HEAD_RADIUS: f32 = 0.1;
 
@@ -56,18 +53,7 @@ impl Harness {
         settings: HairSimSettings,
         fps: f64,
     ) -> Self {
-        let mut app = App::new();
-        app.add_plugins((
-            MinimalPlugins,
-            TransformPlugin,
-            AssetPlugin::default(),
-            HairAssetPlugin,
-            HairSchedulePlugin,
-            HairSimulationPlugin,
-        ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-            1.0 / fps,
-        )));
+        let mut app = crate::test_support::sim_app(fps);
         let world = app.world_mut();
         let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
         let animation = animation.map(|a| world.resource_mut::<Assets<HairAnimation>>().add(a));
@@ -653,44 +639,33 @@ fn hair_attaches_detaches_and_despawns_without_leaks() {
 /// An app with the simulation, the asset server on the repository's `assets/`, and a log of
 /// every hair event.
 fn event_app() -> App {
-    let mut app = App::new();
-    app.add_plugins((
-        MinimalPlugins,
-        TransformPlugin,
-        AssetPlugin::default(),
-        HairAssetPlugin,
-        HairSchedulePlugin,
-        HairSimulationPlugin,
-    ))
-    .init_resource::<Seen>()
-    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
-        1.0 / 60.0,
-    )))
-    .add_observer(|e: On<HairReady>, mut seen: ResMut<Seen>| {
-        seen.0.push(format!("ready {}", e.strands));
-    })
-    .add_observer(|e: On<HairRebuilt>, mut seen: ResMut<Seen>| {
-        seen.0.push(format!("rebuilt {:?}", e.reason));
-    })
-    .add_observer(|e: On<HairAssetFailed>, mut seen: ResMut<Seen>| {
-        seen.0
-            .push(format!("failed {:?} {} | {}", e.asset, e.path, e.error));
-    })
-    .add_observer(|e: On<BoneNotFound>, mut seen: ResMut<Seen>| {
-        seen.0
-            .push(format!("no bone {} among {:?}", e.bone, e.available));
-    })
-    .add_observer(|e: On<BoneMismatch>, mut seen: ResMut<Seen>| {
-        seen.0
-            .push(format!("mismatch {} {}", e.attached, e.exported));
-    })
-    .add_observer(|e: On<BoneScaleMismatch>, mut seen: ResMut<Seen>| {
-        seen.0
-            .push(format!("scale mismatch {} {}", e.authored, e.bone));
-    })
-    .add_observer(|e: On<HairAnimationMismatch>, mut seen: ResMut<Seen>| {
-        seen.0.push(format!("animation mismatch {}", e.message));
-    });
+    let mut app = crate::test_support::sim_app(60.0);
+    app.init_resource::<Seen>()
+        .add_observer(|e: On<HairReady>, mut seen: ResMut<Seen>| {
+            seen.0.push(format!("ready {}", e.strands));
+        })
+        .add_observer(|e: On<HairRebuilt>, mut seen: ResMut<Seen>| {
+            seen.0.push(format!("rebuilt {:?}", e.reason));
+        })
+        .add_observer(|e: On<HairAssetFailed>, mut seen: ResMut<Seen>| {
+            seen.0
+                .push(format!("failed {:?} {} | {}", e.asset, e.path, e.error));
+        })
+        .add_observer(|e: On<BoneNotFound>, mut seen: ResMut<Seen>| {
+            seen.0
+                .push(format!("no bone {} among {:?}", e.bone, e.available));
+        })
+        .add_observer(|e: On<BoneMismatch>, mut seen: ResMut<Seen>| {
+            seen.0
+                .push(format!("mismatch {} {}", e.attached, e.exported));
+        })
+        .add_observer(|e: On<BoneScaleMismatch>, mut seen: ResMut<Seen>| {
+            seen.0
+                .push(format!("scale mismatch {} {}", e.authored, e.bone));
+        })
+        .add_observer(|e: On<HairAnimationMismatch>, mut seen: ResMut<Seen>| {
+            seen.0.push(format!("animation mismatch {}", e.message));
+        });
     app
 }
 

@@ -69,7 +69,7 @@ pub struct VolumeScratch {
     built: Vec<Vec3A>,
     built_from: Affine3A,
     built_reach: f32,
-    /// Frames the list has been used since it was built (tests and stats).
+    /// Frames the list has been used since it was built (for tests).
     pub(crate) reused: u32,
     /// Grid scratch of a build: each particle's cell; where each cell's particles start in
     /// the sorted arrays (`cells + 1`); the particles sorted by cell (position, cell, index).
