@@ -141,6 +141,8 @@ pub struct HairStepStats {
     pub strand_resets: u32,
     /// Pairs of particles of different strands the hair–hair volume pushed apart last frame.
     pub volume_pairs: u32,
+    /// Particles the hair–hair volume spread out of crowded hair by its density last frame.
+    pub volume_spread: u32,
     /// Collider shapes tested against this hair last frame, after the broad phase (shapes whose
     /// bounds cannot meet the hair are not counted).
     pub colliders: u32,

@@ -477,6 +477,7 @@ pub(crate) fn step_hair_strands(
         computed.stats.strand_resets += resets.load(Ordering::Relaxed);
         // Hair–hair volume, once a frame after the last substep.
         computed.stats.volume_pairs = 0;
+        computed.stats.volume_spread = 0;
         if let (Some(volume), false) = (settings.volume, no_substeps) {
             let radius = volume
                 .radius
@@ -490,6 +491,7 @@ pub(crate) fn step_hair_strands(
             } = computed;
             let pairs = super::keep_apart(batches, radius, volume.stiffness, last, scratch);
             computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
+            computed.stats.volume_spread = computed.volume.spread;
         }
     }
 }
