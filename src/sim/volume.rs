@@ -28,8 +28,8 @@
 //! 2005, "Volumetric methods for simulation and rendering of hair"). Hair packed far denser
 //! than its radius can keep apart (1,000 strands 8 mm apart with 16 mm tubes) has dozens of
 //! pairs per particle that can never all be met: pushing them costs 4 times the frame and
-//! leaves the hair restless. Where a cell of the pair grid holds more than a quarter of what a
-//! crowded one does, the density is read: each particle is splatted (trilinear weights) into
+//! leaves the hair restless. Where the pair list holds half the pairs its particles may start
+//! ([`MAX_PAIRS`]` / 2` a particle), the density is read: each particle is splatted (trilinear weights) into
 //! a grid of nodes `2 r` apart as the share of a strand it stands for, so that strands `2 r`
 //! apart everywhere read 1 strand per node. A particle is crowded where the density read back
 //! there is over [`CROWDING`]. A hair with at least [`CROWDED_FROM`] crowded particles leaves
@@ -206,17 +206,20 @@ pub fn keep_apart(
         s.pairs.clear();
         s.members.clear();
         if let Some(cells) = sort_cells(s, reach * (1.0 + SKIN)) {
-            // Where a cell may be crowded, read the density (stiffness 0 moves nothing): with
-            // enough crowded particles, the hair is spread by its density from now on.
-            if may_be_crowded(s, &cells, reach) {
+            find_pairs(s, &cells, reach * (1.0 + SKIN));
+            // Hair that fills the list (half the most pairs a particle may start, on average)
+            // may be crowded: read its density (stiffness 0 moves nothing). With enough
+            // crowded particles, the hair is spread by its density from now on.
+            if s.pairs.len() >= cells.sorted * MAX_PAIRS / 2 {
                 spread(batches, s, reach, 0.0);
                 if s.crowded_count as usize >= CROWDED_FROM {
                     s.dense = true;
+                    s.pairs.clear();
+                    s.members.clear();
                     s.spread = spread(batches, s, reach, stiffness);
                     return 0;
                 }
             }
-            find_pairs(s, &cells, reach * (1.0 + SKIN));
         }
         s.built.clone_from(&s.pos);
         s.built_from = bone.inverse();
@@ -719,10 +722,9 @@ fn list_holds(s: &VolumeScratch, bone: &Affine3A, reach: f32) -> bool {
         .all(|(&then, &now)| carry.transform_point3a(then).distance_squared(now) <= limit)
 }
 
-/// The grid [`sort_cells`] sorted the particles into: cell size, cells along each axis, and
-/// how many particles it holds.
+/// The grid [`sort_cells`] sorted the particles into: cells along each axis, and how many
+/// particles it holds.
 struct Cells {
-    size: f64,
     dims: [usize; 3],
     sorted: usize,
 }
@@ -785,24 +787,9 @@ fn sort_cells(s: &mut VolumeScratch, range: f32) -> Option<Cells> {
         s.sorted_from[to] = i as u32;
     }
     Some(Cells {
-        size,
         dims: [dx, dy, dz],
         sorted: n,
     })
-}
-
-/// Whether a cell of `cells` holds more than a quarter of what a crowded one does:
-/// `(size / reach)^2` strands fit through a cell `size` wide a reach apart, each with
-/// `size / spacing` particles in it (see [`CROWDING`]).
-fn may_be_crowded(s: &VolumeScratch, cells: &Cells, reach: f32) -> bool {
-    let spacing = if s.spacing.is_finite() && s.spacing > 0.0 {
-        f64::from(s.spacing)
-    } else {
-        f64::from(reach)
-    };
-    let fit = (cells.size / f64::from(reach)).powi(2) * (cells.size / spacing).max(1.0);
-    let fullest = s.start.windows(2).map(|w| w[1] - w[0]).max().unwrap_or(0);
-    f64::from(fullest) > 0.25 * f64::from(CROWDING) * fit
 }
 
 /// Builds the pair list: the pairs of particles of different strands closer than `range`,
@@ -811,7 +798,6 @@ fn find_pairs(s: &mut VolumeScratch, cells: &Cells, range: f32) {
     s.local.clear();
     s.local.resize(s.pos.len(), u32::MAX);
     let Cells {
-        size: _,
         dims: [dx, dy, dz],
         sorted: n,
     } = *cells;
