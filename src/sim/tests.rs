@@ -1933,6 +1933,36 @@ fn hair_volume_keeps_two_crossing_strands_apart() {
     assert!(half > off + radius, "stiffness 0.5: {half} m");
 }
 
+/// A hair of straight strands from `roots` styled to meet 0.25 m under the bone (each tip at
+/// 5% of its root's offset from the axis), hanging under gravity for 3 s with `volume`; the
+/// harness and the tips' mean distance from the bone's vertical axis.
+fn hanging_tips(roots: &[Vec3], volume: Option<HairVolume>) -> (Harness, f32) {
+    let pairs: Vec<(Vec3, Vec3)> = roots
+        .iter()
+        .map(|&root| (root, Vec3::new(0.0, -0.25, 0.0) + root * 0.05))
+        .collect();
+    let settings = HairSimSettings {
+        volume,
+        ..default()
+    };
+    let mut h = Harness::with(straight_groom(&pairs), None, None, settings, 60.0);
+    for _ in 0..180 {
+        h.update();
+    }
+    let axis = Vec3::from(h.bone_affine().translation);
+    let s = h.strands();
+    assert!(s.iter().flatten().all(|p| p.is_finite()));
+    let spread = s
+        .iter()
+        .map(|p| {
+            let d = *p.last().unwrap() - axis;
+            Vec2::new(d.x, d.z).length()
+        })
+        .sum::<f32>()
+        / s.len() as f32;
+    (h, spread)
+}
+
 /// Issue 15 item 2: a cone of strands styled to meet under the bone, hanging under gravity,
 /// keeps more volume with the volume on: its tips' mean distance from the axis is larger
 /// (measured: 0.0042 m without, 0.0187 m with the defaults; 0.0399 m when crowded particles'
@@ -1940,36 +1970,14 @@ fn hair_volume_keeps_two_crossing_strands_apart() {
 #[test]
 fn hair_volume_keeps_a_hanging_hair_fuller() {
     let n = 24;
-    let pairs: Vec<(Vec3, Vec3)> = (0..n)
+    let roots: Vec<Vec3> = (0..n)
         .map(|i| {
             let a = std::f32::consts::TAU * i as f32 / n as f32;
-            let root = Vec3::new(a.cos(), 0.0, a.sin()) * 0.05;
-            (root, Vec3::new(0.0, -0.25, 0.0) + root * 0.05)
+            Vec3::new(a.cos(), 0.0, a.sin()) * 0.05
         })
         .collect();
-    let groom = straight_groom(&pairs);
-    let spread = |volume: Option<HairVolume>| {
-        let settings = HairSimSettings {
-            volume,
-            ..default()
-        };
-        let mut h = Harness::with(groom.clone(), None, None, settings, 60.0);
-        for _ in 0..180 {
-            h.update();
-        }
-        let axis = h.bone_affine().translation;
-        let s = h.strands();
-        assert!(s.iter().flatten().all(|p| p.is_finite()));
-        s.iter()
-            .map(|p| {
-                let d = *p.last().unwrap() - Vec3::from(axis);
-                Vec2::new(d.x, d.z).length()
-            })
-            .sum::<f32>()
-            / s.len() as f32
-    };
-    let off = spread(None);
-    let on = spread(Some(HairVolume::default()));
+    let (_, off) = hanging_tips(&roots, None);
+    let (_, on) = hanging_tips(&roots, Some(HairVolume::default()));
     println!("hanging cone: tips {off:.4} m from the axis without volume, {on:.4} m with it");
     assert!(on > off + 0.01, "volume {on} vs none {off}");
 }
@@ -2049,41 +2057,17 @@ fn hair_volume_keeps_dense_hair_calm() {
 fn hair_volume_density_spreads_crowded_hair_and_lets_go() {
     let n = 1000;
     let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    let pairs: Vec<(Vec3, Vec3)> = (0..n)
+    let roots: Vec<Vec3> = (0..n)
         .map(|i| {
             let (r, a) = (
                 0.05 * ((i as f32 + 0.5) / n as f32).sqrt(),
                 golden * i as f32,
             );
-            let root = Vec3::new(r * a.cos(), 0.0, r * a.sin());
-            (root, Vec3::new(0.0, -0.25, 0.0) + root * 0.05)
+            Vec3::new(r * a.cos(), 0.0, r * a.sin())
         })
         .collect();
-    let groom = straight_groom(&pairs);
-    let run = |volume: Option<HairVolume>| {
-        let settings = HairSimSettings {
-            volume,
-            ..default()
-        };
-        let mut h = Harness::with(groom.clone(), None, None, settings, 60.0);
-        for _ in 0..180 {
-            h.update();
-        }
-        let axis = h.bone_affine().translation;
-        let s = h.strands();
-        assert!(s.iter().flatten().all(|p| p.is_finite()));
-        let spread = s
-            .iter()
-            .map(|p| {
-                let d = *p.last().unwrap() - Vec3::from(axis);
-                Vec2::new(d.x, d.z).length()
-            })
-            .sum::<f32>()
-            / s.len() as f32;
-        (h, spread)
-    };
-    let (_, off) = run(None);
-    let (mut h, on) = run(Some(HairVolume::default()));
+    let (_, off) = hanging_tips(&roots, None);
+    let (mut h, on) = hanging_tips(&roots, Some(HairVolume::default()));
     let c = h.computed();
     println!(
         "ponytail of {n}: tips {on:.4} m from the axis with the volume ({} crowded, {} \
