@@ -503,7 +503,6 @@ unsafe fn splat_avx2(batches: &[Batch], grid: &Grid, grids: &mut [f32]) {
 fn splat_portable(batches: &[Batch], grid: &Grid, grids: &mut [f32]) {
     let Grid { corners, span, .. } = *grid;
     let nodes = grids.len() / SPLATS;
-    let mut grids: Vec<&mut [f32]> = grids.chunks_mut(nodes).collect();
     for b in batches {
         let live = b.count.min(LANES);
         // Every `stride`-th row stands for the rows it skips (their share of the strand's
@@ -529,7 +528,8 @@ fn splat_portable(batches: &[Batch], grid: &Grid, grids: &mut [f32]) {
                 w[7][l] = c * y1z1;
             }
             for l in 0..live {
-                let cell = &mut grids[l % SPLATS][at[l]..at[l] + span];
+                let first = (l % SPLATS) * nodes + at[l];
+                let cell = &mut grids[first..first + span];
                 for (&c, w) in corners.iter().zip(&w) {
                     cell[c] += w[l];
                 }
@@ -649,7 +649,7 @@ fn gather(batches: &[Batch], s: &mut VolumeScratch) {
         for (b, batch) in batches.iter().enumerate() {
             let lanes = batch.count.min(LANES);
             s.layout.push((lanes, batch.nodes.len()));
-            for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
+            for k in free_rows(batch.nodes.len()) {
                 for l in 0..lanes {
                     s.owner.push((b * LANES + l) as u32);
                     s.slot.push((b as u32, l as u8, k as u16));
@@ -669,7 +669,7 @@ fn gather(batches: &[Batch], s: &mut VolumeScratch) {
     let mut to = s.pos.iter_mut();
     for batch in batches {
         let lanes = batch.count.min(LANES);
-        for k in (PINNED..batch.nodes.len()).filter(|k| k % 2 == 1) {
+        for k in free_rows(batch.nodes.len()) {
             let [xs, ys, zs] = &batch.nodes[k].x;
             for ((&x, &y), &z) in xs.iter().zip(ys).zip(zs).take(lanes) {
                 if let Some(p) = to.next() {
