@@ -41,12 +41,10 @@
 //! crowded particles fall under half `CROWDED_FROM` goes back to the pair list. Hair with
 //! fewer crowded particles than that (a few dozen strands meeting at their tips) keeps every
 //! particle in the pair list, whose caps bound its cost.
-#![cfg_attr(
-    target_arch = "x86_64",
-    expect(
-        unsafe_code,
-        reason = "the AVX2 variant of the density pass, chosen after runtime feature detection"
-    )
+#![expect(
+    unsafe_code,
+    reason = "the density pass: its AVX2 variant, chosen after runtime feature detection, and \
+              a float-to-index conversion that vectorises"
 )]
 
 use bevy::math::{Affine3A, DVec3, Vec3A};
@@ -283,24 +281,47 @@ fn bounds(points: impl Iterator<Item = Vec3A>) -> (Vec3A, Vec3A, usize) {
     (min, max, n)
 }
 
-/// [`bounds`] of the free particles of `batches`.
+/// [`bounds`] of the free particles of `batches`; lane by lane without branches (which the
+/// compiler vectorises), then across the lanes.
+#[expect(
+    clippy::needless_range_loop,
+    reason = "lane loops index several arrays at once, which the compiler vectorises"
+)]
 fn bounds_of(batches: &[Batch]) -> (Vec3A, Vec3A, usize) {
-    let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    let mut n = 0;
+    let mut lo = [[f32::INFINITY; LANES]; 3];
+    let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
+    let mut n = [0u32; LANES];
+    let (up, down) = (f32::INFINITY.to_bits(), f32::NEG_INFINITY.to_bits());
     for b in batches {
+        let live = b.count.min(LANES);
         for k in free_rows(b.nodes.len()) {
-            let [xs, ys, zs] = &b.nodes[k].x;
-            for l in 0..b.count.min(LANES) {
-                let p = Vec3A::new(xs[l], ys[l], zs[l]);
-                if p.is_finite() {
-                    min = min.min(p);
-                    max = max.max(p);
-                    n += 1;
+            let x = &b.nodes[k].x;
+            let mut keep = [0u32; LANES];
+            for l in 0..LANES {
+                let finite = x[0][l].abs() < f32::INFINITY
+                    && x[1][l].abs() < f32::INFINITY
+                    && x[2][l].abs() < f32::INFINITY;
+                let yes = finite && l < live;
+                keep[l] = u32::from(yes).wrapping_neg();
+                n[l] += u32::from(yes);
+            }
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let bits = x[c][l].to_bits() & keep[l];
+                    lo[c][l] = lo[c][l].min(f32::from_bits(bits | (up & !keep[l])));
+                    hi[c][l] = hi[c][l].max(f32::from_bits(bits | (down & !keep[l])));
                 }
             }
         }
     }
-    (min, max, n)
+    let fold = |v: &[Lane; 3], f: fn(f32, f32) -> f32, start: f32| {
+        Vec3A::from_array(v.map(|c| c.into_iter().fold(start, f)))
+    };
+    (
+        fold(&lo, f32::min, f32::INFINITY),
+        fold(&hi, f32::max, f32::NEG_INFINITY),
+        n.iter().map(|&n| n as usize).sum(),
+    )
 }
 
 /// A grid over the finite particles' bounds with cells `size` wide, grown until it has at most
@@ -369,21 +390,30 @@ impl Grid {
     /// the compiler vectorises.
     #[inline(always)]
     fn locate(&self, x: &[Lane; 3], live: usize) -> ([usize; LANES], [Lane; 3], Lane) {
+        // Lanes to place (all bits set) and their weight (1.0), else 0.
+        let mut keep = [0u32; LANES];
         let mut ok = [0f32; LANES];
         for l in 0..LANES {
             let finite = x[0][l].abs() < f32::INFINITY
                 && x[1][l].abs() < f32::INFINITY
                 && x[2][l].abs() < f32::INFINITY;
-            ok[l] = if finite && l < live { 1.0 } else { 0.0 };
+            let yes = finite && l < live;
+            keep[l] = u32::from(yes).wrapping_neg();
+            ok[l] = f32::from(u8::from(yes));
         }
         let mut at = [0i32; LANES];
         let mut f = [[0f32; LANES]; 3];
         for c in 0..3 {
+            let low = self.low[c].to_bits();
             for l in 0..LANES {
-                let p = if ok[l] > 0.0 { x[c][l] } else { self.low[c] };
-                // (Truncating is flooring here: u is at least 0.)
+                // The lane's position, or the grid's corner: a bitwise select, as a select of
+                // loads compiles to scalar code.
+                let p = f32::from_bits((x[c][l].to_bits() & keep[l]) | (low & !keep[l]));
                 let u = ((p - self.low[c]) * self.inv).max(0.0);
-                let i = u.min(self.top[c]) as i32;
+                // SAFETY: `u.min(top)` is a number from 0 to `top` (`max` and `min` return the
+                // number where the other side is NaN; `top` is a node count less 2), which
+                // i32 holds. (Not a saturating `as`, which does not vectorise.)
+                let i = unsafe { u.min(self.top[c]).to_int_unchecked::<i32>() };
                 f[c][l] = (u - i as f32).min(1.0);
                 at[l] += i * self.strides[c] as i32;
             }
@@ -546,7 +576,7 @@ fn read_back(batches: &mut [Batch], grid: &Grid, sum: &[[f32; 8]], how: Spreadin
         // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
         return unsafe { read_back_avx2(batches, grid, sum, how) };
     }
-    read_back_portable(batches, grid, sum, how)
+    read_back_portable(batches, grid, sum, how, corners_portable)
 }
 
 /// [`read_back_portable`] compiled with AVX2 enabled.
@@ -558,7 +588,83 @@ unsafe fn read_back_avx2(
     sum: &[[f32; 8]],
     how: Spreading,
 ) -> (u32, u32) {
-    read_back_portable(batches, grid, sum, how)
+    read_back_portable(batches, grid, sum, how, |sum, at, live| {
+        // SAFETY: this function is only called where AVX2 was found (see `read_back`).
+        unsafe { corners_avx2(sum, at, live) }
+    })
+}
+
+/// Each corner's values for the lanes of a row, taking lane `l` from cell `at[l]` (0 past
+/// `live`): an 8 x 8 transpose.
+#[inline(always)]
+#[expect(
+    clippy::needless_range_loop,
+    reason = "a lane loop, as the other lane loops here"
+)]
+fn corners_portable(sum: &[[f32; 8]], at: &[usize; LANES], live: usize) -> [Lane; 8] {
+    let mut r = [[0f32; LANES]; 8];
+    for l in 0..live {
+        let cell = sum[at[l]];
+        for (c, r) in r.iter_mut().enumerate() {
+            r[l] = cell[c];
+        }
+    }
+    r
+}
+
+/// [`corners_portable`] as an AVX2 8 x 8 transpose (eight loads and 24 shuffles instead of 64
+/// inserts); the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+unsafe fn corners_avx2(sum: &[[f32; 8]], at: &[usize; LANES], live: usize) -> [Lane; 8] {
+    use std::arch::x86_64::{
+        __m256, _mm256_loadu_ps, _mm256_permute2f128_ps, _mm256_shuffle_ps, _mm256_storeu_ps,
+        _mm256_unpackhi_ps, _mm256_unpacklo_ps,
+    };
+    const { assert!(LANES == 8) };
+    let zero = [0f32; 8];
+    let rows: [&[f32; 8]; LANES] =
+        std::array::from_fn(|l| if l < live { &sum[at[l]] } else { &zero });
+    // SAFETY: each row is 8 floats, read unaligned.
+    let r: [__m256; 8] = rows.map(|row| unsafe { _mm256_loadu_ps(row.as_ptr()) });
+    // Rows a..h: pairs interleaved (a0 b0 a1 b1 | a4 b4 a5 b5), then quads, then halves.
+    let t = [
+        _mm256_unpacklo_ps(r[0], r[1]),
+        _mm256_unpackhi_ps(r[0], r[1]),
+        _mm256_unpacklo_ps(r[2], r[3]),
+        _mm256_unpackhi_ps(r[2], r[3]),
+        _mm256_unpacklo_ps(r[4], r[5]),
+        _mm256_unpackhi_ps(r[4], r[5]),
+        _mm256_unpacklo_ps(r[6], r[7]),
+        _mm256_unpackhi_ps(r[6], r[7]),
+    ];
+    let u = [
+        _mm256_shuffle_ps::<0x44>(t[0], t[2]),
+        _mm256_shuffle_ps::<0xEE>(t[0], t[2]),
+        _mm256_shuffle_ps::<0x44>(t[1], t[3]),
+        _mm256_shuffle_ps::<0xEE>(t[1], t[3]),
+        _mm256_shuffle_ps::<0x44>(t[4], t[6]),
+        _mm256_shuffle_ps::<0xEE>(t[4], t[6]),
+        _mm256_shuffle_ps::<0x44>(t[5], t[7]),
+        _mm256_shuffle_ps::<0xEE>(t[5], t[7]),
+    ];
+    let out = [
+        _mm256_permute2f128_ps::<0x20>(u[0], u[4]),
+        _mm256_permute2f128_ps::<0x20>(u[1], u[5]),
+        _mm256_permute2f128_ps::<0x20>(u[2], u[6]),
+        _mm256_permute2f128_ps::<0x20>(u[3], u[7]),
+        _mm256_permute2f128_ps::<0x31>(u[0], u[4]),
+        _mm256_permute2f128_ps::<0x31>(u[1], u[5]),
+        _mm256_permute2f128_ps::<0x31>(u[2], u[6]),
+        _mm256_permute2f128_ps::<0x31>(u[3], u[7]),
+    ];
+    let mut corners = [[0f32; LANES]; 8];
+    for (to, v) in corners.iter_mut().zip(out) {
+        // SAFETY: each corner row is 8 floats, written unaligned.
+        unsafe { _mm256_storeu_ps(to.as_mut_ptr(), v) };
+    }
+    corners
 }
 
 /// [`read_back`]; inlined into each target-feature variant.
@@ -572,6 +678,7 @@ fn read_back_portable(
     grid: &Grid,
     sum: &[[f32; 8]],
     how: Spreading,
+    corners: impl Fn(&[[f32; 8]], &[usize; LANES], usize) -> [Lane; 8],
 ) -> (u32, u32) {
     let (mut moved, mut crowded) = (0, 0);
     for b in batches.iter_mut() {
@@ -579,13 +686,7 @@ fn read_back_portable(
         for k in free_rows(b.nodes.len()) {
             let node = &mut b.nodes[k];
             let (at, [fx, fy, fz], ok) = grid.locate(&node.x, live);
-            let mut r = [[0f32; LANES]; 8];
-            for l in 0..live {
-                let cell = sum[at[l]];
-                for (c, r) in r.iter_mut().enumerate() {
-                    r[l] = cell[c];
-                }
-            }
+            let r = corners(sum, &at, live);
             // The density and its slope (trilinear): along x on the cell's four x edges (y, z
             // = 00, 10, 01, 11), then across; then the move down the slope where crowded,
             // `step * (1 - CROWDING / rho) / rho * slope`, at most `most` long.
