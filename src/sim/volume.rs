@@ -283,10 +283,6 @@ fn bounds(points: impl Iterator<Item = Vec3A>) -> (Vec3A, Vec3A, usize) {
 
 /// [`bounds`] of the free particles of `batches`; lane by lane without branches (which the
 /// compiler vectorises), then across the lanes.
-#[expect(
-    clippy::needless_range_loop,
-    reason = "lane loops index several arrays at once, which the compiler vectorises"
-)]
 fn bounds_of(batches: &[Batch]) -> (Vec3A, Vec3A, usize) {
     let mut lo = [[f32::INFINITY; LANES]; 3];
     let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
@@ -597,10 +593,6 @@ unsafe fn read_back_avx2(
 /// Each corner's values for the lanes of a row, taking lane `l` from cell `at[l]` (0 past
 /// `live`): an 8 x 8 transpose.
 #[inline(always)]
-#[expect(
-    clippy::needless_range_loop,
-    reason = "a lane loop, as the other lane loops here"
-)]
 fn corners_portable(sum: &[[f32; 8]], at: &[usize; LANES], live: usize) -> [Lane; 8] {
     let mut r = [[0f32; LANES]; 8];
     for l in 0..live {
