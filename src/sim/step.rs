@@ -449,9 +449,13 @@ pub(crate) fn step_hair_strands(
         anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()), factors);
         let last = &input.bones.last().copied().unwrap_or(bone);
         let resets = AtomicU32::new(0);
+        // Hair spread by its density needs its bounds: measured here, part by part, while the
+        // batches are in this thread's cache.
+        let measure = settings.volume.is_some() && computed.volume.wants_bounds();
+        let bounds = std::sync::Mutex::new(super::volume::NO_BOUNDS);
         let (input, factors) = (&*input, &*factors);
         parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
-            for b in part {
+            for b in part.iter_mut() {
                 let f = factors
                     .iter()
                     .find(|(n, _)| *n == b.nodes.len())
@@ -471,7 +475,20 @@ pub(crate) fn step_hair_strands(
                     }
                 }
             }
+            if measure {
+                let part = super::volume::bounds_of(part);
+                let mut all = bounds
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                *all = super::volume::merge_bounds(*all, part);
+            }
         });
+        if measure {
+            let bounds = bounds.into_inner();
+            computed
+                .volume
+                .measure(bounds.unwrap_or_else(std::sync::PoisonError::into_inner));
+        }
         let no_substeps = input.bones.is_empty();
         computed.scratch = scratch;
         computed.stats.strand_resets += resets.load(Ordering::Relaxed);

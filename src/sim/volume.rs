@@ -123,6 +123,29 @@ pub struct VolumeScratch {
     cells: Vec<[f32; 8]>,
     /// Particles the density spread last frame.
     pub(crate) spread: u32,
+    /// The free particles' bounds, measured by the solver's pass this frame while its batches
+    /// were in cache (see [`VolumeScratch::measure`]).
+    measured: Option<Bounds>,
+}
+
+/// The smallest and largest finite free particle positions, and how many there are.
+pub(crate) type Bounds = (Vec3A, Vec3A, usize);
+
+/// [`Bounds`] of nothing.
+pub(crate) const NO_BOUNDS: Bounds = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0);
+
+impl VolumeScratch {
+    /// Whether the solver's pass should measure the free particles' bounds for
+    /// [`VolumeScratch::measure`]: the hair is spread by its density, which needs them.
+    pub(crate) fn wants_bounds(&self) -> bool {
+        self.dense
+    }
+
+    /// The free particles' bounds after this frame's steps ([`bounds_of`] the batches), for
+    /// the next [`keep_apart`]: a pass over the hair less.
+    pub(crate) fn measure(&mut self, bounds: Bounds) {
+        self.measured = Some(bounds);
+    }
 }
 
 /// The most pairs a particle starts in the pair list (see the module docs).
@@ -187,12 +210,13 @@ pub fn keep_apart(
     let reach = 2.0 * radius;
     let s = scratch;
     s.spread = 0;
+    let measured = s.measured.take();
     gather(batches, s);
     if s.slot.len() < 2 {
         return 0;
     }
     if s.dense {
-        s.spread = spread(batches, s, reach, stiffness);
+        s.spread = spread(batches, s, reach, stiffness, measured);
         // Back to pairs where the hair thinned out (the list is built next frame).
         if (s.crowded_count as usize) < CROWDED_FROM / 2 {
             s.dense = false;
@@ -209,12 +233,12 @@ pub fn keep_apart(
             // may be crowded: read its density (stiffness 0 moves nothing). With enough
             // crowded particles, the hair is spread by its density from now on.
             if s.pairs.len() >= cells.sorted * MAX_PAIRS / 2 {
-                spread(batches, s, reach, 0.0);
+                spread(batches, s, reach, 0.0, None);
                 if s.crowded_count as usize >= CROWDED_FROM {
                     s.dense = true;
                     s.pairs.clear();
                     s.members.clear();
-                    s.spread = spread(batches, s, reach, stiffness);
+                    s.spread = spread(batches, s, reach, stiffness, None);
                     return 0;
                 }
             }
@@ -283,7 +307,7 @@ fn bounds(points: impl Iterator<Item = Vec3A>) -> (Vec3A, Vec3A, usize) {
 
 /// [`bounds`] of the free particles of `batches`; lane by lane without branches (which the
 /// compiler vectorises), then across the lanes.
-fn bounds_of(batches: &[Batch]) -> (Vec3A, Vec3A, usize) {
+pub(crate) fn bounds_of(batches: &[Batch]) -> Bounds {
     let mut lo = [[f32::INFINITY; LANES]; 3];
     let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
     let mut n = [0u32; LANES];
@@ -320,14 +344,15 @@ fn bounds_of(batches: &[Batch]) -> (Vec3A, Vec3A, usize) {
     )
 }
 
+/// Both bounds together.
+pub(crate) fn merge_bounds(a: Bounds, b: Bounds) -> Bounds {
+    (a.0.min(b.0), a.1.max(b.1), a.2 + b.2)
+}
+
 /// A grid over the finite particles' bounds with cells `size` wide, grown until it has at most
 /// `CELLS_PER_PARTICLE` cells per particle: its corner, cell size and cells along each axis.
 /// `None` without two finite particles.
-fn grid_over(
-    (min, max, n): (Vec3A, Vec3A, usize),
-    size: f32,
-    extra: usize,
-) -> Option<(Vec3A, f64, [usize; 3])> {
+fn grid_over((min, max, n): Bounds, size: f32, extra: usize) -> Option<(Vec3A, f64, [usize; 3])> {
     if n < 2 {
         return None;
     }
@@ -422,11 +447,18 @@ impl Grid {
 /// `s.rho` (in gathered order), and moves the particles where it is over [`CROWDING`] down
 /// its slope. Each particle is splatted into a grid of nodes `reach` apart (trilinear
 /// weights) as strands per node, so that strands a reach apart everywhere read 1; then the
-/// grid is read back at the particle. Returns how many particles moved (with stiffness 0
+/// grid is read back at the particle. `measured`: the particles' bounds, where the solver's
+/// pass measured them. Returns how many particles moved (with stiffness 0
 /// it only reads the density); `s.crowded_count` is how many are over [`CROWDING`].
-fn spread(batches: &mut [Batch], s: &mut VolumeScratch, reach: f32, stiffness: f32) -> u32 {
+fn spread(
+    batches: &mut [Batch],
+    s: &mut VolumeScratch,
+    reach: f32,
+    stiffness: f32,
+    measured: Option<Bounds>,
+) -> u32 {
     s.crowded_count = 0;
-    let box_ = bounds_of(batches);
+    let box_ = measured.unwrap_or_else(|| bounds_of(batches));
     let n = box_.2;
     let Some((min, size, [dx, dy, dz])) = grid_over(box_, reach, 1) else {
         return 0;
