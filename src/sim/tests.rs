@@ -2188,7 +2188,8 @@ fn hair_volume_pair_list_matches_a_fresh_one() {
 
 /// Issue 15 item 2, hostile values: the volume pass (pairs, and density) on particles at
 /// +-3e38 m, piled on one point or NaN, with radii from the smallest float to `f32::MAX`,
-/// returns and leaves every finite particle finite.
+/// returns and leaves every finite particle finite; the bounds measured part by part (as the
+/// solver's pass does for the density) are the whole hair's.
 #[test]
 fn hair_volume_survives_hostile_positions_and_radii() {
     let settings = HairSimSettings {
@@ -2218,13 +2219,24 @@ fn hair_volume_survives_hostile_positions_and_radii() {
             .flat_map(|b| b.nodes.iter().flat_map(|n| n.x.iter().flatten()))
             .map(|v| v.is_finite())
             .collect();
+        // The bounds the solver's pass measures part by part are the hair's.
+        let whole = super::volume::bounds_of(&batches);
+        for size in 1..=3 {
+            let parts = batches
+                .chunks(size)
+                .map(super::volume::bounds_of)
+                .fold(super::volume::NO_BOUNDS, super::volume::merge_bounds);
+            assert_eq!(parts, whole, "bounds measured {size} batches at a time");
+        }
         let mut scratch = VolumeScratch::default();
         for _ in 0..2 {
             keep_apart(&mut batches, radius, 1.0, &bone, &mut scratch);
         }
-        // And spread by density, as crowded hair is.
+        // And spread by density, as crowded hair is, with the bounds measured as the pass does
+        // (checked against the batches under debug assertions).
         scratch.dense = true;
         for _ in 0..2 {
+            scratch.measure(super::volume::bounds_of(&batches));
             keep_apart(&mut batches, radius, 1.0, &bone, &mut scratch);
         }
         let after = batches

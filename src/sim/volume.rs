@@ -199,6 +199,8 @@ pub fn keep_apart(
     bone: &Affine3A,
     scratch: &mut VolumeScratch,
 ) -> usize {
+    // This frame's measure, if any, is used now or never.
+    let measured = scratch.measured.take();
     let stiffness = if stiffness.is_finite() {
         stiffness.clamp(0.0, 1.0)
     } else {
@@ -210,7 +212,6 @@ pub fn keep_apart(
     let reach = 2.0 * radius;
     let s = scratch;
     s.spread = 0;
-    let measured = s.measured.take();
     gather(batches, s);
     if s.slot.len() < 2 {
         return 0;
@@ -458,6 +459,8 @@ fn spread(
     measured: Option<Bounds>,
 ) -> u32 {
     s.crowded_count = 0;
+    // (Tests run with debug assertions: every frame there checks the solver's measure.)
+    debug_assert!(measured.is_none_or(|m| m == bounds_of(batches)));
     let box_ = measured.unwrap_or_else(|| bounds_of(batches));
     let n = box_.2;
     let Some((min, size, [dx, dy, dz])) = grid_over(box_, reach, 1) else {
