@@ -506,7 +506,19 @@ pub(crate) fn step_hair_strands(
                 volume: scratch,
                 ..
             } = computed;
+            let was_dense = scratch.dense;
             let pairs = super::keep_apart(batches, radius, volume.stiffness, last, scratch);
+            if scratch.dense != was_dense {
+                debug!(
+                    "hair {hair_entity}: volume {} ({} particles crowded at radius {radius} m)",
+                    if scratch.dense {
+                        "spreads the hair by its density"
+                    } else {
+                        "back to pairs"
+                    },
+                    scratch.crowded_count
+                );
+            }
             computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
             computed.stats.volume_spread = computed.volume.spread;
         }

@@ -103,6 +103,10 @@ pub(super) fn debug_window(
                         ("Colliders", s.colliders),
                         ("Bad bones", s.invalid_bone_frames),
                     ],
+                    [
+                        ("Volume pairs", s.volume_pairs),
+                        ("Spread", s.volume_spread),
+                    ],
                 ];
                 let hints = [
                     "",
@@ -111,6 +115,9 @@ pub(super) fn debug_window(
                     "Strands reset after their state stopped being finite",
                     "Collider shapes tested against this hair last frame (after the broad phase)",
                     "Frames skipped: the bone's transform was not usable",
+                    "Pairs of strands the volume pushed apart last frame",
+                    "Particles the volume spread by the hair's density last frame (hair far \
+                     denser than its volume radius; see sim::volume)",
                 ];
                 for (r, row) in rows.into_iter().enumerate() {
                     for (c, (name, value)) in row.into_iter().enumerate() {

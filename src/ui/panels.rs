@@ -370,6 +370,16 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
             (true, v) => {
                 let mut v = v.unwrap_or_default();
                 slider_row(ui, "Volume stiffness", &mut v.stiffness, 0.0..=1.0);
+                let mut own = v.radius.is_some();
+                ui.label("Volume radius");
+                ui.checkbox(&mut own, "own radius")
+                    .on_hover_text("Off: the hair's tube radius (HairMeshSettings::radius)");
+                ui.end_row();
+                v.radius = own.then(|| {
+                    let mut r = v.radius.unwrap_or(0.016);
+                    slider_row(ui, "Radius (m)", &mut r, 0.001..=0.05);
+                    r
+                });
                 Some(v)
             }
         };
