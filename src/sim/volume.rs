@@ -295,9 +295,8 @@ pub fn keep_apart(
 }
 
 /// The bounds of the finite points and how many there are.
-fn bounds(points: impl Iterator<Item = Vec3A>) -> (Vec3A, Vec3A, usize) {
-    let (mut min, mut max) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-    let mut n = 0;
+fn bounds(points: impl Iterator<Item = Vec3A>) -> Bounds {
+    let (mut min, mut max, mut n) = NO_BOUNDS;
     for p in points.filter(|p| p.is_finite()) {
         min = min.min(p);
         max = max.max(p);
@@ -317,14 +316,9 @@ pub(crate) fn bounds_of(batches: &[Batch]) -> Bounds {
         let live = b.count.min(LANES);
         for k in free_rows(b.nodes.len()) {
             let x = &b.nodes[k].x;
-            let mut keep = [0u32; LANES];
+            let keep = placed(x, live);
             for l in 0..LANES {
-                let finite = x[0][l].abs() < f32::INFINITY
-                    && x[1][l].abs() < f32::INFINITY
-                    && x[2][l].abs() < f32::INFINITY;
-                let yes = finite && l < live;
-                keep[l] = u32::from(yes).wrapping_neg();
-                n[l] += u32::from(yes);
+                n[l] += keep[l] & 1;
             }
             for c in 0..3 {
                 for l in 0..LANES {
@@ -343,6 +337,20 @@ pub(crate) fn bounds_of(batches: &[Batch]) -> Bounds {
         fold(&hi, f32::max, f32::NEG_INFINITY),
         n.iter().map(|&n| n as usize).sum(),
     )
+}
+
+/// Which lanes of a node row count: all bits set for the first `live` lanes with a finite
+/// position, else 0 (a mask for branch-free selects, which the compiler vectorises).
+#[inline(always)]
+fn placed(x: &[Lane; 3], live: usize) -> [u32; LANES] {
+    let mut keep = [0u32; LANES];
+    for (l, keep) in keep.iter_mut().enumerate() {
+        let finite = x[0][l].abs() < f32::INFINITY
+            && x[1][l].abs() < f32::INFINITY
+            && x[2][l].abs() < f32::INFINITY;
+        *keep = u32::from(finite && l < live).wrapping_neg();
+    }
+    keep
 }
 
 /// Both bounds together.
@@ -413,15 +421,10 @@ impl Grid {
     #[inline(always)]
     fn locate(&self, x: &[Lane; 3], live: usize) -> ([usize; LANES], [Lane; 3], Lane) {
         // Lanes to place (all bits set) and their weight (1.0), else 0.
-        let mut keep = [0u32; LANES];
+        let keep = placed(x, live);
         let mut ok = [0f32; LANES];
-        for l in 0..LANES {
-            let finite = x[0][l].abs() < f32::INFINITY
-                && x[1][l].abs() < f32::INFINITY
-                && x[2][l].abs() < f32::INFINITY;
-            let yes = finite && l < live;
-            keep[l] = u32::from(yes).wrapping_neg();
-            ok[l] = f32::from(u8::from(yes));
+        for (ok, &k) in ok.iter_mut().zip(&keep) {
+            *ok = f32::from(u8::from(k != 0));
         }
         let mut at = [0i32; LANES];
         let mut f = [[0f32; LANES]; 3];
@@ -444,9 +447,8 @@ impl Grid {
     }
 }
 
-/// Reads the hair's density (see the module docs) at each free particle of `batches` into
-/// `s.rho` (in gathered order), and moves the particles where it is over [`CROWDING`] down
-/// its slope. Each particle is splatted into a grid of nodes `reach` apart (trilinear
+/// Reads the hair's density (see the module docs) at each free particle of `batches`, and
+/// moves the particles where it is over [`CROWDING`] down its slope. Each particle is splatted into a grid of nodes `reach` apart (trilinear
 /// weights) as strands per node, so that strands a reach apart everywhere read 1; then the
 /// grid is read back at the particle. `measured`: the particles' bounds, where the solver's
 /// pass measured them. Returns how many particles moved (with stiffness 0

@@ -376,7 +376,8 @@ fn simulation_controls(ui: &mut egui::Ui, sim: &mut Mut<HairSimSettings>) {
                     .on_hover_text("Off: the hair's tube radius (HairMeshSettings::radius)");
                 ui.end_row();
                 v.radius = own.then(|| {
-                    let mut r = v.radius.unwrap_or(0.016);
+                    let tube = crate::mesh::HairMeshSettings::default().radius;
+                    let mut r = v.radius.unwrap_or(tube);
                     slider_row(ui, "Radius (m)", &mut r, 0.001..=0.05);
                     r
                 });
