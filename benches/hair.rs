@@ -495,7 +495,7 @@ fn bench_mesh_and_silhouettes(c: &mut Criterion) {
     let along: Vec<f32> = topology.uvs.iter().map(|uv| uv[1]).collect();
     let eye = Vec3::new(0.0, 0.2, 1.5);
     let camera_transform = Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y);
-    let proj = Mat4::perspective_rh(0.8, 16.0 / 9.0, 0.05, 100.0);
+    let proj = bevy::math::proj::perspective(0.8, 16.0 / 9.0, 0.05, 100.0);
     let camera =
         StrokeCamera::from_view(camera_transform.to_matrix(), proj, Vec2::new(1280.0, 720.0));
     // What the plugin passes with its default settings: a 0.6-radius pull toward the camera.

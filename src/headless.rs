@@ -378,6 +378,7 @@ impl HeadlessRenderer {
                     let label = match &pipeline.descriptor {
                         bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),
                         bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => d.label.clone(),
+                        bevy::render::render_resource::PipelineDescriptor::MeshPipelineDescriptor(d) => d.label.clone(),
                     };
                     return Err(HeadlessError::PipelineFailed(format!("{label:?}: {err}")));
                 }

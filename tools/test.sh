@@ -4,10 +4,12 @@
 #  - Rust unit and integration tests: simulation, assets (the Blender -> Rust round trip among
 #    them), render tests on whatever Vulkan adapter exists (lavapipe on a CPU-only machine);
 #  - doc tests.
-# Installs what it needs first (Mesa's Vulkan driver; bpy for Python 3.11).
+# Installs what it needs first (Mesa's Vulkan driver; bpy for Python 3.11). Builds with every
+# feature, as tools/run-example.sh does, so the two share one build.
 # Extra arguments go to `cargo test`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+source tools/toolchain.sh
 tools/system-deps.sh mesa-vulkan-drivers libvulkan1
 # Mesa's Vulkan loader warns on every device creation when this is unset (CI, containers).
 if [ -z "${XDG_RUNTIME_DIR:-}" ]; then
@@ -19,4 +21,4 @@ if ! python3 -c "import bpy" >/dev/null 2>&1; then
   python3 -m pip install --quiet --disable-pip-version-check bpy==4.5.4
 fi
 python3 -m unittest discover -s tools/blender/tests
-cargo test --all-features "$@"
+"${CARGO[@]}" test "${CARGO_BUILD_FLAGS[@]}" --all-features "$@"

@@ -5,7 +5,7 @@
 
 use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, AssetPath, LoadContext};
-use bevy::math::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
+use bevy::curve::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
 use bevy::prelude::*;
 
 use super::error::{BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text};

@@ -1,8 +1,10 @@
-//! GPU side: the WGSL modules shared by the crate's materials and passes.
+//! GPU side: the WESL modules shared by the crate's materials and passes.
 //!
-//! Shared modules start with `#define_import_path bevy_cartoon_hair::<module>` and are registered
-//! by [`HairShaderLibraryPlugin`]; `cargo test` composes and validates every one of them with
-//! naga (see `shader_validation`), so a WGSL mistake fails the tests, not a user's frame.
+//! Shared modules are embedded at `embedded://bevy_cartoon_hair/render/<module>.wesl`, so a shader
+//! imports them as `bevy_cartoon_hair::render::<module>`; they are registered by
+//! [`HairShaderLibraryPlugin`]. `cargo test` compiles every shader variant through Bevy's own
+//! shader cache (WESL, against Bevy's embedded modules) and validates it with naga (see
+//! `shader_validation`), so a shader mistake fails the tests, not a user's frame.
 
 use bevy::prelude::*;
 use bevy::shader::load_shader_library;
@@ -32,28 +34,29 @@ pub use toon::{
     ToonHairUniform, ToonLighting, ToonShading,
 };
 
-/// Every WGSL library module of the crate, as `(import path, source)`, for validation and tools.
-pub const SHADER_LIBRARY: &[(&str, &str)] =
-    &[("bevy_cartoon_hair::curves", include_str!("curves.wgsl"))];
+/// Every WESL library module of the crate, as `(file, source)`, for validation and tools. A file
+/// `f.wesl` is embedded at `embedded://bevy_cartoon_hair/render/f.wesl` and imported as
+/// `bevy_cartoon_hair::render::f`.
+pub const SHADER_LIBRARY: &[(&str, &str)] = &[("curves.wesl", include_str!("curves.wesl"))];
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
 pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
-    ("toon.wgsl", include_str!("toon.wgsl")),
-    ("hair_prepass.wgsl", include_str!("hair_prepass.wgsl")),
-    ("stroke.wgsl", include_str!("stroke.wgsl")),
+    ("toon.wesl", include_str!("toon.wesl")),
+    ("hair_prepass.wesl", include_str!("hair_prepass.wesl")),
+    ("stroke.wesl", include_str!("stroke.wesl")),
 ];
 
 /// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
-pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wgsl", include_str!("outline/outline.wgsl"))];
+pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wesl", include_str!("outline/outline.wesl"))];
 
-/// Registers the crate's WGSL library modules so materials can `#import` them. Part of
+/// Registers the crate's WESL library modules so materials can `import` them. Part of
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins).
 #[derive(Default)]
 pub struct HairShaderLibraryPlugin;
 
 impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
-        load_shader_library!(app, "curves.wgsl");
+        load_shader_library!(app, "curves.wesl");
     }
 }
 
@@ -64,9 +67,9 @@ pub struct ToonHairMaterialPlugin;
 
 impl Plugin for ToonHairMaterialPlugin {
     fn build(&self, app: &mut App) {
-        bevy::asset::embedded_asset!(app, "toon.wgsl");
-        bevy::asset::embedded_asset!(app, "hair_prepass.wgsl");
-        bevy::asset::embedded_asset!(app, "stroke.wgsl");
+        bevy::asset::embedded_asset!(app, "toon.wesl");
+        bevy::asset::embedded_asset!(app, "hair_prepass.wesl");
+        bevy::asset::embedded_asset!(app, "stroke.wesl");
         app.add_plugins((
             MaterialPlugin::<ToonHairMaterial>::default(),
             MaterialPlugin::<HairStrokeMaterial>::default(),

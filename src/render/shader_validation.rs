@@ -1,103 +1,116 @@
-//! Composes the crate's WGSL with naga_oil and validates it with naga, no GPU needed.
+//! Compiles the crate's WESL through Bevy's own shader cache (the WESL compiler and import
+//! resolution every pipeline uses, against Bevy's embedded modules) and validates the result with
+//! naga, no GPU needed.
 
-use naga::valid::{Capabilities, ValidationFlags, Validator};
-use naga_oil::compose::{
-    ComposableModuleDescriptor, Composer, NagaModuleDescriptor, ShaderDefValue, ShaderLanguage,
+use bevy::asset::AssetId;
+use bevy::asset::uuid::Uuid;
+use bevy::shader::{
+    Shader, ShaderCache, ShaderCacheError, ShaderCacheSource, ShaderDefVal, ValidateShader,
 };
-use std::collections::HashMap;
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use std::sync::Arc;
 
 use super::SHADER_LIBRARY;
 
-/// Composes `source` (an entry-point shader) against the crate's library with `defs` set, and
-/// validates the result. Returns a readable error naming the shader and the defs.
-pub(crate) fn compose_and_validate(
-    name: &str,
-    source: &str,
-    defs: &[&str],
-) -> Result<naga::Module, String> {
-    compose_with(&[], name, source, defs, &[])
-}
+/// Where the crate's shaders are embedded: `embedded://bevy_cartoon_hair/render/<file>`.
+const EMBEDDED_DIR: &str = "embedded://bevy_cartoon_hair/render/";
 
-/// Like [`compose_and_validate`], with extra library modules (e.g. Bevy's own) and value defs.
-pub(crate) fn compose_with(
-    extra_modules: &[(String, String)],
-    name: &str,
-    source: &str,
-    defs: &[&str],
-    values: &[(&str, ShaderDefValue)],
-) -> Result<naga::Module, String> {
-    let mut composer = Composer::default().with_capabilities(Capabilities::all());
-    let mut shader_defs: HashMap<String, ShaderDefValue> = defs
-        .iter()
-        .map(|d| (d.to_string(), ShaderDefValue::Bool(true)))
-        .collect();
-    for (k, v) in values {
-        shader_defs.insert(k.to_string(), *v);
-    }
-    // Bevy's modules import each other; add them in dependency order by retrying.
-    let mut pending: Vec<&(String, String)> = extra_modules.iter().collect();
-    let mut last_error = String::new();
-    while !pending.is_empty() {
-        let before = pending.len();
-        pending.retain(|(path, src)| {
-            let added = composer.add_composable_module(ComposableModuleDescriptor {
-                source: src,
-                file_path: path,
-                language: ShaderLanguage::Wgsl,
-                shader_defs: shader_defs.clone(),
-                ..Default::default()
-            });
-            match added {
-                Ok(_) => false,
-                Err(e) => {
-                    last_error = format!("{path}: {}", e.emit_to_string(&composer));
-                    true
-                }
-            }
-        });
-        if pending.len() == before {
-            // What is left does not compose; the entry point will say if it needed it.
-            let _ = &last_error;
-            break;
-        }
-    }
-    for (path, src) in SHADER_LIBRARY {
-        let added = composer.add_composable_module(ComposableModuleDescriptor {
-            source: src,
-            file_path: path,
-            language: ShaderLanguage::Wgsl,
-            ..Default::default()
-        });
-        if let Err(e) = added {
-            return Err(format!("{path}: {}", e.emit_to_string(&composer)));
-        }
-    }
-    let module = composer
-        .make_naga_module(NagaModuleDescriptor {
-            source,
-            file_path: name,
-            shader_defs,
-            ..Default::default()
-        })
-        .map_err(|e| format!("{name} {defs:?}: {}", e.emit_to_string(&composer)))?;
+/// Parses the WGSL the cache composed and validates it with every capability.
+fn parse_and_validate(
+    _device: &(),
+    source: ShaderCacheSource,
+    _validate: &ValidateShader,
+) -> Result<naga::Module, ShaderCacheError> {
+    let ShaderCacheSource::Wgsl(wgsl) = source else {
+        return Err(ShaderCacheError::CreateShaderModule(
+            "expected WGSL from the WESL compiler".into(),
+        ));
+    };
+    let module = naga::front::wgsl::parse_str(&wgsl)
+        .map_err(|e| ShaderCacheError::CreateShaderModule(e.emit_to_string(&wgsl)))?;
     Validator::new(ValidationFlags::all(), Capabilities::all())
         .validate(&module)
-        .map_err(|e| format!("{name} {defs:?}: {e:?}"))?;
+        .map_err(|e| ShaderCacheError::CreateShaderModule(e.emit_to_string(&wgsl)))?;
     Ok(module)
+}
+
+/// A shader cache holding Bevy's modules (if given) and the crate's library.
+pub(crate) struct ShaderCompiler {
+    cache: ShaderCache<naga::Module, ()>,
+    next_id: u128,
+}
+
+impl ShaderCompiler {
+    /// A cache with `extra_modules` (`(embedded path, source)`, e.g. Bevy's own) and the crate's
+    /// library modules.
+    pub(crate) fn new(extra_modules: &[(String, String)]) -> Self {
+        let mut compiler = Self {
+            cache: ShaderCache::new((), parse_and_validate),
+            next_id: 1,
+        };
+        for (path, source) in extra_modules {
+            compiler.add(Shader::from_wesl(source.clone(), path.clone()));
+        }
+        for (file, source) in SHADER_LIBRARY {
+            compiler.add(Shader::from_wesl(*source, format!("{EMBEDDED_DIR}{file}")));
+        }
+        compiler
+    }
+
+    fn add(&mut self, shader: Shader) -> AssetId<Shader> {
+        let id = AssetId::Uuid {
+            uuid: Uuid::from_u128(self.next_id),
+        };
+        self.next_id += 1;
+        self.cache.set_shader(id, shader);
+        id
+    }
+
+    /// Compiles `source` (an entry-point shader of the crate, `name` its file) with `defs` set as
+    /// flags and `values` as `constants::NAME`, and validates the result. Returns a readable
+    /// error naming the shader and the defs.
+    pub(crate) fn compile(
+        &mut self,
+        name: &str,
+        source: &'static str,
+        defs: &[&str],
+        values: &[ShaderDefVal],
+    ) -> Result<Arc<naga::Module>, String> {
+        let id = self.add(Shader::from_wesl(source, format!("{EMBEDDED_DIR}{name}")));
+        let mut all: Vec<ShaderDefVal> = defs
+            .iter()
+            .map(|d| ShaderDefVal::Bool(d.to_string().into(), true))
+            .collect();
+        all.extend(values.iter().cloned());
+        self.cache.get(0, id, &all).map_err(|e| match e {
+            ShaderCacheError::ShaderImportNotYetAvailable => {
+                format!("{name} {defs:?}: an import names a module that is not registered")
+            }
+            e => format!("{name} {defs:?}: {e}"),
+        })
+    }
+}
+
+/// Compiles `source` against the crate's library alone (see [`ShaderCompiler::compile`]).
+pub(crate) fn compose_and_validate(
+    name: &str,
+    source: &'static str,
+    defs: &[&str],
+) -> Result<Arc<naga::Module>, String> {
+    ShaderCompiler::new(&[]).compile(name, source, defs, &[])
 }
 
 #[test]
 fn library_modules_compose_and_validate() {
-    // A tiny entry point that calls every library function, so none is dead-code eliminated.
     let entry = r#"
-#import bevy_cartoon_hair::curves::{depth_detail, back_light}
+import bevy_cartoon_hair::render::curves::{depth_detail, back_light};
 @fragment
 fn main(@location(0) x: f32) -> @location(0) vec4<f32> {
     let n = vec3<f32>(0.0, 0.0, 1.0);
     return vec4<f32>(depth_detail(x, 1.0, 10.0), back_light(n, n, 2.0), 0.0, 1.0);
 }
 "#;
-    let module = compose_and_validate("library_entry", entry, &[]).unwrap();
+    let module = compose_and_validate("library_entry.wesl", entry, &[]).unwrap();
     assert_eq!(module.entry_points.len(), 1);
     assert!(
         module.functions.len() >= 2,
@@ -107,17 +120,24 @@ fn main(@location(0) x: f32) -> @location(0) vec4<f32> {
 
 #[test]
 fn broken_wgsl_is_reported_with_its_name() {
-    let err = compose_and_validate("broken.wgsl", "fn main( {", &[]).unwrap_err();
-    assert!(err.contains("broken.wgsl"), "{err}");
+    let err = compose_and_validate("broken.wesl", "fn main( {", &[]).unwrap_err();
+    assert!(err.contains("broken.wesl"), "{err}");
 }
 
-/// Every WGSL file Bevy's plugins embedded (its PBR modules included), read through the asset
-/// server's `embedded` source of an app with rendering disabled: no GPU needed.
+#[test]
+fn a_missing_import_is_reported() {
+    let entry = "import bevy_cartoon_hair::render::nowhere::f;\n@fragment fn main() -> @location(0) vec4<f32> { return vec4<f32>(f()); }";
+    let err = compose_and_validate("lost_import.wesl", entry, &[]).unwrap_err();
+    assert!(err.contains("lost_import.wesl"), "{err}");
+}
+
+/// Every WESL file Bevy's plugins embedded (its PBR modules included), read through the asset
+/// server's embedded source, as `(embedded://path, source)`.
 fn bevy_shader_sources() -> Vec<(String, String)> {
     use bevy::prelude::*;
     use bevy::render::RenderPlugin;
     use bevy::render::settings::WgpuSettings;
-    use std::path::{Path, PathBuf};
+    use std::path::PathBuf;
 
     let mut app = App::new();
     app.add_plugins(
@@ -151,13 +171,13 @@ fn bevy_shader_sources() -> Vec<(String, String)> {
         while let Some(path) = bevy::tasks::block_on(futures_lite_next(&mut entries)) {
             if bevy::tasks::block_on(reader.is_directory(&path)).unwrap_or(false) {
                 stack.push(path);
-            } else if path.extension().is_some_and(|e| e == "wgsl") {
+            } else if path.extension().is_some_and(|e| e == "wesl") {
                 let mut bytes = Vec::new();
                 let Ok(mut file) = bevy::tasks::block_on(reader.read(&path)) else {
                     continue;
                 };
                 if bevy::tasks::block_on(file.read_to_end(&mut bytes)).is_ok() {
-                    let name = Path::new("embedded").join(&path).display().to_string();
+                    let name = format!("embedded://{}", path.display());
                     out.push((name, String::from_utf8_lossy(&bytes).into_owned()));
                 }
             }
@@ -177,28 +197,18 @@ async fn futures_lite_next(
 /// depends on the device (`AVAILABLE_STORAGE_BUFFER_BINDINGS`) as on a device with wgpu's
 /// default limits. (`PER_OBJECT_BUFFER_BATCH_SIZE` is set only where storage buffers are
 /// missing, as on WebGL: not the variant that runs here.)
-fn bevy_value_defs() -> Vec<(&'static str, ShaderDefValue)> {
-    let uint = |v: usize| ShaderDefValue::UInt(v as u32);
+fn bevy_value_defs() -> Vec<ShaderDefVal> {
+    let uint = |name: &'static str, v: usize| ShaderDefVal::UInt(name.into(), v as u32);
+    let storage = bevy::render::settings::WgpuLimits::default().max_storage_buffers_per_shader_stage;
     vec![
-        (
-            "MAX_DIRECTIONAL_LIGHTS",
-            uint(bevy::pbr::MAX_DIRECTIONAL_LIGHTS),
-        ),
-        (
-            "MAX_CASCADES_PER_LIGHT",
-            uint(bevy::pbr::MAX_CASCADES_PER_LIGHT),
-        ),
-        ("MAX_RECT_LIGHTS", uint(bevy::pbr::MAX_RECT_LIGHTS)),
-        (
-            "MATERIAL_BIND_GROUP",
-            uint(bevy::pbr::MATERIAL_BIND_GROUP_INDEX),
-        ),
-        (
-            "AVAILABLE_STORAGE_BUFFER_BINDINGS",
-            ShaderDefValue::UInt(
-                bevy::render::settings::WgpuLimits::default().max_storage_buffers_per_shader_stage,
-            ),
-        ),
+        uint("MAX_DIRECTIONAL_LIGHTS", bevy::pbr::MAX_DIRECTIONAL_LIGHTS),
+        uint("MAX_CASCADES_PER_LIGHT", bevy::pbr::MAX_CASCADES_PER_LIGHT),
+        uint("MAX_RECT_LIGHTS", bevy::pbr::MAX_RECT_LIGHTS),
+        uint("MATERIAL_BIND_GROUP", bevy::pbr::MATERIAL_BIND_GROUP_INDEX),
+        ShaderDefVal::UInt("AVAILABLE_STORAGE_BUFFER_BINDINGS".into(), storage),
+        // As Bevy's pipeline cache bakes the comparisons into flags.
+        ShaderDefVal::Bool("AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_3".into(), storage >= 3),
+        ShaderDefVal::Bool("AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_6".into(), storage >= 6),
     ]
 }
 
@@ -233,7 +243,7 @@ fn every_toon_material_variant_composes_and_validates() {
     assert!(
         bevy_modules
             .iter()
-            .any(|(_, s)| s.contains("bevy_pbr::mesh_view_bindings")),
+            .any(|(p, _)| p.ends_with("bevy_pbr/render/mesh_view_bindings.wesl")),
         "Bevy's PBR shaders were not found among {} embedded files",
         bevy_modules.len()
     );
@@ -289,10 +299,12 @@ fn every_toon_material_variant_composes_and_validates() {
         for part in jobs.chunks(checked.div_ceil(threads)) {
             let (bevy_modules, values) = (&bevy_modules, &values);
             scope.spawn(move || {
+                let mut compiler = ShaderCompiler::new(bevy_modules);
                 for &(key, vertex) in part {
                     let mut defs = key.shader_defs();
                     defs.extend(vertex);
-                    let module = compose_with(bevy_modules, name, source, &defs, values)
+                    let module = compiler
+                        .compile(name, source, &defs, values)
                         .unwrap_or_else(|e| panic!("variant {key:?} {vertex:?}: {e}"));
                     assert!(
                         module.entry_points.iter().any(|e| e.name == "fragment"),
@@ -310,15 +322,16 @@ fn every_toon_material_variant_composes_and_validates() {
 fn every_outline_variant_composes_and_validates() {
     use super::PASS_SHADERS;
     use super::outline::OutlinePipelineKey;
-    let bevy_modules = bevy_shader_sources();
+    let mut compiler = ShaderCompiler::new(&bevy_shader_sources());
     let (name, source) = PASS_SHADERS
         .iter()
-        .find(|(n, _)| *n == "outline.wgsl")
-        .expect("outline.wgsl is listed");
+        .find(|(n, _)| *n == "outline.wesl")
+        .expect("outline.wesl is listed");
     let variants = OutlinePipelineKey::all();
     for key in &variants {
         let defs = key.shader_defs();
-        let module = compose_with(&bevy_modules, name, source, &defs, &[])
+        let module = compiler
+            .compile(name, source, &defs, &[])
             .unwrap_or_else(|e| panic!("variant {key:?}: {e}"));
         for entry in ["detect", "dilate_x", "composite"] {
             assert!(
@@ -349,12 +362,12 @@ fn every_outline_variant_composes_and_validates() {
 #[test]
 fn every_hair_prepass_variant_composes_and_validates() {
     use super::MATERIAL_SHADERS;
-    let bevy_modules = bevy_shader_sources();
+    let mut compiler = ShaderCompiler::new(&bevy_shader_sources());
     let values = bevy_value_defs();
     let (name, source) = MATERIAL_SHADERS
         .iter()
-        .find(|(n, _)| *n == "hair_prepass.wgsl")
-        .expect("hair_prepass.wgsl is listed");
+        .find(|(n, _)| *n == "hair_prepass.wesl")
+        .expect("hair_prepass.wesl is listed");
     let hair_mesh = crate::mesh::new_hair_mesh(&crate::mesh::tube::TubeTopology::new(4, 4), 2);
     let mut checked = 0;
     // As Bevy's prepass pipeline sets them: which targets the view has, and whether a
@@ -378,7 +391,8 @@ fn every_hair_prepass_variant_composes_and_validates() {
                 if unclipped {
                     defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
                 }
-                let module = compose_with(&bevy_modules, name, source, &defs, &values)
+                let module = compiler
+                    .compile(name, source, &defs, &values)
                     .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
                 assert!(
                     module.entry_points.iter().any(|e| e.name == "fragment"),
@@ -394,12 +408,12 @@ fn every_hair_prepass_variant_composes_and_validates() {
 #[test]
 fn every_stroke_material_variant_composes_and_validates() {
     use super::MATERIAL_SHADERS;
-    let bevy_modules = bevy_shader_sources();
+    let mut compiler = ShaderCompiler::new(&bevy_shader_sources());
     let values = bevy_value_defs();
     let (name, source) = MATERIAL_SHADERS
         .iter()
-        .find(|(n, _)| *n == "stroke.wgsl")
-        .expect("stroke.wgsl is listed");
+        .find(|(n, _)| *n == "stroke.wesl")
+        .expect("stroke.wesl is listed");
     // The vertex defs of the mesh strokes are drawn on.
     let strokes = crate::mesh::StripBuffers::empty_mesh(true);
     let vertex = mesh_pipeline_vertex_defs(&strokes);
@@ -418,12 +432,13 @@ fn every_stroke_material_variant_composes_and_validates() {
             if multisampled {
                 defs.push("MULTISAMPLED");
             }
-            let module = compose_with(&bevy_modules, name, source, &defs, &values)
+            let module = compiler
+                .compile(name, source, &defs, &values)
                 .unwrap_or_else(|e| panic!("stroke {defs:?}: {e}"));
             let reads_mask = module
                 .global_variables
                 .iter()
-                // naga_oil decorates imported names.
+                // The WESL compiler decorates imported names.
                 .any(|(_, g)| {
                     g.name
                         .as_deref()

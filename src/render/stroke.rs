@@ -1,4 +1,4 @@
-//! [`HairStrokeMaterial`]: how object-space silhouette strokes are drawn (`stroke.wgsl`).
+//! [`HairStrokeMaterial`]: how object-space silhouette strokes are drawn (`stroke.wesl`).
 
 use bevy::prelude::*;
 use bevy::render::render_asset::RenderAssets;
@@ -64,7 +64,7 @@ impl AsBindGroupShaderType<HairStrokeUniform> for HairStrokeMaterial {
 impl Material for HairStrokeMaterial {
     fn fragment_shader() -> ShaderRef {
         ShaderRef::Path(
-            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("stroke.wgsl"))
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("stroke.wesl"))
                 .with_source("embedded"),
         )
     }

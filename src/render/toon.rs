@@ -227,7 +227,7 @@ impl Default for ToonShading {
     }
 }
 
-/// The uniform block of [`ToonHairMaterial`] (see `toon.wgsl`).
+/// The uniform block of [`ToonHairMaterial`] (see `toon.wesl`).
 #[derive(Clone, Default, ShaderType)]
 pub struct ToonHairUniform {
     base_color: Vec4,
@@ -390,7 +390,7 @@ impl ToonHairMaterialKey {
 impl Material for ToonHairMaterial {
     fn fragment_shader() -> ShaderRef {
         ShaderRef::Path(
-            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("toon.wgsl"))
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("toon.wesl"))
                 .with_source("embedded"),
         )
     }
@@ -399,7 +399,7 @@ impl Material for ToonHairMaterial {
     /// [`OutlineSource::Mass`](crate::render::OutlineSource::Mass) outline.
     fn prepass_fragment_shader() -> ShaderRef {
         ShaderRef::Path(
-            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("hair_prepass.wgsl"))
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("hair_prepass.wesl"))
                 .with_source("embedded"),
         )
     }

@@ -370,8 +370,11 @@ fn odd_topology_loses_no_edge() {
 }
 
 fn camera() -> StrokeCamera {
-    let view = Mat4::look_at_rh(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y);
-    let proj = Mat4::perspective_infinite_reverse_rh(1.0, 16.0 / 9.0, 0.1);
+    let view = bevy::transform::components::Transform::from_xyz(0.0, 0.0, 5.0)
+        .looking_at(Vec3::ZERO, Vec3::Y)
+        .to_matrix()
+        .inverse();
+    let proj = bevy::math::proj::perspective_infinite_reverse(1.0, 16.0 / 9.0, 0.1);
     StrokeCamera::new(proj * view, Vec2::new(1600.0, 900.0))
 }
 
@@ -423,10 +426,10 @@ fn cameras_know_their_viewer_and_bias_keeps_the_stroke_on_screen() {
         .looking_at(Vec3::ZERO, Vec3::Y)
         .to_matrix();
     let viewport = Vec2::new(800.0, 600.0);
-    let perspective = Mat4::perspective_infinite_reverse_rh(1.0, 4.0 / 3.0, 0.1);
+    let perspective = bevy::math::proj::perspective_infinite_reverse(1.0, 4.0 / 3.0, 0.1);
     let camera = StrokeCamera::from_view(world_from_view, perspective, viewport);
     assert_eq!(camera.viewer(), Some(Viewer::Point(eye)));
-    let orthographic = Mat4::orthographic_rh(-2.0, 2.0, -1.5, 1.5, 100.0, 0.1);
+    let orthographic = bevy::math::proj::orthographic(-2.0, 2.0, -1.5, 1.5, 100.0, 0.1);
     let ortho = StrokeCamera::from_view(world_from_view, orthographic, viewport);
     let Some(Viewer::Direction(back)) = ortho.viewer() else {
         panic!("orthographic camera without a view direction");

@@ -793,7 +793,7 @@ pub(crate) fn margin_key(s: &HairSimSettings) -> (u64, u32, u32) {
 
 /// Removing [`Hair`] detaches it: strands, collider and solver state go.
 pub(crate) fn detach_hair(
-    remove: On<Remove, Hair>,
+    remove: On<Remove<Hair>>,
     mut commands: Commands,
     strands: Query<&HairStrands>,
     head_colliders: Query<(Entity, &HeadColliderOf)>,

@@ -44,7 +44,7 @@ fn scene() -> Result<HeadlessRenderer, Failed> {
             clear_color: ClearColorConfig::Custom(Color::srgb(0.0, 0.0, 1.0)),
             ..default()
         },
-        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        bevy::core_pipeline::tonemapping::Tonemapping::Linear,
         Msaa::Off,
         RenderTarget::Image(target.into()),
         Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),

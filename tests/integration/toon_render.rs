@@ -57,7 +57,7 @@ pub(crate) fn scene(light_dir: Vec3, eye: Vec3) -> Result<HeadlessRenderer, Fail
             ..default()
         },
         // Tonemapping would blend the hard toon bands into new shades.
-        bevy::core_pipeline::tonemapping::Tonemapping::None,
+        bevy::core_pipeline::tonemapping::Tonemapping::Linear,
         Msaa::Off,
         RenderTarget::Image(target.into()),
         Transform::from_translation(eye).looking_at(Vec3::ZERO, Vec3::Y),

@@ -4,7 +4,7 @@
 //! Edges come from a buffer in which objects are flat, Bevy's depth and normal prepass, never
 //! from the lit colour: the toon ramp's bands inside the hair are not edges. Per frame, on each
 //! camera with an enabled [`ImageSpaceOutline`], three fullscreen passes in the `Core3d` schedule
-//! (`outline.wgsl`):
+//! (`outline.wesl`):
 //!
 //! 1. `detect`: Sobel (both kernels, magnitude `sqrt(gx^2 + gy^2)`) on the prepass depth and/or
 //!    normals, thresholded with [`ImageSpaceOutline::threshold`] into an edge mask. The default
@@ -140,7 +140,7 @@ impl Default for ImageSpaceOutline {
     }
 }
 
-/// The uniform block of an enabled [`ImageSpaceOutline`] (`outline.wgsl`), on the render world's
+/// The uniform block of an enabled [`ImageSpaceOutline`] (`outline.wesl`), on the render world's
 /// view entity.
 #[derive(Component, Clone, Copy, Debug, Default, ShaderType)]
 pub struct GpuImageSpaceOutline {
@@ -162,7 +162,7 @@ pub struct GpuImageSpaceOutline {
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct OutlineSourceKey(pub OutlineSource);
 
-impl SyncComponent for ImageSpaceOutline {
+impl SyncComponent<RenderApp> for ImageSpaceOutline {
     // Everything the pass keeps on a view goes when the outline is disabled or removed.
     type Target = (
         GpuImageSpaceOutline,
@@ -174,7 +174,7 @@ impl SyncComponent for ImageSpaceOutline {
     );
 }
 
-impl ExtractComponent for ImageSpaceOutline {
+impl ExtractComponent<RenderApp> for ImageSpaceOutline {
     type QueryData = Read<ImageSpaceOutline>;
     type QueryFilter = With<Camera3d>;
     type Out = (GpuImageSpaceOutline, OutlineSourceKey);
@@ -209,7 +209,7 @@ pub struct ImageSpaceOutlinePlugin;
 
 impl Plugin for ImageSpaceOutlinePlugin {
     fn build(&self, app: &mut App) {
-        bevy::asset::embedded_asset!(app, "outline.wgsl");
+        bevy::asset::embedded_asset!(app, "outline.wesl");
         app.register_type::<ImageSpaceOutline>()
             .add_plugins((
                 ExtractComponentPlugin::<ImageSpaceOutline>::default(),

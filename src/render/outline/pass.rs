@@ -88,7 +88,7 @@ pub(super) fn prepare_outline_bind_groups(
     for (entity, target, prepass, textures, ids) in &views {
         let mut entries = DynamicBindGroupEntries::new_with_indices(((0, uniform.clone()),));
         if ids.key.source.uses_depth() {
-            let Some(depth) = prepass.depth_view() else {
+            let Some(depth) = prepass.depth_only_view() else {
                 continue;
             };
             entries = entries.extend_with_indices(((1, depth),));

@@ -157,7 +157,7 @@ pub(super) fn init_outline_pipelines(
     fullscreen_shader: Res<FullscreenShader>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let shader = load_embedded_asset!(asset_server.as_ref(), "outline.wgsl");
+    let shader = load_embedded_asset!(asset_server.as_ref(), "outline.wesl");
     let float = TextureSampleType::Float { filterable: false };
     let dilate_layout = BindGroupLayoutDescriptor::new(
         "image_space_outline_dilate_layout",

@@ -30,7 +30,7 @@ pub(super) fn build(app: &mut App) {
 /// Other avian users see the head too: a compound of its spheres and capsules, of zero density so a
 /// character body it becomes part of keeps its mass.
 fn head_collider(
-    add: On<Add, HeadColliderOf>,
+    add: On<Add<HeadColliderOf>>,
     heads: Query<&HairCollider>,
     mut commands: Commands,
 ) {

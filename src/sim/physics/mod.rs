@@ -220,7 +220,7 @@ impl ShapeKind {
             #[cfg(feature = "avian")]
             Self::Avian(ref collider, translation, rotation) => {
                 use avian3d::prelude::SimpleCollider;
-                let aabb = collider.aabb(translation, rotation);
+                let aabb = collider.aabb(translation, rotation, 0.0);
                 (aabb.min, aabb.max)
             }
         }

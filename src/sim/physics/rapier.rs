@@ -34,7 +34,7 @@ fn groups_match(hair: &CollisionGroups, collider: &CollisionGroups) -> bool {
 
 /// Other rapier users see the head too: a compound of its spheres and capsules.
 fn head_collider(
-    add: On<Add, HeadColliderOf>,
+    add: On<Add<HeadColliderOf>>,
     heads: Query<&HairCollider>,
     mut commands: Commands,
 ) {
