@@ -374,7 +374,7 @@ fn bench_sim(c: &mut Criterion) {
     group.finish();
 }
 
-/// The previous loader's work: a roxmltree document, then every strand's numbers.
+/// A tree parser's work for the same file: a roxmltree document, then every strand's numbers.
 fn roxmltree_baseline(text: &str) -> Vec<Vec3> {
     let doc = roxmltree::Document::parse(text).unwrap();
     let mut points = Vec::new();
@@ -408,12 +408,12 @@ fn bench_load(c: &mut Criterion) {
     group.bench_function("100k_x_6", |b| {
         b.iter(|| parse_groom("bench.hair.xml", &text).unwrap());
     });
-    // The baseline: what the loader did before it streamed (roxmltree builds the document's
+    // The baseline: a tree parser (roxmltree builds the document's
     // tree, then the strands' numbers are parsed from it), on the same text in the same run.
     group.bench_function("100k_x_6_roxmltree_baseline", |b| {
         b.iter(|| roxmltree_baseline(&text));
     });
-    // Many short strands: 10 MB of text, the shape that was quadratic in attributes before.
+    // Many short strands: 10 MB of text (many elements, few numbers each).
     let mut short = String::from("<groom version=\"1\">\n");
     let mut i = 0u32;
     while short.len() < 10_000_000 {
@@ -977,7 +977,7 @@ fn thesis_app(row: &ThesisRow) -> App {
     app
 }
 
-/// Issue 16 item 6: the thesis's performance tables 5.3 (hair and shape resolution x outline
+/// The thesis's performance tables 5.3 (hair and shape resolution x outline
 /// method), 5.4 (outline width) and 5.5 (anchor stiffness and animation), our CPU frame beside
 /// its frame rate, printed as a table at the end of the group.
 fn bench_thesis_tables(c: &mut Criterion) {

@@ -32,8 +32,8 @@ use crate::plugins::CartoonHairPlugins;
 use crate::preset::HairPreset;
 use crate::render::{HairMaterial, ToonHairMaterial, ToonRamps, ToonShading};
 use crate::sim::{
-    AttachToBone, ComputedHair, Hair, HairAssetFailed, HairCollider, HairColliderMode,
-    HairSimSettings,
+    AttachToBone, BoneNotFound, ComputedHair, Hair, HairAssetFailed, HairCollider,
+    HairColliderMode, HairSimSettings,
 };
 
 /// The demo hair's colour (orange).
@@ -489,6 +489,9 @@ pub struct ClipSettings {
     pub props: NinjaProps,
     /// Where the camera looks from. Default: [`NinjaOrbit::default`] (the face, from its left).
     pub orbit: NinjaOrbit,
+    /// The asset folder holding `ninja/`, when it is not the default `assets` (relative to
+    /// `BEVY_ASSET_ROOT`, or absolute). Default: `None`.
+    pub asset_folder: Option<PathBuf>,
 }
 
 impl Default for ClipSettings {
@@ -503,6 +506,7 @@ impl Default for ClipSettings {
             show_ui: false,
             props: NinjaProps::default(),
             orbit: NinjaOrbit::default(),
+            asset_folder: None,
         }
     }
 }
@@ -534,10 +538,50 @@ pub fn check_ninja_assets_in(root: &std::path::Path) -> Result<(), PathBuf> {
     Ok(())
 }
 
+/// Every asset failure seen while a clip is recorded, in order.
+#[derive(Resource, Default)]
+struct ClipFailures(Vec<String>);
+
+/// Whether every hair's groom, animation and collision file has loaded or failed.
+fn hair_files_settled(world: &mut World) -> bool {
+    use bevy::asset::LoadState;
+    let server = world.resource::<AssetServer>().clone();
+    let settled = |id: bevy::asset::UntypedAssetId| {
+        matches!(
+            server.get_load_state(id),
+            Some(LoadState::Loaded | LoadState::Failed(_))
+        )
+    };
+    let mut hairs = world.query::<&Hair>();
+    hairs.iter(world).all(|hair| {
+        settled(hair.groom.id().untyped())
+            && hair.animation.iter().all(|h| settled(h.id().untyped()))
+            && hair.collision.iter().all(|h| settled(h.id().untyped()))
+    })
+}
+
+/// [`ClipError::AssetsFailed`] with the failures so far, if any.
+fn take_failures(world: &mut World) -> Result<(), ClipError> {
+    let failures = std::mem::take(&mut world.resource_mut::<ClipFailures>().0);
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(ClipError::AssetsFailed(failures))
+    }
+}
+
 /// Why a clip could not be recorded.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ClipError {
+    /// Files of the scene failed to load (the loader's `file:line:col` message for each): the
+    /// clip would not show what was asked for, so none is written.
+    #[error(
+        "{} of the scene's files failed to load (no clip written):\n{}",
+        .0.len(),
+        .0.join("\n")
+    )]
+    AssetsFailed(Vec<String>),
     /// A file of the scene is not in the asset folder.
     #[error(
         "{} is missing: run from the repository (or set BEVY_ASSET_ROOT to the folder that \
@@ -594,7 +638,12 @@ pub fn ninja_scene_ready(world: &mut World) -> bool {
 /// [`ClipError::Headless`] without an adapter, on a pipeline error or a timeout;
 /// [`ClipError::Write`] if the folder or a frame cannot be written.
 pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
-    check_ninja_assets().map_err(ClipError::MissingAsset)?;
+    let base = bevy::asset::io::file::FileAssetReader::get_base_path();
+    let folder = settings
+        .asset_folder
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("assets"));
+    check_ninja_assets_in(&base.join(&folder)).map_err(ClipError::MissingAsset)?;
     std::fs::create_dir_all(&settings.out).map_err(|e| ClipError::Write {
         path: settings.out.clone(),
         message: e.to_string(),
@@ -603,8 +652,25 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
         width: settings.width,
         height: settings.height,
         max_frames: 5_000,
+        asset_folder: Some(folder.to_string_lossy().into_owned()),
         ..default()
     })?;
+    // The recorder runs without Bevy's log: every failure is kept and returned instead.
+    renderer
+        .app
+        .init_resource::<ClipFailures>()
+        .add_observer(
+            |failed: On<HairAssetFailed>, mut all: ResMut<ClipFailures>| {
+                all.0.push(format!(
+                    "{:?} file {}: {}",
+                    failed.asset, failed.path, failed.error
+                ));
+            },
+        )
+        .add_observer(|missing: On<BoneNotFound>, mut all: ResMut<ClipFailures>| {
+            all.0
+                .push(format!("the character has no bone {:?}", missing.bone));
+        });
     renderer.app.add_plugins((
         CartoonHairPlugins,
         NinjaScenePlugin {
@@ -625,7 +691,15 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
     renderer
         .app
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-    renderer.warm_up(ninja_scene_ready)?;
+    // Ready when every hair file has loaded or failed, and the scene is ready or something
+    // failed (without a groom the hair is never ready).
+    renderer.warm_up(|world| {
+        hair_files_settled(world)
+            && (!world.resource::<ClipFailures>().0.is_empty() || ninja_scene_ready(world))
+    })?;
+    // One more frame reports what failed in the last one.
+    renderer.app.update();
+    take_failures(renderer.app.world_mut())?;
     // Assets load in a different order from run to run, so the hair may have hung from the bone
     // at rest or in its animated pose first: start it from its style, the same every time.
     let world = renderer.app.world_mut();
@@ -655,6 +729,8 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
             }
         }
     })?;
+    // A file that fails while the clip runs (a hot reload, a late key) spoils it too.
+    take_failures(renderer.app.world_mut())?;
     match failure {
         Some(e) => Err(e),
         None => {

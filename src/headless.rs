@@ -86,6 +86,9 @@ pub struct CaptureSettings {
     pub settle_frames: u32,
     /// Give up after this many frames. Default: `600`.
     pub max_frames: u32,
+    /// The asset folder, when it is not the default `assets` (a path relative to
+    /// `BEVY_ASSET_ROOT`, or absolute). Default: `None`.
+    pub asset_folder: Option<String>,
 }
 
 impl Default for CaptureSettings {
@@ -96,6 +99,7 @@ impl Default for CaptureSettings {
             min_frames: 3,
             settle_frames: 4,
             max_frames: 600,
+            asset_folder: None,
         }
     }
 }
@@ -179,8 +183,13 @@ impl HeadlessRenderer {
     pub fn new(settings: CaptureSettings) -> Result<Self, HeadlessError> {
         find_adapter()?;
         let mut app = App::new();
+        let mut assets = bevy::asset::AssetPlugin::default();
+        if let Some(folder) = &settings.asset_folder {
+            assets.file_path.clone_from(folder);
+        }
         app.add_plugins(
             DefaultPlugins
+                .set(assets)
                 .set(WindowPlugin {
                     primary_window: None,
                     exit_condition: ExitCondition::DontExit,

@@ -233,7 +233,7 @@ mod tests {
         out
     }
 
-    /// Issue 16 item 3: at each default threshold, seen from where the hair is exactly that tall
+    /// At each default threshold, seen from where the hair is exactly that tall
     /// on screen (720 px viewport, 45 degree field of view), the coarser level's silhouette lies
     /// within two pixels of the finer one's (every pixel it adds is within two of the finer
     /// coverage; of the pixels it drops, at most one is farther than two from its outside), and
@@ -403,7 +403,7 @@ mod app_tests {
         (level, computed.topology.rings(), computed.topology.sides())
     }
 
-    /// Issue 16 item 3: a hair 0.8 m from the camera keeps its 16 x 8 tubes; one 20 m away
+    /// A hair 0.8 m from the camera keeps its 16 x 8 tubes; one 20 m away
     /// drops to level 3 (4 x 4) and is counted; brought near, it goes back to full.
     #[test]
     fn far_hair_gets_coarser_tubes_and_comes_back() {
@@ -445,7 +445,7 @@ mod culled_rate_tests {
     use crate::sim::ComputedHair;
     use bevy::prelude::*;
 
-    /// Issue 16 item 2: hair no camera sees simulates at a quarter of the default rate (one
+    /// Hair no camera sees simulates at a quarter of the default rate (one
     /// substep a 60 Hz frame), and at the full rate again once it is seen.
     #[test]
     fn culled_hair_simulates_coarser_and_comes_back_at_full_rate() {

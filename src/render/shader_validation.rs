@@ -199,7 +199,8 @@ async fn futures_lite_next(
 /// missing, as on WebGL: not the variant that runs here.)
 fn bevy_value_defs() -> Vec<ShaderDefVal> {
     let uint = |name: &'static str, v: usize| ShaderDefVal::UInt(name.into(), v as u32);
-    let storage = bevy::render::settings::WgpuLimits::default().max_storage_buffers_per_shader_stage;
+    let storage =
+        bevy::render::settings::WgpuLimits::default().max_storage_buffers_per_shader_stage;
     vec![
         uint("MAX_DIRECTIONAL_LIGHTS", bevy::pbr::MAX_DIRECTIONAL_LIGHTS),
         uint("MAX_CASCADES_PER_LIGHT", bevy::pbr::MAX_CASCADES_PER_LIGHT),
@@ -207,8 +208,14 @@ fn bevy_value_defs() -> Vec<ShaderDefVal> {
         uint("MATERIAL_BIND_GROUP", bevy::pbr::MATERIAL_BIND_GROUP_INDEX),
         ShaderDefVal::UInt("AVAILABLE_STORAGE_BUFFER_BINDINGS".into(), storage),
         // As Bevy's pipeline cache bakes the comparisons into flags.
-        ShaderDefVal::Bool("AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_3".into(), storage >= 3),
-        ShaderDefVal::Bool("AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_6".into(), storage >= 6),
+        ShaderDefVal::Bool(
+            "AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_3".into(),
+            storage >= 3,
+        ),
+        ShaderDefVal::Bool(
+            "AVAILABLE_STORAGE_BUFFER_BINDINGS__GE_6".into(),
+            storage >= 6,
+        ),
     ]
 }
 

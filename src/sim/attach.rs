@@ -379,7 +379,7 @@ impl HairAssets<'_> {
     /// The load error of `id`, if its load failed.
     fn failure(&self, id: impl Into<UntypedAssetId>) -> Option<String> {
         match self.server.load_state(id.into()) {
-            bevy::asset::LoadState::Failed(e) => Some(e.to_string()),
+            bevy::asset::LoadState::Failed(e) => Some(without_backtrace(&e.to_string())),
             _ => None,
         }
     }
@@ -406,6 +406,16 @@ fn optional<'a, A: Asset>(
         Some(asset) => Some(Some(asset)),
         None => failed(handle.id().untyped()).map(|()| None),
     }
+}
+
+/// The message of a load error without the backtrace Bevy's errors may carry on their later
+/// lines (indented frames, then a `note:` about them).
+fn without_backtrace(error: &str) -> String {
+    error
+        .lines()
+        .take_while(|l| !l.starts_with(char::is_whitespace) && !l.starts_with("note: "))
+        .collect::<Vec<_>>()
+        .join("\n")
 }
 
 /// Reports a failed asset of `hair` once: an error log line and a [`HairAssetFailed`] event.
@@ -811,5 +821,20 @@ pub(crate) fn detach_hair(
     }
     if let Ok(mut entity) = commands.get_entity(hair) {
         entity.try_remove::<ComputedHair>();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn load_errors_lose_their_backtrace_not_their_message() {
+        let error = "Failed to load asset 'a.hair.xml': a.hair.xml:3:7: strand 0: \"x\": not a \
+                     number\n   5: <bevy_asset::server::AssetServer>::load_internal\n             \
+                     at /src/loader.rs:97:18\nnote: Some \"noisy\" backtrace lines have been filtered";
+        assert_eq!(
+            super::without_backtrace(error),
+            "Failed to load asset 'a.hair.xml': a.hair.xml:3:7: strand 0: \"x\": not a number"
+        );
+        assert_eq!(super::without_backtrace("one\ntwo"), "one\ntwo");
     }
 }

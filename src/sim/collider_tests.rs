@@ -399,7 +399,7 @@ fn broken_collider_shapes_are_skipped_not_spread() {
     assert!(matches!(shapes[1], LocalShape::Box(_, q, _) if q == Quat::IDENTITY));
 }
 
-/// Issue 15 item 1: a point field (a blast source coming up beside the head) and a directional
+/// A point field (a blast source coming up beside the head) and a directional
 /// one (a fan) push the hair their way, the same at 30, 60 and 144 fps; a field out of reach
 /// changes nothing, bit for bit.
 #[test]
@@ -493,7 +493,7 @@ fn max_deviation(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f32 {
         .fold(0.0, f32::max)
 }
 
-/// Issue 16 item 4: once every hair is built, the Attach stage's sync points do not run; a new
+/// Once every hair is built, the Attach stage's sync points do not run; a new
 /// hair brings them back for the frames it needs.
 #[test]
 fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
@@ -526,7 +526,7 @@ fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
     assert_eq!(work(&h), (false, false));
 }
 
-/// Issue 16 item 4: in steady state the step reuses every per-frame buffer (none is
+/// In steady state the step reuses every per-frame buffer (none is
 /// reallocated across 60 frames), with colliders, friction, wind and a force field in play.
 #[test]
 fn a_steady_frame_reuses_the_step_buffers() {

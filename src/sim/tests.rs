@@ -1634,7 +1634,7 @@ fn fast_motion(motion: usize, t: f32) -> Transform {
     }
 }
 
-/// Issue 15's defect: after each fast motion and 15 s at rest, every strand of the ninja is back
+/// After each fast motion and 15 s at rest, every strand of the ninja is back
 /// within 2 mm of the pose it had settled in, and no chain tetrahedron is inside out. (Before the
 /// signed-volume constraint, 53 to 89 of the 159 strands stayed up to 3.4 cm away.)
 #[test]
@@ -1700,7 +1700,7 @@ fn worst_stretch(strands: &[Vec<Vec3>], rest: &[Vec<Vec3>]) -> f32 {
         .fold(0.0, f32::max)
 }
 
-/// Issue 15: a 0.99 m jump in one frame (59 m/s, just under the teleport distance) stretched
+/// A 0.99 m jump in one frame (59 m/s, just under the teleport distance) stretched
 /// segments 12.9x. The strain limit (`max_stretch`, 1.1) holds them to 1.57x: the head's
 /// collisions run after it and push the hair dragged through the head back out, which is worth
 /// more than exact lengths.
@@ -1723,7 +1723,7 @@ fn a_jump_just_under_the_teleport_distance_does_not_stretch_the_hair() {
     assert!(worst < 2.0, "segments stretched {worst:.2}x");
 }
 
-/// Issue 15: a character riding a vehicle at a steady 30 m/s. With damping in the world frame
+/// A character riding a vehicle at a steady 30 m/s. With damping in the world frame
 /// (the default, still air) the ninja's hair is blown back; in the bone's frame it stays as at
 /// rest.
 #[test]
@@ -1772,7 +1772,7 @@ fn damping_in_the_bones_frame_leaves_hair_in_a_moving_vehicle_at_rest() {
     );
 }
 
-/// Issue 15: a style limit holds every particle within its distance of the keyframed style
+/// A style limit holds every particle within its distance of the keyframed style
 /// through the 4 turns/s shake (only the head's collisions, which run after it, may push a
 /// particle a little farther).
 #[test]
@@ -1812,7 +1812,7 @@ fn a_style_limit_keeps_hair_near_its_style_through_a_hard_shake() {
     assert!(farthest[1] < 0.0205, "the limit did not hold: {farthest:?}");
 }
 
-/// Issue 15: wind. A 6 m/s gusty wind along +x blows the hair downwind, tips more than the middle
+/// Wind. A 6 m/s gusty wind along +x blows the hair downwind, tips more than the middle
 /// of the strands (roots are pinned); the same at 30, 60 and 144 fps (2 mm, as without wind); a
 /// calm override on the hair shields it.
 #[test]
@@ -1882,7 +1882,7 @@ fn straight_groom(pairs: &[(Vec3, Vec3)]) -> HairGroom {
     .unwrap()
 }
 
-/// Issue 15 item 2: two strands styled into each other (their tips meet) end their radius sum
+/// Two strands styled into each other (their tips meet) end their radius sum
 /// apart with the volume at stiffness 1 (0.0320 m for 0.032 m), 0.0275 m at 0.5, and 0.001 m
 /// (where the style puts them) without it.
 #[test]
@@ -1963,7 +1963,7 @@ fn hanging_tips(roots: &[Vec3], volume: Option<HairVolume>) -> (Harness, f32) {
     (h, spread)
 }
 
-/// Issue 15 item 2: a cone of strands styled to meet under the bone, hanging under gravity,
+/// A cone of strands styled to meet under the bone, hanging under gravity,
 /// keeps more volume with the volume on: its tips' mean distance from the axis is larger
 /// (measured: 0.0042 m without, 0.0187 m with the defaults; 0.0399 m when crowded particles'
 /// pushes were summed instead of averaged).
@@ -1982,7 +1982,7 @@ fn hair_volume_keeps_a_hanging_hair_fuller() {
     assert!(on > off + 0.01, "volume {on} vs none {off}");
 }
 
-/// Issue 15 item 2: hair far denser than its volume radius (1,000 strands 8 mm apart at the
+/// Hair far denser than its volume radius (1,000 strands 8 mm apart at the
 /// roots with 16 mm tubes: it cannot be kept apart) is spread by its density and stays calm.
 /// Measured over 30 frames after 2 s at rest: 0.0001 m mean and 0.0073 m largest motion per
 /// frame, with about 14,760 of its 15,000 particles crowded. (With pairs alone and averaged
@@ -2048,7 +2048,7 @@ fn hair_volume_keeps_dense_hair_calm() {
     }
 }
 
-/// Issue 15 item 2: the density spreads crowded hair out, and a hair that stops being crowded
+/// The density spreads crowded hair out, and a hair that stops being crowded
 /// goes back to pairs. A ponytail of 1,000 strands (roots on a 5 cm disc, styled to meet under
 /// it) hanging under gravity with the default 16 mm volume is spread by its density: its tips'
 /// mean distance from the axis is over 3 times what it is without volume (measured: 0.0117 m
@@ -2096,7 +2096,7 @@ fn hair_volume_density_spreads_crowded_hair_and_lets_go() {
     assert!(c.stats.volume_pairs > 0, "no pairs pushed at 0.2 mm");
 }
 
-/// Issue 15 item 2: the density pass gives the same bits on the AVX2 and the portable path.
+/// The density pass gives the same bits on the AVX2 and the portable path.
 #[test]
 fn hair_volume_density_is_the_same_on_both_paths() {
     let run = || {
@@ -2127,7 +2127,7 @@ fn hair_volume_density_is_the_same_on_both_paths() {
     );
 }
 
-/// Issue 15 item 2: the volume's pair list, kept while the hair moves with its bone, pushes
+/// The volume's pair list, kept while the hair moves with its bone, pushes
 /// exactly what a list built from scratch pushes: the head turns 90 degrees and moves 0.3 m in
 /// 4 s; each frame the pass is run again on a copy of the hair with the kept list and with a
 /// new one.
@@ -2186,7 +2186,7 @@ fn hair_volume_pair_list_matches_a_fresh_one() {
     assert!(compared > 0, "nothing was pushed");
 }
 
-/// Issue 15 item 2, hostile values: the volume pass (pairs, and density) on particles at
+/// Hostile values: the volume pass (pairs, and density) on particles at
 /// +-3e38 m, piled on one point or NaN, with radii from the smallest float to `f32::MAX`,
 /// returns and leaves every finite particle finite; the bounds measured part by part (as the
 /// solver's pass does for the density) are the whole hair's.

@@ -5,10 +5,13 @@
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 
-use super::HairTuningUi;
+use super::{HairTuningUi, TuningPanelLayout};
 use crate::debug::{HairDebugDraw, HairStageTimings};
 use crate::mesh::HairCullingStats;
 use crate::sim::{ComputedHair, HairTime, HairTimeExt};
+
+/// The Debug window's title (egui keeps its place under this id).
+const DEBUG_WINDOW: &str = "Debug";
 
 /// The Debug window.
 pub(super) fn debug_window(
@@ -19,11 +22,12 @@ pub(super) fn debug_window(
     tuning: Res<HairTuningUi>,
     culling: Res<HairCullingStats>,
     hairs: Query<&ComputedHair>,
+    mut layout: ResMut<TuningPanelLayout>,
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
     };
-    egui::Window::new("Debug")
+    let shown = egui::Window::new(DEBUG_WINDOW)
         .default_pos([12.0, 12.0])
         .default_width(230.0)
         .resizable(false)
@@ -132,4 +136,5 @@ pub(super) fn debug_window(
                 }
             });
         });
+    layout.debug = shown.map(|s| s.response.rect);
 }

@@ -165,6 +165,7 @@ impl Plugin for HairTuningUiPlugin {
             app.add_plugins(HairDebugPlugin);
         }
         app.init_resource::<HairTuningUi>()
+            .init_resource::<TuningPanelLayout>()
             .init_resource::<PanelState>()
             .register_type::<HairTuningUi>()
             .add_systems(Update, select_hair)
@@ -190,6 +191,18 @@ fn select_hair(mut ui: ResMut<HairTuningUi>, hairs: Query<Entity, With<Hair>>) {
     if ui.hair != first {
         ui.hair = first;
     }
+}
+
+/// Where the panel's windows were drawn in the last frame (egui points; `None` for a window
+/// not drawn). The Effects window is placed below the Debug window from it.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub struct TuningPanelLayout {
+    /// The Debug window.
+    pub debug: Option<egui::Rect>,
+    /// The Hair properties window.
+    pub properties: Option<egui::Rect>,
+    /// The Effects window.
+    pub effects: Option<egui::Rect>,
 }
 
 /// A labelled row of three drag values editing a quadratic curve; `true` when changed.

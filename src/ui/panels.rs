@@ -8,7 +8,7 @@
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 
-use super::{HairTuningUi, PanelState, curve_row, drag_row, slider_row};
+use super::{HairTuningUi, PanelState, TuningPanelLayout, curve_row, drag_row, slider_row};
 use crate::mesh::HairMeshSettings;
 use crate::mesh::highlights::SpecularQuads;
 use crate::preset::{HairPreset, LOOKS, RampKind, ToonMaterialPreset};
@@ -56,7 +56,7 @@ type ColliderQuery<'w, 's> =
 pub(super) fn properties_window(
     mut contexts: EguiContexts,
     mut tuning: ResMut<HairTuningUi>,
-    mut panel: ResMut<PanelState>,
+    (mut panel, mut layout): (ResMut<PanelState>, ResMut<TuningPanelLayout>),
     mut hairs: HairQuery,
     mut outlines: Query<&mut ImageSpaceOutline>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
@@ -70,10 +70,14 @@ pub(super) fn properties_window(
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
     };
-    let width = ctx.content_rect().width();
-    egui::Window::new("Hair properties")
-        .default_pos([width - 312.0, 12.0])
+    let screen = ctx.content_rect();
+    let shown = egui::Window::new("Hair properties")
+        .default_pos([screen.width() - 312.0, 12.0])
         .default_width(300.0)
+        // Never taller than the screen: the rest scrolls.
+        .default_height((screen.height() - 24.0).max(120.0))
+        .max_height((screen.height() - 24.0).max(120.0))
+        .vscroll(true)
         .resizable(false)
         .show(ctx, |ui| {
             // Which hair, when there are several.
@@ -196,6 +200,7 @@ pub(super) fn properties_window(
                     panel.show_message(ui);
                 });
         });
+    layout.properties = shown.map(|s| s.response.rect);
 }
 
 /// H curve, radius, and the resolutions applied by *Rebuild mesh*.
@@ -499,13 +504,22 @@ pub(super) fn effects_window(
     mut outlines: Query<(&mut SilhouetteSettings, &mut SpecularQuads)>,
     mut cameras: Query<(Entity, Option<&mut ImageSpaceOutline>), With<Camera3d>>,
     mut commands: Commands,
+    mut layout: ResMut<TuningPanelLayout>,
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;
     };
-    egui::Window::new("Effects")
-        .default_pos([12.0, 330.0])
+    // Below the Debug window, as tall as the screen leaves, so neither covers the other.
+    let screen = ctx.content_rect();
+    let top = layout.debug.map_or(330.0, |debug| debug.bottom() + 8.0);
+    let height = (screen.bottom() - top - 12.0).max(120.0);
+    let shown = egui::Window::new("Effects")
+        // Held to the bottom-left corner, no taller than the room below Debug.
+        .anchor(egui::Align2::LEFT_BOTTOM, [12.0, -12.0])
         .default_width(300.0)
+        .default_height(height)
+        .max_height(height)
+        .vscroll(true)
         .resizable(false)
         .show(ctx, |ui| {
             let Some(handle) = tuning.hair.and_then(|h| hairs.get(h).ok()) else {
@@ -555,6 +569,7 @@ pub(super) fn effects_window(
                     });
             }
         });
+    layout.effects = shown.map(|s| s.response.rect);
 }
 
 /// Every control of the material; a change of ramp mode picks the ramp made for it.

@@ -280,7 +280,7 @@ fn load_error<A: Asset>(app: &mut App, path: &str) -> Result<String, Failed> {
     }
 }
 
-/// The attacks of issue 14 through Bevy's own asset server: keys that leave the asset folder are
+/// Attacks on the loaders through Bevy's own asset server: keys that leave the asset folder are
 /// refused before anything is opened (the file outside exists and is a valid groom), and a device
 /// behind a link inside the folder is cut off at the groom's byte limit.
 fn hostile_keys_and_devices_are_refused_through_the_asset_server() -> Result<(), Failed> {

@@ -26,6 +26,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         clip_recorder_writes_consecutive_deterministic_frames_with_hair,
     ),
     (
+        "clip_recorder_names_every_broken_file_and_writes_no_clip",
+        clip_recorder_names_every_broken_file_and_writes_no_clip,
+    ),
+    (
         "tuning_panel_and_debug_drawing_render",
         tuning_panel_and_debug_drawing_render,
     ),
@@ -67,6 +71,64 @@ fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bevy_cartoon_hair_{name}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     dir
+}
+
+/// A copy of the scene's files in which the collision file has a sphere of negative radius on
+/// line 3 and the animation names a key outside its folder: the recorder writes no frame and
+/// returns both failures with the loaders' `file:line:col`, as the example prints them before
+/// it exits non-zero.
+fn clip_recorder_names_every_broken_file_and_writes_no_clip() -> Result<(), Failed> {
+    let assets = temp_dir("broken_assets");
+    let ninja = assets.join("ninja");
+    std::fs::create_dir_all(&ninja)?;
+    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/ninja");
+    for entry in std::fs::read_dir(&source)? {
+        let entry = entry?;
+        std::fs::copy(entry.path(), ninja.join(entry.file_name()))?;
+    }
+    std::fs::write(
+        ninja.join("ninja.collision.xml"),
+        "<?xml version=\"1.0\"?>\n<collision version=\"1\" bone=\"head\">\n  \
+         <sphere x=\"0\" y=\"0.09\" z=\"0\" r=\"-0.1\"/>\n</collision>\n",
+    )?;
+    std::fs::write(
+        ninja.join("ninja.hairanim.xml"),
+        "<hairanim version=\"1\" duration=\"1\">\n  <key time=\"0\" groom=\"ninja.hair.xml\"/>\n  \
+         <key time=\"0.5\" groom=\"../../secret.hair.xml\"/>\n</hairanim>\n",
+    )?;
+    let out = temp_dir("broken_clip");
+    let settings = ClipSettings {
+        frames: 3,
+        out: out.clone(),
+        width: 160,
+        height: 90,
+        asset_folder: Some(assets.clone()),
+        ..default()
+    };
+    let result = record_clip(&settings);
+    let _ = std::fs::remove_dir_all(&assets);
+    let written = std::fs::read_dir(&out).map_or(0, |d| d.count());
+    let _ = std::fs::remove_dir_all(&out);
+    let error = match result {
+        Ok(paths) => return Err(format!("a clip of broken files was written: {paths:?}").into()),
+        Err(e) => e.to_string(),
+    };
+    println!("{error}");
+    if written != 0 {
+        return Err(format!("{written} frames written beside the error").into());
+    }
+    for needle in [
+        "2 of the scene's files failed to load",
+        "ninja.collision.xml:3:",
+        "radius must be greater than 0",
+        "ninja.hairanim.xml:3:",
+        "secret.hair.xml",
+    ] {
+        if !error.contains(needle) {
+            return Err(format!("`{needle}` missing from: {error}").into());
+        }
+    }
+    Ok(())
 }
 
 /// Records three frames twice: the PNGs exist with the right names and size, show the orange
@@ -133,12 +195,23 @@ fn clip_recorder_writes_consecutive_deterministic_frames_with_hair() -> Result<(
     Ok(())
 }
 
-/// The panel's three windows draw over the scene (egui's dark window fill covers a good part
-/// of the frame) and the debug drawing shows the particles (magenta) in front of the hair.
+/// The panel at 1280x720 and 1920x1080: its windows fit the screen without covering one another,
+/// and the debug drawing shows the particles (magenta) in front of the hair.
 fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
+    for (width, height) in [(1280, 720), (1920, 1080)] {
+        tuning_panel_at(width, height)?;
+    }
+    Ok(())
+}
+
+/// The panel at one window size: its three windows drawn, inside the screen, none covering
+/// another, and the debug drawing's particles visible.
+fn tuning_panel_at(width: u32, height: u32) -> Result<(), Failed> {
+    use bevy_cartoon_hair::ui::TuningPanelLayout;
+    use bevy_cartoon_hair::ui::bevy_egui::egui;
     let mut r = HeadlessRenderer::new(CaptureSettings {
-        width: 1280,
-        height: 720,
+        width,
+        height,
         max_frames: 5_000,
         ..default()
     })?;
@@ -164,12 +237,40 @@ fn tuning_panel_and_debug_drawing_render() -> Result<(), Failed> {
     r.warm_up(ninja_scene_ready)?;
     let frame = r.capture()?;
     if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
-        frame.save_png(Path::new(&dir).join("tuning_panel.png"))?;
+        frame.save_png(Path::new(&dir).join(format!("tuning_panel_{width}x{height}.png")))?;
+    }
+    let layout = *r.app.world().resource::<TuningPanelLayout>();
+    // Headless, one egui point is one pixel.
+    let screen =
+        egui::Rect::from_min_size(egui::Pos2::ZERO, egui::vec2(width as f32, height as f32));
+    let windows: Vec<(&str, egui::Rect)> = [
+        ("Debug", layout.debug),
+        ("Effects", layout.effects),
+        ("Hair properties", layout.properties),
+    ]
+    .into_iter()
+    .filter_map(|(name, rect)| rect.map(|r| (name, r)))
+    .collect();
+    println!("panel at {width}x{height}: {windows:?}");
+    if windows.len() != 3 {
+        return Err(format!("{width}x{height}: windows drawn {windows:?}").into());
+    }
+    for (i, (a, ra)) in windows.iter().enumerate() {
+        if !screen.expand(0.5).contains_rect(*ra) {
+            return Err(
+                format!("{width}x{height}: {a} {ra:?} leaves the screen {screen:?}").into(),
+            );
+        }
+        for (b, rb) in &windows[i + 1..] {
+            if ra.intersect(*rb).is_positive() {
+                return Err(format!("{width}x{height}: {a} {ra:?} covers {b} {rb:?}").into());
+            }
+        }
     }
     let total = (frame.width * frame.height) as f32;
     // egui's dark theme fills windows with grey 27 (the scene's background is light blue).
     let panel = frame.count(|[r, g, b, _]| r.abs_diff(g) < 6 && g.abs_diff(b) < 6 && r < 50) as f32;
-    if panel / total < 0.15 {
+    if panel / total < 0.08 {
         return Err(format!("egui windows cover only {:.3} of the frame", panel / total).into());
     }
     // Particle gizmos: srgb(1.0, 0.1, 0.6).

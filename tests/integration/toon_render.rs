@@ -245,7 +245,7 @@ fn depth_detail_far_strand_lighter() -> Result<(), Failed> {
     Ok(())
 }
 
-/// Issue 13 item 4: depth detail (the main ramp's y), the back light rim and the specular ramp
+/// Depth detail (the main ramp's y), the back light rim and the specular ramp
 /// layer at once. Against the same scene with depth detail alone: the far strand is still
 /// lighter than the near one, the near strand gains a drawn highlight (near-white pixels the
 /// depth-only frame lacks) on its lit side, and the rim brightens its edges.

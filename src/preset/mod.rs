@@ -10,6 +10,7 @@
 //!
 //! ```text
 //! (
+//!     format: 2,
 //!     simulation: (edge_stiffness: 1.0, bend_stiffness: 0.8, ...),
 //!     mesh: (hair_resolution: 16, shape_resolution: 8, ...),
 //!     material: (ramp: ThreeTone, shading: (ramp_mode: Constant, ...)),
@@ -18,9 +19,12 @@
 //! )
 //! ```
 //!
-//! Fields left out of a file keep their defaults, so older presets still load; an unknown field,
-//! a wrong type or a syntax error is an error naming the file, the line and column and what is
-//! wrong. Loading never panics.
+//! A preset starts with its file format (`format: 2`, [`PRESET_FORMAT`]). Presets of earlier
+//! formats load: they are migrated, with a warning naming each field that moved (see
+//! [`HairPreset::from_ron_migrating`]); a preset of a newer format is an error that says so.
+//! Fields left out of a file keep their defaults; an unknown field, a wrong type or a syntax
+//! error is an error naming the file, the line and column and what is wrong. Loading never
+//! panics.
 //!
 //! ```no_run
 //! use bevy_cartoon_hair::preset::HairPreset;
@@ -36,6 +40,10 @@ use std::path::{Path, PathBuf};
 use bevy::prelude::*;
 use bevy::reflect::serde::{TypedReflectDeserializer, TypedReflectSerializer};
 use bevy::reflect::{FromReflect, GetTypeRegistration, TypeRegistry};
+
+mod migrate;
+
+pub use migrate::{PRESET_FORMAT, PresetMigration};
 
 use crate::mesh::HairMeshSettings;
 use crate::render::{ImageSpaceOutline, RampMode, ToonHairMaterial, ToonRamps, ToonShading};
@@ -157,9 +165,12 @@ impl ToonMaterialPreset {
 }
 
 /// A hair's whole tuning, as saved in a preset file. See the [module docs](self).
-#[derive(Reflect, Clone, Debug, Default, PartialEq)]
+#[derive(Reflect, Clone, Debug, PartialEq)]
 #[reflect(Default, Debug, PartialEq)]
 pub struct HairPreset {
+    /// The file format ([`PRESET_FORMAT`] for presets of this version). Files of earlier
+    /// formats are migrated when read ([`HairPreset::from_ron_migrating`]).
+    pub format: u32,
     /// How the hair moves.
     pub simulation: HairSimSettings,
     /// How strands become tubes.
@@ -171,6 +182,19 @@ pub struct HairPreset {
     pub silhouettes: Option<SilhouetteSettings>,
     /// The image-space outline (a component of the camera); `None` leaves the camera as it is.
     pub outline: Option<ImageSpaceOutline>,
+}
+
+impl Default for HairPreset {
+    fn default() -> Self {
+        Self {
+            format: PRESET_FORMAT,
+            simulation: default(),
+            mesh: default(),
+            material: default(),
+            silhouettes: None,
+            outline: None,
+        }
+    }
 }
 
 /// Why a preset could not be saved or loaded. Every message names the file, when there is one
@@ -227,15 +251,15 @@ fn file_label(file: &Option<String>) -> String {
 pub const LOOKS: &[(&str, &str)] = &[
     (
         "thesis",
-        include_str!("../assets/presets/thesis.preset.ron"),
+        include_str!("../../assets/presets/thesis.preset.ron"),
     ),
     (
         "clean_anime",
-        include_str!("../assets/presets/clean_anime.preset.ron"),
+        include_str!("../../assets/presets/clean_anime.preset.ron"),
     ),
     (
         "sketch",
-        include_str!("../assets/presets/sketch.preset.ron"),
+        include_str!("../../assets/presets/sketch.preset.ron"),
     ),
 ];
 
@@ -329,24 +353,75 @@ impl HairPreset {
         Self::from_ron_named(None, text)
     }
 
+    /// Like [`HairPreset::from_ron`], and what was migrated: a preset of an earlier format
+    /// (see [`PRESET_FORMAT`]) is brought up to this one, and the [`PresetMigration`] names
+    /// every field that moved. [`HairPreset::load`] logs it as a warning.
+    ///
+    /// # Errors
+    ///
+    /// As [`HairPreset::from_ron`]; a preset of a newer format than this crate reads is an
+    /// error that says so.
+    pub fn from_ron_migrating(
+        text: &str,
+    ) -> Result<(Self, Option<PresetMigration>), HairPresetError> {
+        Self::read(None, text)
+    }
+
     fn from_ron_named(file: Option<&str>, text: &str) -> Result<Self, HairPresetError> {
+        let (preset, migration) = Self::read(file, text)?;
+        if let Some(m) = migration.filter(|m| !m.moved.is_empty()) {
+            warn!(
+                "{}preset format {} read as format {PRESET_FORMAT}: {}; save it again to \
+                 write the current format",
+                file_label(&file.map(str::to_owned)),
+                m.from,
+                m.moved.join(", ")
+            );
+        }
+        Ok(preset)
+    }
+
+    fn read(
+        file: Option<&str>,
+        text: &str,
+    ) -> Result<(Self, Option<PresetMigration>), HairPresetError> {
+        let located = |offset: usize, message: String| {
+            let before = &text[..offset.min(text.len())];
+            HairPresetError::Parse {
+                file: file.map(str::to_owned),
+                line: before.matches('\n').count() + 1,
+                column: before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1,
+                message,
+            }
+        };
+        let (text, migration) =
+            migrate::migrate(text).map_err(|(offset, message)| located(offset, message))?;
         let registry = preset_registry();
         let registration = HairPreset::get_type_registration();
         let seed = TypedReflectDeserializer::new(&registration, &registry);
+        let moved = migration.as_ref().is_some_and(|m| !m.moved.is_empty());
         let value = ron::Options::default()
-            .from_str_seed(text, seed)
+            .from_str_seed(&text, seed)
             .map_err(|e| HairPresetError::Parse {
                 file: file.map(str::to_owned),
                 line: e.span.start.line,
                 column: e.span.start.col,
-                message: e.code.to_string(),
+                message: if moved {
+                    format!("{} (in `material`, after moving its shading fields into `material.shading`)", e.code)
+                } else {
+                    e.code.to_string()
+                },
             })?;
-        HairPreset::from_reflect(value.as_partial_reflect()).ok_or_else(|| HairPresetError::Parse {
-            file: file.map(str::to_owned),
-            line: 1,
-            column: 1,
-            message: "the file does not describe a HairPreset".to_owned(),
-        })
+        let mut preset = HairPreset::from_reflect(value.as_partial_reflect()).ok_or_else(|| {
+            HairPresetError::Parse {
+                file: file.map(str::to_owned),
+                line: 1,
+                column: 1,
+                message: "the file does not describe a HairPreset".to_owned(),
+            }
+        })?;
+        preset.format = PRESET_FORMAT;
+        Ok((preset, migration))
     }
 
     /// Saves the preset as a RON file, replacing any file at `path`.
@@ -387,6 +462,7 @@ mod tests {
 
     fn tuned() -> HairPreset {
         HairPreset {
+            format: PRESET_FORMAT,
             simulation: HairSimSettings {
                 edge_stiffness: 0.9,
                 anchor_stiffness: QuadraticCurve::new(0.1, -0.3, 0.6),
@@ -531,5 +607,63 @@ mod tests {
         assert_eq!(anime.material.lighting, ToonLighting::Scene);
         assert_eq!(sketch.material.hatching, HatchingMode::Surface);
         assert!(thesis != anime && anime != sketch && sketch != thesis);
+    }
+
+    #[test]
+    fn presets_of_every_earlier_format_load() {
+        // 0.1.0's shipped thesis look: no `format`, shading already nested; nothing moves.
+        let (old, report) = HairPreset::from_ron_migrating(include_str!(
+            "../../tests/fixtures/presets/format1_thesis_0.1.0.preset.ron"
+        ))
+        .unwrap();
+        assert_eq!(
+            report.as_ref().map(|r| (r.from, r.moved.len())),
+            Some((1, 0))
+        );
+        assert_eq!(old, HairPreset::look("thesis").unwrap().unwrap());
+        assert_eq!(old.format, PRESET_FORMAT);
+        // The first 0.1 builds: shading fields directly in `material`. They move, each named.
+        let (flat, report) = HairPreset::from_ron_migrating(include_str!(
+            "../../tests/fixtures/presets/format1_flat_material.preset.ron"
+        ))
+        .unwrap();
+        let report = report.unwrap();
+        assert_eq!(report.from, 1);
+        assert_eq!(report.moved.len(), 13, "{:?}", report.moved);
+        assert!(
+            report
+                .moved
+                .contains(&"material.ramp_mode moved to material.shading.ramp_mode".to_owned())
+        );
+        let tuned = tuned();
+        assert_eq!(flat.material.ramp, RampKind::Specular);
+        assert_eq!(flat.material.shading, tuned.material.shading);
+        assert_eq!(flat.simulation, tuned.simulation);
+        assert_eq!(flat.silhouettes, tuned.silhouettes);
+        // Saved again, it is the current format and reads back without a migration.
+        let text = flat.to_ron().unwrap();
+        assert!(text.trim_start().starts_with("(\n    format: 2,"), "{text}");
+        let (back, report) = HairPreset::from_ron_migrating(&text).unwrap();
+        assert_eq!((back, report), (flat, None));
+    }
+
+    #[test]
+    fn newer_or_contradictory_presets_fail_naming_the_field() {
+        let e = HairPreset::from_ron_migrating("(\n    format: 7,\n)").unwrap_err();
+        let text = e.to_string();
+        assert!(text.starts_with("2:13: preset format 7 is newer"), "{text}");
+        let e = HairPreset::from_ron_migrating(
+            "(material: (ramp: Depth, ramp_mode: Depth, shading: (z_min: 2.0)))",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("material.ramp_mode"), "{e}");
+        // An unknown field of a migrated material is named, with what was done to it.
+        let e =
+            HairPreset::from_ron_migrating("(material: (ramp: Depth, sparkle: 1.0))").unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains("sparkle") && text.contains("material.shading"),
+            "{text}"
+        );
     }
 }
