@@ -65,7 +65,7 @@
 //! | [`sim`] | bone attachment, strand entities, the XPBD solver with Selle's structural springs, anchors, collisions (own colliders; rapier's and avian's behind features) |
 //! | [`mesh`] | tapered tubes swept along a spline through each strand; specular sampling quads |
 //! | [`silhouette`] | object-space silhouette strokes: edge adjacency of any closed mesh, tube edges, chains, screen-space strips |
-//! | `render` | toon material (`toon`), ramps, image-space outlines (`outline/`: component, prepasses, pipelines, pass), the WGSL library (feature `render`) |
+//! | `render` | toon material (`toon`), ramps, image-space outlines (`outline/`: component, prepasses, pipelines, pass), the WESL shader library (feature `render`) |
 //! | [`hatching`] | the tonal art map generator (settings, stroke image, rasteriser, generator) and its texture |
 //! | `headless` | rendering without a window into an image, reading pixels back (feature `demo`) |
 //! | [`curve`] | the quadratic curves (H, S, E) shared by all stages |
@@ -94,7 +94,7 @@
 //! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
 //! | [`silhouette::HairSilhouettePlugin`] | Extracts object-space silhouette strokes per strand each frame (`SilhouetteSettings`). | Disable for image-space outlines only, or none. |
 //! | `render::ToonHairMaterialPlugin` | `ToonHairMaterial` (ramps, depth detail, back light, specular, hatching) and default ramps; draws hair meshes with each hair's `HairMaterial`. | Replace to draw hair with another material. |
-//! | `render::HairShaderLibraryPlugin` | Registers the WGSL modules (`bevy_cartoon_hair::curves`) the materials import. | Replace it only together with the materials. |
+//! | `render::HairShaderLibraryPlugin` | Registers the WESL modules (`bevy_cartoon_hair::render::curves`) the materials import. | Replace it only together with the materials. |
 //! | `render::ImageSpaceOutlinePlugin` | Image-space silhouette edges: Sobel on the depth/normal prepass, threshold, X/Y dilation, ink over the frame, on cameras with an `ImageSpaceOutline` (switch it off and on any time). | Disable if you never outline on screen, or to use another outline post-process. |
 //! | `ui::HairTuningUiPlugin` | The egui tuning panel (Debug, Hair properties, Effects windows; presets), stage timings, debug drawing; adds `bevy_egui`'s `EguiPlugin` if missing. Hidden until `HairTuningUi::visible` is set. | Disable in a shipped game, or when you configure egui yourself differently; it needs an egui context on a camera. |
 //!

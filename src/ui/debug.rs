@@ -19,10 +19,9 @@ pub(super) fn debug_window(
     mut draw: ResMut<HairDebugDraw>,
     mut hair_time: ResMut<Time<HairTime>>,
     timings: Res<HairStageTimings>,
-    tuning: Res<HairTuningUi>,
+    (tuning, mut layout): (Res<HairTuningUi>, ResMut<TuningPanelLayout>),
     culling: Res<HairCullingStats>,
     hairs: Query<&ComputedHair>,
-    mut layout: ResMut<TuningPanelLayout>,
 ) {
     let Ok(ctx) = contexts.ctx_mut() else {
         return;

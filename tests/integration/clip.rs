@@ -107,7 +107,7 @@ fn clip_recorder_names_every_broken_file_and_writes_no_clip() -> Result<(), Fail
     };
     let result = record_clip(&settings);
     let _ = std::fs::remove_dir_all(&assets);
-    let written = std::fs::read_dir(&out).map_or(0, |d| d.count());
+    let written = std::fs::read_dir(&out).map_or(0, Iterator::count);
     let _ = std::fs::remove_dir_all(&out);
     let error = match result {
         Ok(paths) => return Err(format!("a clip of broken files was written: {paths:?}").into()),
