@@ -9,9 +9,26 @@ pub(crate) fn finite_or(v: f32, default: f32) -> f32 {
     if v.is_finite() { v } else { default }
 }
 
-/// Whether a bone's (or any) world transform can be followed: finite and invertible.
+/// Farthest from the world origin (metres) a frame the hair follows may be. Past it an `f32`
+/// position is coarser than 6 cm, so hair cannot be simulated there anyway.
+pub(crate) const MAX_FRAME_DISTANCE: f32 = 1e6;
+/// Range of axis scales a frame the hair follows may have (the file formats' `scale` range).
+pub(crate) const FRAME_SCALE_RANGE: (f32, f32) = (1e-6, 1e6);
+
+/// Whether a bone's (or any) world transform can be followed: finite, invertible, within
+/// [`MAX_FRAME_DISTANCE`] of the origin and with axis scales within [`FRAME_SCALE_RANGE`]. A
+/// finite transform of huge scale or distance would overflow the solver's arithmetic to NaN.
 pub(crate) fn usable_frame(frame: &Affine3A) -> bool {
-    frame.is_finite() && frame.matrix3.determinant().abs() > 1e-12
+    let (lo, hi) = FRAME_SCALE_RANGE;
+    let axes = [
+        frame.matrix3.x_axis,
+        frame.matrix3.y_axis,
+        frame.matrix3.z_axis,
+    ];
+    frame.is_finite()
+        && frame.translation.abs().max_element() <= MAX_FRAME_DISTANCE
+        && axes.iter().all(|a| (lo..=hi).contains(&a.length()))
+        && frame.matrix3.determinant().abs() > 1e-12
 }
 
 /// `v` made perpendicular to unit `t` and normalised; any perpendicular when `v` is parallel to
@@ -45,6 +62,17 @@ mod tests {
             1.0, 0.0, 1.0
         ))));
         assert!(!usable_frame(&Affine3A::from_translation(Vec3::NAN)));
+        // Finite but overflowing: found by the solver fuzz target (a 3e19 scale made NaN).
+        assert!(!usable_frame(&Affine3A::from_scale(Vec3::splat(-3.2e19))));
+        assert!(!usable_frame(&Affine3A::from_translation(Vec3::new(
+            0.0, 0.0, 2e11
+        ))));
+        assert!(usable_frame(&Affine3A::from_scale(Vec3::splat(0.01))));
+        assert!(usable_frame(&Affine3A::from_scale_rotation_translation(
+            Vec3::new(-1.0, 1.0, 1.0),
+            bevy::math::Quat::from_rotation_y(1.0),
+            Vec3::new(9e5, 0.0, -9e5),
+        )));
         let p = orthonormalise(Vec3::new(1.0, 1.0, 0.0), Vec3::Y);
         assert!((p - Vec3::X).length() < 1e-6);
         let q = orthonormalise(Vec3::Y, Vec3::Y);

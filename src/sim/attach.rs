@@ -323,7 +323,7 @@ pub struct HairStatus {
 
 impl HairStatus {
     /// Records `(what, id)`; `true` the first time.
-    fn first_report(&mut self, what: Report, id: UntypedAssetId) -> bool {
+    pub(super) fn first_report(&mut self, what: Report, id: UntypedAssetId) -> bool {
         if self.reported.contains(&(what, id)) {
             return false;
         }
@@ -339,7 +339,7 @@ impl HairStatus {
 
 /// What a hair reports once per asset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Report {
+pub(super) enum Report {
     /// The asset failed to load.
     Failed(HairAssetKind),
     /// The animation's keyframes do not match the groom.
@@ -369,9 +369,9 @@ type HairBuildQuery<'w, 's> = Query<
 /// The assets a hair build reads.
 #[derive(bevy::ecs::system::SystemParam)]
 pub(crate) struct HairAssets<'w> {
-    grooms: Res<'w, Assets<HairGroom>>,
-    animations: Res<'w, Assets<HairAnimation>>,
-    collisions: Res<'w, Assets<HeadCollision>>,
+    pub(super) grooms: Res<'w, Assets<HairGroom>>,
+    pub(super) animations: Res<'w, Assets<HairAnimation>>,
+    pub(super) collisions: Res<'w, Assets<HeadCollision>>,
     server: Res<'w, AssetServer>,
 }
 
@@ -384,7 +384,7 @@ impl HairAssets<'_> {
         }
     }
 
-    fn path(&self, id: impl Into<UntypedAssetId>) -> String {
+    pub(super) fn path(&self, id: impl Into<UntypedAssetId>) -> String {
         self.server
             .get_path(id.into())
             .map(|p| p.to_string())
@@ -410,7 +410,7 @@ fn optional<'a, A: Asset>(
 
 /// The message of a load error without the backtrace Bevy's errors may carry on their later
 /// lines (indented frames, then a `note:` about them).
-fn without_backtrace(error: &str) -> String {
+pub(super) fn without_backtrace(error: &str) -> String {
     error
         .lines()
         .take_while(|l| !l.starts_with(char::is_whitespace) && !l.starts_with("note: "))
@@ -419,7 +419,8 @@ fn without_backtrace(error: &str) -> String {
 }
 
 /// Reports a failed asset of `hair` once: an error log line and a [`HairAssetFailed`] event.
-fn report_failure(
+#[allow(clippy::too_many_arguments)]
+pub(super) fn report_failure(
     commands: &mut Commands,
     status: &mut HairStatus,
     assets: &HairAssets,
@@ -427,15 +428,17 @@ fn report_failure(
     kind: HairAssetKind,
     id: UntypedAssetId,
     error: String,
+    kept_last_good: bool,
 ) {
     if !status.first_report(Report::Failed(kind), id) {
         return;
     }
     let path = assets.path(id);
-    let consequence = match kind {
-        HairAssetKind::Groom => "no hair is built",
-        HairAssetKind::Animation => "the hair anchors to the groom's own style",
-        HairAssetKind::Collision => "the hair is built without a head collider",
+    let consequence = match (kind, kept_last_good) {
+        (_, true) => "the hair keeps the last version that loaded; save the file again to retry",
+        (HairAssetKind::Groom, false) => "no hair is built",
+        (HairAssetKind::Animation, false) => "the hair anchors to the groom's own style",
+        (HairAssetKind::Collision, false) => "the hair is built without a head collider",
     };
     error!("hair {hair}: {kind:?} {path:?} failed to load ({consequence}): {error}");
     commands.trigger(HairAssetFailed {
@@ -443,6 +446,7 @@ fn report_failure(
         asset: kind,
         path,
         error,
+        kept_last_good,
     });
 }
 
@@ -525,7 +529,16 @@ pub(crate) fn build_hair_strands(
         let status = status.into_inner();
         let mut failed = |kind, id: UntypedAssetId| {
             let error = assets.failure(id)?;
-            report_failure(&mut commands, status, &assets, entity, kind, id, error);
+            report_failure(
+                &mut commands,
+                status,
+                &assets,
+                entity,
+                kind,
+                id,
+                error,
+                false,
+            );
             Some(())
         };
         let Some(groom) = assets.grooms.get(&hair.groom) else {
@@ -756,43 +769,6 @@ fn same_layout(old: &[Batch], new: &[Batch]) -> bool {
         && old.iter().zip(new).all(|(a, b)| {
             a.strands == b.strands && a.count == b.count && a.nodes.len() == b.nodes.len()
         })
-}
-
-/// Collects the assets of `events` that were modified (reloaded).
-fn modified<A: Asset>(events: &mut MessageReader<AssetEvent<A>>, out: &mut Vec<UntypedAssetId>) {
-    out.extend(events.read().filter_map(|e| match e {
-        AssetEvent::Modified { id } => Some(id.untyped()),
-        _ => None,
-    }));
-}
-
-/// Marks hairs whose groom, animation or collision file was reloaded, so they rebuild.
-pub(crate) fn mark_reloaded_hairs(
-    mut grooms: MessageReader<AssetEvent<HairGroom>>,
-    mut animations: MessageReader<AssetEvent<HairAnimation>>,
-    mut collisions: MessageReader<AssetEvent<HeadCollision>>,
-    mut hairs: Query<(&Hair, &mut HairStatus)>,
-) {
-    let mut reloaded: Vec<UntypedAssetId> = Vec::new();
-    modified(&mut grooms, &mut reloaded);
-    modified(&mut animations, &mut reloaded);
-    modified(&mut collisions, &mut reloaded);
-    if reloaded.is_empty() {
-        return;
-    }
-    for (hair, mut status) in &mut hairs {
-        let ids = [
-            Some(hair.groom.id().untyped()),
-            hair.animation.as_ref().map(|h| h.id().untyped()),
-            hair.collision.as_ref().map(|h| h.id().untyped()),
-        ];
-        for id in ids.into_iter().flatten() {
-            if reloaded.contains(&id) {
-                status.reloaded = true;
-                status.forget(id);
-            }
-        }
-    }
 }
 
 /// What the margins were drawn from; a change redraws them.

@@ -62,6 +62,9 @@ pub struct HairAssetFailed {
     pub path: String,
     /// The loader's error.
     pub error: String,
+    /// A reload of a file that had loaded failed (a broken save while the game runs): the hair
+    /// keeps the last version that loaded, and a fixed save rebuilds it.
+    pub kept_last_good: bool,
 }
 
 /// [`AttachToBone`](super::AttachToBone) names a bone the character does not have.

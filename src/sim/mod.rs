@@ -33,6 +33,7 @@ mod collider_tests;
 mod contact;
 mod events;
 mod physics;
+mod reload;
 mod settings;
 pub mod solver;
 mod step;
@@ -110,7 +111,8 @@ impl Plugin for HairSimulationPlugin {
                 PostUpdate,
                 (
                     bone::attach_to_bones,
-                    attach::mark_reloaded_hairs,
+                    reload::mark_reloaded_hairs,
+                    reload::report_failed_reloads,
                     // Strands are built on the bone found this frame. Each sync point runs only
                     // in frames whose systems before it had work (see `AttachWork`).
                     ApplyDeferred.run_if(attach::AttachWork::bones),

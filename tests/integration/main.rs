@@ -11,6 +11,7 @@
 mod assets;
 mod character_render;
 mod clip;
+mod hot_reload;
 mod lighting_render;
 mod look_suite;
 mod mass_render;
@@ -63,6 +64,9 @@ fn main() {
         );
     }
     for (name, test) in assets::TESTS {
+        trials.push(Trial::test(format!("assets::{name}"), *test));
+    }
+    for (name, test) in hot_reload::TESTS {
         trials.push(Trial::test(format!("assets::{name}"), *test));
     }
     for (name, test) in clip::TESTS {
