@@ -308,7 +308,7 @@ fn main() -> ExitCode {
     }
     let meshes_at_start = app.world().resource::<Assets<Mesh>>().len();
     println!(
-        "soak: {} frames, {CHARACTERS} characters, {} strands each, seed {}",
+        "soak: {} frames, {CHARACTERS} characters, {} particles each, seed {}",
         args.frames,
         rest[0].len(),
         args.seed

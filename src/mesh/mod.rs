@@ -31,7 +31,7 @@ use crate::asset::HairGroom;
 use crate::curve::QuadraticCurve;
 use crate::parallel;
 use crate::schedule::HairSystems;
-use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+use crate::sim::{BoneChainHair, ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use tube::{FrameReference, TubeParams, TubeScratch, TubeTopology};
 
 /// How strands are turned into tubes. A component on the [`Hair`] entity (inserted with defaults
@@ -201,21 +201,24 @@ pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
 pub fn rebuild_strand_meshes(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut hairs: Query<(
-        Entity,
-        &Hair,
-        &HairMeshSettings,
-        &GlobalTransform,
-        &HairStrands,
-        Option<&mut ComputedHairMesh>,
-        &ComputedHair,
+    mut hairs: Query<
         (
-            &HairCulling,
-            &mut HairInView,
-            &lod::HairLod,
-            &mut lod::HairLodLevel,
+            Entity,
+            &Hair,
+            &HairMeshSettings,
+            &GlobalTransform,
+            &HairStrands,
+            Option<&mut ComputedHairMesh>,
+            &ComputedHair,
+            (
+                &HairCulling,
+                &mut HairInView,
+                &lod::HairLod,
+                &mut lod::HairLodLevel,
+            ),
         ),
-    )>,
+        Without<BoneChainHair>,
+    >,
     grooms: Res<Assets<HairGroom>>,
     strands: Query<(&Strand, &StrandParticles)>,
     (mut aabbs, cameras, mut stats): (

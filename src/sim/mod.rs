@@ -26,6 +26,7 @@
 
 mod attach;
 mod bone;
+mod chains;
 mod clock;
 mod collider;
 #[cfg(test)]
@@ -47,6 +48,7 @@ pub use attach::{
     StrandParticles,
 };
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
+pub use chains::{BoneChainHair, BoneChainHairs, ChainSelect, HairBoneChains, MIN_TAIL};
 pub use clock::{HairTime, HairTimeExt};
 pub use collider::{HairCollider, HairColliderMode};
 pub use events::{
@@ -105,11 +107,15 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairStatus>()
             .register_type::<StrandParticles>()
             .register_type::<BoneSearch>()
+            .register_type::<HairBoneChains>()
+            .register_type::<BoneChainHairs>()
+            .register_type::<BoneChainHair>()
             .add_observer(attach::detach_hair)
             .add_observer(bone::mark_spawned_characters)
             .add_systems(
                 PostUpdate,
                 (
+                    chains::build_bone_chains,
                     bone::attach_to_bones,
                     reload::mark_reloaded_hairs,
                     reload::report_failed_reloads,
@@ -127,6 +133,7 @@ impl Plugin for HairSimulationPlugin {
                 (
                     step::step_hair_strands.after(physics::GatherColliders),
                     step::write_strand_particles,
+                    chains::pose_bone_chains,
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

@@ -82,10 +82,13 @@ pub fn build_chain(
         }
         None => {
             // The world axis least aligned with the root direction gives a stable first normal.
+            // Near-ties go to the earlier axis: a strand straight down (0, -1, 0) is a tie of X
+            // and Z, and rounding (a rig of another scale) must not flip its structural side.
+            const TIE: f32 = 1e-4;
             let a = t0.abs();
-            let axis = if a.x <= a.y && a.x <= a.z {
+            let axis = if a.x <= a.y + TIE && a.x <= a.z + TIE {
                 Vec3::X
-            } else if a.y <= a.z {
+            } else if a.y <= a.z + TIE {
                 Vec3::Y
             } else {
                 Vec3::Z

@@ -669,5 +669,6 @@ fn particles(app: &mut App) -> Vec<Vec<Vec3>> {
 }
 
 mod attach;
+mod chains;
 mod motion;
 mod volume;

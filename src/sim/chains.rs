@@ -1,0 +1,400 @@
+//! Bone chains as strands: the hair bones of a modelled hair mesh (VRM spring bones, Blender or
+//! MMD hair bones) simulated by the hair solver, with each joint's rotation written back so
+//! Bevy's skinning bends the user's own mesh.
+//!
+//! A [`HairBoneChains`] names the chains. Once the character's bones exist, the plugin groups the
+//! chains by the bone they hang from (usually the head) and spawns one [`Hair`] per group as that
+//! bone's child, its groom made from the joints' bind pose: particle `k` of a strand is joint `k`
+//! of its chain, and one more particle, the tail, lies past the last joint (as VRM's spring bones
+//! do). Everything the solver does for groomed hair applies: [`HairSimSettings`] (copied from the
+//! [`HairBoneChains`] entity), colliders, wind and force fields, volume, style limits, teleports,
+//! any rig scale. After each step the joints are turned, root to tip, so each points at the next
+//! particle; the bind pose is the style the chains return to.
+
+use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
+use bevy::world_serialization::WorldAssetRoot;
+
+use super::attach::{AttachWork, Hair, HairStrands, Strand, StrandParticles};
+use super::bone::BonePredicate;
+use super::events::BoneNotFound;
+use super::settings::HairSimSettings;
+use crate::asset::HairGroom;
+
+/// Shortest tail, in metres at the character's size, whatever [`HairBoneChains::tail`] says.
+pub const MIN_TAIL: f32 = 0.005;
+
+/// Which bones start a chain. A chain runs from its first bone down through the first child of
+/// each joint (name other branches as chains of their own) to a bone without children.
+#[derive(Clone, Debug, Reflect)]
+#[reflect(Clone, Debug)]
+#[non_exhaustive]
+pub enum ChainSelect {
+    /// The character's descendants with these [`Name`]s.
+    Named(Vec<String>),
+    /// Every descendant whose name passes the test and whose parent's name does not: e.g.
+    /// `|n| n.starts_with("J_Sec_Hair")` for a VRoid character's hair.
+    Matching(#[reflect(ignore)] BonePredicate),
+    /// These bone entities.
+    Entities(Vec<Entity>),
+}
+
+/// Simulates chains of a character's own bones as hair strands. Put it, with the
+/// [`HairSimSettings`] the chains should have, on an entity of its own; the plugin spawns the
+/// [`Hair`]s (see the module docs) and lists them in [`BoneChainHairs`].
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cartoon_hair::sim::{ChainSelect, HairBoneChains, HairSimSettings};
+/// # fn setup(mut commands: Commands, character: Entity) {
+/// commands.spawn((
+///     HairBoneChains::matching(character, |name| name.starts_with("J_Sec_Hair")),
+///     HairSimSettings { bend_stiffness: 0.6, ..default() },
+/// ));
+/// # }
+/// ```
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(Component, Debug)]
+#[require(HairSimSettings)]
+pub struct HairBoneChains {
+    /// The character whose descendants are searched (a glTF scene root).
+    pub root: Entity,
+    /// Which bones start chains.
+    pub select: ChainSelect,
+    /// Length of the tail past each chain's last joint, as a fraction of the chain's last bone
+    /// (or, for a chain of one joint, of the joint's distance from its parent). At least
+    /// [`MIN_TAIL`]. Default: `1.0`.
+    pub tail: f32,
+}
+
+impl HairBoneChains {
+    /// Chains starting at the descendants of `root` with these names.
+    pub fn named(root: Entity, names: impl IntoIterator<Item = impl Into<String>>) -> Self {
+        Self {
+            root,
+            select: ChainSelect::Named(names.into_iter().map(Into::into).collect()),
+            tail: 1.0,
+        }
+    }
+
+    /// Chains starting at every descendant whose name passes `test` and whose parent's does
+    /// not.
+    pub fn matching(root: Entity, test: impl Fn(&str) -> bool + Send + Sync + 'static) -> Self {
+        Self {
+            root,
+            select: ChainSelect::Matching(BonePredicate::new(test)),
+            tail: 1.0,
+        }
+    }
+}
+
+/// The hairs built for a [`HairBoneChains`] (one per bone the chains hang from), set once they
+/// are built. Remove it to build them again (after despawning them).
+#[derive(Component, Clone, Debug, Default, Reflect)]
+#[reflect(Component, Debug)]
+pub struct BoneChainHairs(pub Vec<Entity>);
+
+/// On a [`Hair`] built from bone chains: the joints its strands drive. Its strands are not meshed
+/// (the character's own mesh is what they move).
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(Component, Debug)]
+pub struct BoneChainHair {
+    /// The [`HairBoneChains`] entity.
+    pub chains: Entity,
+    /// Per strand: its joints, root first (the tail particle has none).
+    pub joints: Vec<Vec<Entity>>,
+    /// Per strand: each joint's local transform in the bind pose.
+    rest: Vec<Vec<Transform>>,
+    /// Per strand: the tail's offset in the last joint's local frame.
+    tail: Vec<Vec3>,
+}
+
+/// A chain found under the character: its joints and their world transforms now.
+struct FoundChain {
+    parent: Entity,
+    joints: Vec<Entity>,
+}
+
+/// Descendants of `root` that start chains, in depth-first order.
+fn chain_starts(
+    root: Entity,
+    select: &ChainSelect,
+    children: &Query<&Children>,
+    names: &Query<&Name>,
+) -> Vec<Entity> {
+    if let ChainSelect::Entities(list) = select {
+        return list.clone();
+    }
+    let name_of = |e: Entity| names.get(e).map(Name::as_str).ok();
+    let mut out = Vec::new();
+    let mut stack = vec![(root, false)];
+    while let Some((e, parent_matched)) = stack.pop() {
+        let matched = match (select, name_of(e)) {
+            (ChainSelect::Named(list), Some(n)) => list.iter().any(|m| m == n),
+            (ChainSelect::Matching(test), Some(n)) => test.matches(n),
+            _ => false,
+        };
+        let starts = match select {
+            ChainSelect::Matching(_) => matched && !parent_matched,
+            _ => matched,
+        };
+        if starts {
+            out.push(e);
+        }
+        if let Ok(kids) = children.get(e) {
+            for k in kids.iter().rev() {
+                stack.push((k, matched));
+            }
+        }
+    }
+    out
+}
+
+/// The joints of the chain starting at `start`: it and the first child of each joint.
+fn walk_chain(
+    start: Entity,
+    children: &Query<&Children>,
+    bones: &Query<(), With<Transform>>,
+) -> Vec<Entity> {
+    let mut joints = vec![start];
+    let mut at = start;
+    while let Some(next) = children
+        .get(at)
+        .ok()
+        .and_then(|c| c.iter().find(|k| bones.contains(*k)))
+    {
+        if joints.len() >= crate::asset::MAX_PARTICLES_PER_STRAND - 1 || joints.contains(&next) {
+            break;
+        }
+        joints.push(next);
+        at = next;
+    }
+    joints
+}
+
+/// Builds the hairs of every [`HairBoneChains`] whose character's bones exist.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+pub(crate) fn build_bone_chains(
+    mut commands: Commands,
+    sets: Query<(Entity, &HairBoneChains, &HairSimSettings), Without<BoneChainHairs>>,
+    children: Query<&Children>,
+    names: Query<&Name>,
+    parents: Query<&ChildOf>,
+    bones: Query<(), With<Transform>>,
+    locals: Query<&Transform>,
+    scenes: Query<&WorldAssetRoot>,
+    helper: TransformHelper,
+    (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
+) {
+    for (set, chains, settings) in &sets {
+        let starts = chain_starts(chains.root, &chains.select, &children, &names);
+        if starts.is_empty() {
+            // A glTF character that has not spawned has no children yet: wait for it.
+            if scenes.contains(chains.root) && children.get(chains.root).is_err() {
+                continue;
+            }
+            let mut available = Vec::new();
+            let mut stack = vec![chains.root];
+            while let Some(e) = stack.pop() {
+                if let Ok(n) = names.get(e) {
+                    available.push(n.as_str().to_owned());
+                }
+                stack.extend(children.get(e).into_iter().flat_map(|c| c.iter()));
+            }
+            warn!(
+                "hair bone chains {set}: no bone of character {} starts a chain ({:?}); it has {} \
+                 named entities: {:?}",
+                chains.root,
+                chains.select,
+                available.len(),
+                &available[..available.len().min(40)]
+            );
+            commands.trigger(BoneNotFound {
+                entity: set,
+                root: chains.root,
+                bone: format!("{:?}", chains.select),
+                available,
+            });
+            commands.entity(set).insert(BoneChainHairs::default());
+            continue;
+        }
+        // The hairs spawned here are built by the strand build in this same frame.
+        work.bones = true;
+        // Group the chains by the bone they hang from.
+        let mut groups: Vec<(Entity, Vec<FoundChain>)> = Vec::new();
+        for start in starts {
+            let Ok(parent) = parents.get(start).map(ChildOf::parent) else {
+                warn!("hair bone chains {set}: bone {start} has no parent to hang from; skipped");
+                continue;
+            };
+            let chain = FoundChain {
+                parent,
+                joints: walk_chain(start, &children, &bones),
+            };
+            match groups.iter_mut().find(|(p, _)| *p == parent) {
+                Some((_, list)) => list.push(chain),
+                None => groups.push((parent, vec![chain])),
+            }
+        }
+        let mut hairs = Vec::new();
+        for (parent, found) in groups {
+            let Ok(parent_world) = helper.compute_global_transform(parent) else {
+                continue;
+            };
+            let to_parent = parent_world.affine().inverse();
+            let mut strands = Vec::new();
+            let mut driven = BoneChainHair {
+                chains: set,
+                joints: Vec::new(),
+                rest: Vec::new(),
+                tail: Vec::new(),
+            };
+            for chain in found {
+                let Some(built) = chain_strand(&chain, chains.tail, &helper, &locals) else {
+                    warn!(
+                        "hair bone chains {set}: the chain from bone {} has joints in one place; \
+                         skipped",
+                        chain.joints[0]
+                    );
+                    continue;
+                };
+                let (world, rest, tail) = built;
+                strands.push(
+                    world
+                        .iter()
+                        .map(|p| to_parent.transform_point3(*p))
+                        .collect(),
+                );
+                driven.joints.push(chain.joints);
+                driven.rest.push(rest);
+                driven.tail.push(tail);
+            }
+            let groom = match HairGroom::from_strands("", strands) {
+                Ok(g) => g,
+                Err(e) => {
+                    warn!("hair bone chains {set}: chains under bone {parent}: {e}; skipped");
+                    continue;
+                }
+            };
+            let name = names
+                .get(parent)
+                .map_or(String::new(), |n| n.as_str().to_owned());
+            let hair = commands
+                .spawn((
+                    Name::new(format!("hair bone chains on {name}")),
+                    // Where propagation will put it (on the bone, identity transform): the
+                    // strands are built this frame, at the bone's scale.
+                    Transform::IDENTITY,
+                    parent_world,
+                    Hair {
+                        groom: grooms.add(groom),
+                        ..default()
+                    },
+                    settings.clone(),
+                    driven,
+                    ChildOf(parent),
+                ))
+                .id();
+            hairs.push(hair);
+        }
+        commands.entity(set).insert(BoneChainHairs(hairs));
+    }
+}
+
+/// A chain's particles in world space (its joints and the tail), its joints' local bind
+/// transforms, and the tail in the last joint's frame; `None` when two joints coincide.
+fn chain_strand(
+    chain: &FoundChain,
+    tail: f32,
+    helper: &TransformHelper,
+    locals: &Query<&Transform>,
+) -> Option<(Vec<Vec3>, Vec<Transform>, Vec3)> {
+    let mut world = Vec::with_capacity(chain.joints.len() + 1);
+    let mut rest = Vec::with_capacity(chain.joints.len());
+    let mut last = None;
+    for &j in &chain.joints {
+        let g = helper.compute_global_transform(j).ok()?;
+        world.push(g.translation());
+        rest.push(*locals.get(j).ok()?);
+        last = Some(g);
+    }
+    let last = last?;
+    let before = if world.len() >= 2 {
+        world[world.len() - 2]
+    } else {
+        helper
+            .compute_global_transform(chain.parent)
+            .ok()?
+            .translation()
+    };
+    let end = *world.last()?;
+    let bone = end - before;
+    let direction = bone.try_normalize()?;
+    let length = (bone.length() * tail.max(0.0)).max(MIN_TAIL);
+    let tip = end + direction * length;
+    world.push(tip);
+    let tail_local = last.affine().inverse().transform_point3(tip);
+    Some((world, rest, tail_local))
+}
+
+/// Turns each chain's joints, root to tip, so each points at its next particle, and writes their
+/// local and global transforms (the skinned mesh is drawn from these this frame).
+pub(crate) fn pose_bone_chains(
+    hairs: Query<(&BoneChainHair, &GlobalTransform, &HairStrands)>,
+    strands: Query<(&Strand, &StrandParticles)>,
+    mut joints: Query<(&mut Transform, &mut GlobalTransform), Without<BoneChainHair>>,
+) {
+    for (driven, hair_world, strand_list) in &hairs {
+        for strand in strand_list.iter() {
+            let Ok((strand, particles)) = strands.get(strand) else {
+                continue;
+            };
+            let s = strand.index as usize;
+            let (Some(chain), Some(rest), Some(tail)) =
+                (driven.joints.get(s), driven.rest.get(s), driven.tail.get(s))
+            else {
+                continue;
+            };
+            if particles.positions.len() != chain.len() + 1
+                || !particles.positions.iter().all(|p| p.is_finite())
+            {
+                continue;
+            }
+            // The hair hangs on the chains' parent bone with an identity transform.
+            let mut parent = *hair_world;
+            for (k, &joint) in chain.iter().enumerate() {
+                let Ok((mut local, mut global)) = joints.get_mut(joint) else {
+                    break;
+                };
+                let bind = Transform {
+                    rotation: rest[k].rotation,
+                    ..*local
+                };
+                let at_rest = parent.mul_transform(bind);
+                let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
+                let from = at_rest.affine().transform_vector3(child);
+                let to = particles.positions[k + 1] - at_rest.translation();
+                let rotation = match (from.try_normalize(), to.try_normalize()) {
+                    (Some(a), Some(b)) => {
+                        let (_, parent_rotation, _) = parent.to_scale_rotation_translation();
+                        let turn = Quat::from_rotation_arc(a, b);
+                        (parent_rotation.inverse() * turn * parent_rotation * bind.rotation)
+                            .normalize()
+                    }
+                    _ => bind.rotation,
+                };
+                if !rotation.is_finite() {
+                    break;
+                }
+                let posed = Transform { rotation, ..bind };
+                let world = parent.mul_transform(posed);
+                local.rotation = rotation;
+                *global = world;
+                parent = world;
+            }
+        }
+    }
+}
