@@ -201,9 +201,9 @@ pub mod prelude {
     #[cfg(feature = "avian")]
     pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
-        AttachToBone, Hair, HairCollider, HairColliderMode, HairForceField, HairForceFieldKind,
-        HairSimControl, HairSimSettings, HairTime, HairTimeExt, HairWind, HairWindOverride, Strand,
-        StrandParticles,
+        AttachToBone, ChainSelect, Hair, HairBoneChains, HairCollider, HairColliderMode,
+        HairForceField, HairForceFieldKind, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
+        HairWind, HairWindOverride, Strand, StrandParticles,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

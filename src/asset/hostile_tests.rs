@@ -144,6 +144,11 @@ fn keys_that_leave_the_asset_folder_are_refused_before_any_read() {
     let named = AssetPath::parse("mods://pack/anim.hairanim.xml");
     let ok = resolve_key_path(&named, "k.hair.xml").unwrap();
     assert_eq!(ok, AssetPath::parse("mods://pack/k.hair.xml"));
+    // Dots inside a file name are a name, not a climb (a case the loader fuzz target met).
+    let ok = resolve_key_path(&top, "c..hair.xml").unwrap();
+    assert_eq!(ok, AssetPath::parse("c..hair.xml"));
+    assert!(resolve_key_path(&top, "..hair.xml").is_ok());
+    assert!(resolve_key_path(&top, "../.hair.xml").is_err());
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -415,3 +415,94 @@ fn chain_selection_by_name_and_entity_and_a_missing_chain_is_reported() {
         seen(&app)
     );
 }
+
+#[test]
+fn chains_stay_out_of_a_head_collider_through_a_fast_shake() {
+    // A sphere inside the head, reaching close to where the chains hang; the shake throws them
+    // at it. Without the collider they pass through it.
+    let run = |with_collider: bool| {
+        let (mut app, root, _) = chains_app(soft(), Transform::default(), 1.0);
+        let head = app
+            .world_mut()
+            .query::<(Entity, &Name)>()
+            .iter(app.world())
+            .find(|(_, n)| n.as_str() == "head")
+            .unwrap()
+            .0;
+        if with_collider {
+            app.world_mut().spawn((
+                HairCollider {
+                    spheres: vec![CollisionSphere {
+                        center: Vec3::ZERO,
+                        radius: 0.05,
+                    }],
+                    ..default()
+                },
+                ChildOf(head),
+            ));
+        }
+        let mut deepest = 0.0f32;
+        for f in 0..240 {
+            let t = (f + 1) as f32 / 60.0;
+            app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(t);
+            app.update();
+            let centre = app
+                .world()
+                .get::<GlobalTransform>(head)
+                .unwrap()
+                .translation();
+            let strands = particles(&mut app);
+            deepest = deepest.max(
+                strands
+                    .iter()
+                    .flat_map(|s| s.iter().skip(1))
+                    .map(|p| 0.05 - p.distance(centre))
+                    .fold(0.0, f32::max),
+            );
+        }
+        deepest
+    };
+    let (with, without) = (run(true), run(false));
+    println!(
+        "bone chains in a fast shake: {with:e} m inside the head sphere, {without:e} m without it"
+    );
+    assert!(
+        without > 0.005,
+        "the shake must throw the chains into the sphere ({without} m)"
+    );
+    assert!(with < 0.001, "the chains went {with} m into the head");
+}
+
+#[test]
+fn a_teleported_character_carries_its_chains_without_a_whip() {
+    let (mut app, root, joints) = chains_app(HairSimSettings::default(), Transform::default(), 1.0);
+    let head = app.world().get::<ChildOf>(joints[0]).unwrap().parent();
+    let in_head = |app: &App| -> Vec<Vec3> {
+        let h = app
+            .world()
+            .get::<GlobalTransform>(head)
+            .unwrap()
+            .affine()
+            .inverse();
+        joint_positions(app, &joints)
+            .into_iter()
+            .map(|p| h.transform_point3(p))
+            .collect()
+    };
+    for _ in 0..120 {
+        app.update();
+    }
+    let before = in_head(&app);
+    app.world_mut()
+        .get_mut::<Transform>(root)
+        .unwrap()
+        .translation = Vec3::new(100.0, 0.0, -40.0);
+    app.update();
+    let after = in_head(&app);
+    let whip = farthest(&before, &after);
+    println!("bone chains across a 108 m teleport: {whip:e} m from their place on the head");
+    assert!(
+        whip < 1e-3,
+        "the teleport moved the chains {whip} m on the head"
+    );
+}
