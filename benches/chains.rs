@@ -1,0 +1,362 @@
+//! Bone chains: the crate's solver driving a crowd's hair bones, beside the VRM reference
+//! spring-bone step written out here as the baseline.
+//!
+//! ```text
+//! cargo bench --bench chains --no-default-features
+//! ```
+//!
+//! 16 characters x 40 chains x 6 joints (and a tail), each character with a head sphere, a neck
+//! capsule and two shoulder capsules. `chains/ours` is a whole `app.update()` of a headless app
+//! (bone lookup, solver, writing the joints); `chains/vrm_reference` is the VRM 1.0 spring-bone
+//! step (verlet with drag, stiffness toward the bind direction, gravity, length kept, sphere and
+//! capsule pushes, joint rotations) over plain arrays, the same colliders and joints. Before the
+//! timings it prints how far each method's tips end up, after the same second of head shaking,
+//! between 30 and 144 frames a second.
+#![expect(
+    missing_docs,
+    reason = "criterion's macros define undocumented functions"
+)]
+
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::math::Affine3A;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cartoon_hair::HairSchedulePlugin;
+use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionSphere, HairAssetPlugin};
+use bevy_cartoon_hair::sim::{HairBoneChains, HairCollider, HairSimSettings, HairSimulationPlugin};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+const CHARACTERS: usize = 16;
+const CHAINS: usize = 40;
+const JOINTS: usize = 6;
+const SEGMENT: f32 = 0.03;
+const HEAD: Vec3 = Vec3::new(0.0, 1.6, 0.0);
+
+/// Joint `k` of chain `c`, in its parent's frame (joint 0 in the head's): root on the upper
+/// half of a head of radius 0.11, then straight out and down.
+fn joint_local(c: usize, k: usize) -> Vec3 {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let y = 1.0 - (c as f32 + 0.5) / CHAINS as f32 * 0.6;
+    let r = (1.0 - y * y).sqrt();
+    let a = golden * c as f32;
+    let n = Vec3::new(r * a.cos(), y, r * a.sin());
+    if k == 0 {
+        n * 0.11
+    } else {
+        (Vec3::new(n.x, -1.5, n.z)).normalize() * SEGMENT
+    }
+}
+
+/// The body's colliders, in the head's frame.
+fn body() -> (Vec<CollisionSphere>, Vec<CollisionCapsule>) {
+    let spheres = vec![CollisionSphere {
+        center: Vec3::ZERO,
+        radius: 0.1,
+    }];
+    let capsule = |a: Vec3, b: Vec3| CollisionCapsule { a, b, radius: 0.05 };
+    let capsules = vec![
+        capsule(Vec3::new(0.0, -0.05, 0.0), Vec3::new(0.0, -0.2, 0.0)),
+        capsule(Vec3::new(0.05, -0.22, 0.0), Vec3::new(0.2, -0.25, 0.0)),
+        capsule(Vec3::new(-0.05, -0.22, 0.0), Vec3::new(-0.2, -0.25, 0.0)),
+    ];
+    (spheres, capsules)
+}
+
+fn shake(t: f32) -> Quat {
+    Quat::from_rotation_y(1.2 * (6.0 * t).sin()) * Quat::from_rotation_x(0.3 * (4.0 * t).sin())
+}
+
+// ---------------------------------------------------------------------------------------------
+// Ours: the plugin in a headless app.
+
+fn our_app(characters: usize, fps: f64) -> (App, Vec<Entity>, Vec<Vec<Entity>>) {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins.set(bevy_cartoon_hair::compute_on_every_core()),
+        TransformPlugin,
+        AssetPlugin::default(),
+        HairAssetPlugin,
+        HairSchedulePlugin,
+        HairSimulationPlugin,
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / fps,
+    )));
+    let (spheres, capsules) = body();
+    let mut roots = Vec::new();
+    let mut tips = Vec::new();
+    for i in 0..characters {
+        let world = app.world_mut();
+        let root = world
+            .spawn(Transform::from_xyz(i as f32 * 1.0, 0.0, 0.0))
+            .id();
+        let head = world
+            .spawn((
+                Name::new("head"),
+                Transform::from_translation(HEAD),
+                ChildOf(root),
+            ))
+            .id();
+        world.spawn((
+            HairCollider {
+                spheres: spheres.clone(),
+                capsules: capsules.clone(),
+                ..default()
+            },
+            ChildOf(head),
+        ));
+        for c in 0..CHAINS {
+            let mut parent = head;
+            for k in 0..JOINTS {
+                parent = world
+                    .spawn((
+                        Name::new(format!("hair_{c}_{k}")),
+                        Transform::from_translation(joint_local(c, k)),
+                        ChildOf(parent),
+                    ))
+                    .id();
+            }
+            if i == 0 {
+                tips.push(parent);
+            }
+        }
+        world.spawn((
+            HairBoneChains::matching(root, |n| n.starts_with("hair_")),
+            HairSimSettings::default(),
+        ));
+        roots.push(root);
+    }
+    app.update();
+    app.update();
+    (app, roots, vec![tips])
+}
+
+// ---------------------------------------------------------------------------------------------
+// The baseline: VRM 1.0's spring-bone step, as the specification and its reference
+// implementations write it (inertia not scaled by the time step).
+
+/// VRM joint parameters: the defaults of the specification's examples.
+const STIFFNESS: f32 = 1.0;
+const DRAG: f32 = 0.4;
+const GRAVITY_POWER: f32 = 1.0;
+const HIT_RADIUS: f32 = 0.01;
+
+struct VrmChain {
+    /// Each joint's local translation and bind rotation (joint 0 in the head's frame).
+    local: Vec<(Vec3, Quat)>,
+    /// Each joint's tail now and a step ago, in world space.
+    current: Vec<Vec3>,
+    previous: Vec<Vec3>,
+}
+
+struct VrmCrowd {
+    chains: Vec<Vec<VrmChain>>,
+    spheres: Vec<CollisionSphere>,
+    capsules: Vec<CollisionCapsule>,
+}
+
+impl VrmCrowd {
+    fn new(characters: usize) -> Self {
+        let (spheres, capsules) = body();
+        let mut crowd = Self {
+            chains: Vec::new(),
+            spheres,
+            capsules,
+        };
+        for i in 0..characters {
+            let head = head_world(i, Quat::IDENTITY);
+            let chains = (0..CHAINS)
+                .map(|c| {
+                    // The joints and one more (the tail) continuing the last bone.
+                    let mut local: Vec<(Vec3, Quat)> = (0..JOINTS)
+                        .map(|k| (joint_local(c, k), Quat::IDENTITY))
+                        .collect();
+                    local.push((joint_local(c, JOINTS - 1), Quat::IDENTITY));
+                    let mut world = head;
+                    let mut tails = Vec::new();
+                    for (t, r) in &local {
+                        world = world * Affine3A::from_rotation_translation(*r, *t);
+                        tails.push(Vec3::from(world.translation));
+                    }
+                    let tails = tails[1..].to_vec();
+                    VrmChain {
+                        local,
+                        current: tails.clone(),
+                        previous: tails,
+                    }
+                })
+                .collect();
+            crowd.chains.push(chains);
+        }
+        crowd
+    }
+
+    /// One frame of `dt` seconds with the heads at `rotation`.
+    fn step(&mut self, rotation: Quat, dt: f32) {
+        for (i, chains) in self.chains.iter_mut().enumerate() {
+            let head = head_world(i, rotation);
+            let spheres: Vec<(Vec3, f32)> = self
+                .spheres
+                .iter()
+                .map(|s| (head.transform_point3(s.center), s.radius))
+                .collect();
+            let capsules: Vec<(Vec3, Vec3, f32)> = self
+                .capsules
+                .iter()
+                .map(|c| {
+                    (
+                        head.transform_point3(c.a),
+                        head.transform_point3(c.b),
+                        c.radius,
+                    )
+                })
+                .collect();
+            for chain in chains.iter_mut() {
+                let mut parent = head;
+                for k in 0..JOINTS {
+                    let (t, r) = chain.local[k];
+                    let (_, parent_rotation, _) = parent.to_scale_rotation_translation();
+                    let origin = parent.transform_point3(t);
+                    let child = chain.local[k + 1].0;
+                    let length = child.length();
+                    let axis = child / length;
+                    let rest_direction = parent_rotation * r * axis;
+                    let inertia = (chain.current[k] - chain.previous[k]) * (1.0 - DRAG);
+                    let mut next = chain.current[k]
+                        + inertia
+                        + rest_direction * (STIFFNESS * dt)
+                        + Vec3::NEG_Y * (GRAVITY_POWER * dt);
+                    next = origin + (next - origin).normalize_or(rest_direction) * length;
+                    for &(c, radius) in &spheres {
+                        let d = next - c;
+                        let reach = radius + HIT_RADIUS;
+                        if d.length_squared() < reach * reach {
+                            next = c + d.normalize_or(Vec3::Y) * reach;
+                            next = origin + (next - origin).normalize_or(rest_direction) * length;
+                        }
+                    }
+                    for &(a, b, radius) in &capsules {
+                        let ab = b - a;
+                        let s = ((next - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+                        let closest = a + ab * s;
+                        let d = next - closest;
+                        let reach = radius + HIT_RADIUS;
+                        if d.length_squared() < reach * reach {
+                            next = closest + d.normalize_or(Vec3::Y) * reach;
+                            next = origin + (next - origin).normalize_or(rest_direction) * length;
+                        }
+                    }
+                    chain.previous[k] = chain.current[k];
+                    chain.current[k] = next;
+                    let turn = Quat::from_rotation_arc(rest_direction, (next - origin) / length);
+                    let rotation = (turn * parent_rotation * r).normalize();
+                    parent = Affine3A::from_rotation_translation(rotation, origin);
+                }
+            }
+        }
+    }
+}
+
+fn head_world(i: usize, rotation: Quat) -> Affine3A {
+    Affine3A::from_rotation_translation(rotation, Vec3::new(i as f32 * 1.0, 0.0, 0.0))
+        * Affine3A::from_translation(HEAD)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame-rate dependence: the same second of shaking at 30 and 144 fps.
+
+fn our_tips_after_shaking(fps: f64) -> Vec<Vec3> {
+    let (mut app, roots, tips) = our_app(1, fps);
+    let frames = fps.round() as u32;
+    for f in 0..frames {
+        let t = (f + 1) as f32 / fps as f32;
+        app.world_mut()
+            .get_mut::<Transform>(roots[0])
+            .unwrap()
+            .rotation = shake(t);
+        app.update();
+    }
+    let to_head = head_world(0, shake(frames as f32 / fps as f32)).inverse();
+    // The tail particle is not a joint: compare the last joints.
+    tips[0]
+        .iter()
+        .map(|e| {
+            to_head.transform_point3(
+                app.world()
+                    .get::<GlobalTransform>(*e)
+                    .unwrap()
+                    .translation(),
+            )
+        })
+        .collect()
+}
+
+fn vrm_tips_after_shaking(fps: f64) -> Vec<Vec3> {
+    let mut crowd = VrmCrowd::new(1);
+    let frames = fps.round() as u32;
+    for f in 0..frames {
+        let t = (f + 1) as f32 / fps as f32;
+        crowd.step(shake(t), 1.0 / fps as f32);
+    }
+    let to_head = head_world(0, shake(frames as f32 / fps as f32)).inverse();
+    // Tail k is joint k + 1: the last joint is tail JOINTS - 2.
+    crowd.chains[0]
+        .iter()
+        .map(|c| to_head.transform_point3(c.current[JOINTS - 2]))
+        .collect()
+}
+
+fn farthest(a: &[Vec3], b: &[Vec3]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| p.distance(*q))
+        .fold(0.0, f32::max)
+}
+
+fn bench_chains(c: &mut Criterion) {
+    let ours = farthest(
+        &our_tips_after_shaking(30.0),
+        &our_tips_after_shaking(144.0),
+    );
+    let vrm = farthest(
+        &vrm_tips_after_shaking(30.0),
+        &vrm_tips_after_shaking(144.0),
+    );
+    println!(
+        "after 1 s of head shaking, last joints at 30 fps vs 144 fps: ours {:.1} mm apart, the VRM \
+         reference step {:.1} mm apart",
+        ours * 1000.0,
+        vrm * 1000.0
+    );
+    let mut group = c.benchmark_group("chains");
+    group.sample_size(30);
+    let (mut app, roots, _) = our_app(CHARACTERS, 60.0);
+    let mut frame = 0u32;
+    group.bench_function("ours_16x40x6", |b| {
+        b.iter(|| {
+            frame += 1;
+            let r = shake(frame as f32 / 60.0);
+            for root in &roots {
+                app.world_mut()
+                    .get_mut::<Transform>(*root)
+                    .unwrap()
+                    .rotation = r;
+            }
+            app.update();
+        });
+    });
+    let mut crowd = VrmCrowd::new(CHARACTERS);
+    let mut frame = 0u32;
+    group.bench_function("vrm_reference_16x40x6", |b| {
+        b.iter(|| {
+            frame += 1;
+            crowd.step(shake(frame as f32 / 60.0), 1.0 / 60.0);
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, bench_chains);
+criterion_main!(benches);
