@@ -115,8 +115,8 @@ impl Plugin for HairSimulationPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    chains::build_bone_chains,
                     bone::attach_to_bones,
+                    chains::build_bone_chains,
                     reload::mark_reloaded_hairs,
                     reload::report_failed_reloads,
                     // Strands are built on the bone found this frame. Each sync point runs only

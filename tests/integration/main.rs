@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod chain_render;
 mod character_render;
 mod clip;
 mod hot_reload;
@@ -51,6 +52,7 @@ fn main() {
         .chain(lighting_render::RENDER_TESTS)
         .chain(mass_render::RENDER_TESTS)
         .chain(look_suite::RENDER_TESTS)
+        .chain(chain_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
