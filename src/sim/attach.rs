@@ -313,6 +313,10 @@ pub struct HairStatus {
     /// Failures already reported: `(what, asset)`, so each is logged and triggered once.
     #[reflect(ignore)]
     reported: Vec<(Report, UntypedAssetId)>,
+    /// The last failed reload reported for each asset, and its error: Bevy tries a failed
+    /// reload twice (typed, then untyped), and one broken save is reported once.
+    #[reflect(ignore)]
+    pub(crate) failed_reloads: Vec<(UntypedAssetId, String)>,
     /// A file of this hair was reloaded: rebuild.
     pub(crate) reloaded: bool,
     /// How many times the strands were built.
@@ -334,6 +338,22 @@ impl HairStatus {
     /// Forgets failures of `id` (it was reloaded).
     pub(crate) fn forget(&mut self, id: UntypedAssetId) {
         self.reported.retain(|(_, r)| *r != id);
+        self.failed_reloads.retain(|(r, _)| *r != id);
+    }
+
+    /// Records a failed reload of `id`; `false` when it repeats the last one reported for it.
+    pub(crate) fn new_failed_reload(&mut self, id: UntypedAssetId, error: &str) -> bool {
+        match self.failed_reloads.iter_mut().find(|(r, _)| *r == id) {
+            Some((_, last)) if last == error => false,
+            Some((_, last)) => {
+                *last = error.to_owned();
+                true
+            }
+            None => {
+                self.failed_reloads.push((id, error.to_owned()));
+                true
+            }
+        }
     }
 }
 

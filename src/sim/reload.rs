@@ -67,8 +67,9 @@ fn failed<A: Asset>(
 }
 
 /// Reports a reload that failed while the asset's last good version is still loaded (a broken
-/// save): each failed load once, as a [`HairAssetFailed`](super::HairAssetFailed) with
-/// `kept_last_good`. The hair is left as it was. A first load that fails (nothing to keep) is
+/// save): each broken save once (Bevy tries a failed reload twice), as a
+/// [`HairAssetFailed`](super::HairAssetFailed) with `kept_last_good`; a save that fails with
+/// the same error as the last one reported is not reported again until a save loads. The hair is left as it was. A first load that fails (nothing to keep) is
 /// reported by the strand build instead.
 pub(crate) fn report_failed_reloads(
     mut grooms: MessageReader<AssetLoadFailedEvent<HairGroom>>,
@@ -96,8 +97,14 @@ pub(crate) fn report_failed_reloads(
                 continue;
             }
             for (_, error) in failures.iter().filter(|(f, _)| *f == id) {
-                // Every broken save is news, even a second one in a row.
+                // A new error is news, even a second broken save in a row; the same error again
+                // before a good save is Bevy's second attempt at the same reload.
+                if !status.new_failed_reload(id, error) {
+                    continue;
+                }
+                let kept = std::mem::take(&mut status.failed_reloads);
                 status.forget(id);
+                status.failed_reloads = kept;
                 report_failure(
                     &mut commands,
                     &mut status,
