@@ -177,7 +177,7 @@ impl VrmCrowd {
                     let mut world = head;
                     let mut tails = Vec::new();
                     for (t, r) in &local {
-                        world = world * Affine3A::from_rotation_translation(*r, *t);
+                        world *= Affine3A::from_rotation_translation(*r, *t);
                         tails.push(Vec3::from(world.translation));
                     }
                     let tails = tails[1..].to_vec();

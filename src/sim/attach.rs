@@ -439,7 +439,10 @@ pub(super) fn without_backtrace(error: &str) -> String {
 }
 
 /// Reports a failed asset of `hair` once: an error log line and a [`HairAssetFailed`] event.
-#[allow(clippy::too_many_arguments)]
+#[expect(
+    clippy::too_many_arguments,
+    reason = "the hair's commands, status and assets, and what failed of which asset"
+)]
 pub(super) fn report_failure(
     commands: &mut Commands,
     status: &mut HairStatus,

@@ -202,7 +202,9 @@ pub(crate) fn build_bone_chains(
                 if let Ok(n) = names.get(e) {
                     available.push(n.as_str().to_owned());
                 }
-                stack.extend(children.get(e).into_iter().flat_map(|c| c.iter()));
+                if let Ok(kids) = children.get(e) {
+                    stack.extend(kids.iter());
+                }
             }
             warn!(
                 "hair bone chains {set}: no bone of character {} starts a chain ({:?}); it has {} \
