@@ -124,6 +124,35 @@ fn collider(input: &Input) -> HairCollider {
     c
 }
 
+/// How far from the bone's origin the collider's shapes reach (the solver's own rule for which
+/// shapes it uses: finite, sizes above 0 and within 1e5, points within 1e5); `None` with a plane.
+fn shapes_reach(c: &HairCollider) -> Option<f32> {
+    let ok = |p: Vec3| p.is_finite() && p.abs().max_element() <= 1e5;
+    let size = |r: f32| r > 0.0 && r <= 1e5;
+    let mut far = 0.0f32;
+    for s in &c.spheres {
+        if ok(s.center) && size(s.radius) {
+            far = far.max(s.center.length() + s.radius);
+        }
+    }
+    for s in &c.capsules {
+        if ok(s.a) && ok(s.b) && size(s.radius) {
+            far = far.max(s.a.length().max(s.b.length()) + s.radius);
+        }
+    }
+    for b in &c.boxes {
+        let h = b.half_extents.abs();
+        if ok(b.center) && size(h.min_element()) && size(h.max_element()) {
+            far = far.max(b.center.length() + h.length());
+        }
+    }
+    let plane = c
+        .planes
+        .iter()
+        .any(|p| ok(p.point) && p.normal.is_finite() && p.normal.length_squared() > 0.0);
+    (!plane).then_some(far)
+}
+
 fn transform(f: &Frame) -> Transform {
     let q = Quat::from_array(f.rotation);
     let rotation = if q.is_finite() && q.length() > 1e-3 {
@@ -141,6 +170,16 @@ fn transform(f: &Frame) -> Transform {
         rotation,
         scale,
     }
+}
+
+/// The solver's rule for a bone it follows (`usable_frame`): finite, invertible, within 1e6 m
+/// of the origin, axis scales within 1e-6..=1e6.
+fn usable(m: &bevy::math::Affine3A) -> bool {
+    let axes = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+    m.is_finite()
+        && m.translation.abs().max_element() <= 1e6
+        && axes.iter().all(|a| (1e-6..=1e6).contains(&a.length()))
+        && m.matrix3.determinant().abs() > 1e-12
 }
 
 fuzz_target!(|input: Input| {
@@ -169,6 +208,13 @@ fuzz_target!(|input: Input| {
         ..default()
     };
     let max_stretch = settings.max_stretch;
+    // What the solver bounds: with loose edges (stiffness 0) the particles are unconnected and
+    // fall freely (only finiteness is asserted); a plane may push a particle anywhere on its side.
+    // Otherwise each particle stays within max_stretch times its rest length along the strand of
+    // its root, or, pushed by a collider, within that collider's reach from the bone.
+    let connected = input.stiffness[0] > 0;
+    let collider = collider(&input);
+    let reach_of_shapes = shapes_reach(&collider);
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -193,7 +239,7 @@ fuzz_target!(|input: Input| {
             ChildOf(bone),
         ))
         .id();
-    world.spawn((collider(&input), ChildOf(bone)));
+    world.spawn((collider, ChildOf(bone)));
     app.update();
     app.update();
     // Rest length from the root to each particle, in groom units.
@@ -209,7 +255,7 @@ fuzz_target!(|input: Input| {
             out
         })
         .collect();
-    let mut accepted = app.world().get::<GlobalTransform>(hair).unwrap().affine();
+    let mut accepted;
     let mut largest_scale = 1.0f32;
     let mut invalid = 0;
     for f in input.frames.iter().take(MAX_FRAMES) {
@@ -218,26 +264,46 @@ fuzz_target!(|input: Input| {
             u64::from(f.dt),
         )));
         app.update();
+        let mut q = app.world_mut().query::<(&Strand, &StrandParticles)>();
+        for (strand, particles) in q.iter(app.world()) {
+            for (k, p) in particles.positions.iter().enumerate() {
+                assert!(p.is_finite(), "strand {} particle {k} is {p} after {f:?}", strand.index);
+            }
+        }
         let Some(computed) = app.world().get::<ComputedHair>(hair) else {
-            // Not built (yet): nothing to check.
+            // Not built (yet): nothing more to check.
             continue;
         };
-        if computed.stats.invalid_bone_frames == invalid {
-            accepted = app.world().get::<GlobalTransform>(hair).unwrap().affine();
+        let now = app.world().get::<GlobalTransform>(hair).unwrap().affine();
+        let stepped = computed.stats.invalid_bone_frames == invalid;
+        invalid = computed.stats.invalid_bone_frames;
+        // A frame of no time steps nothing (paused hair stays where it was, as the bone moves),
+        // and a bone the solver refuses is not followed: neither moves the reference.
+        if f.dt == 0 || !stepped || !usable(&now) {
+            continue;
+        }
+        {
+            accepted = now;
             let m = accepted.matrix3;
             largest_scale = largest_scale
                 .max(m.x_axis.length())
                 .max(m.y_axis.length())
                 .max(m.z_axis.length());
         }
-        invalid = computed.stats.invalid_bone_frames;
         let mut q = app.world_mut().query::<(&Strand, &StrandParticles)>();
         for (strand, particles) in q.iter(app.world()) {
             let s = strand.index as usize;
             let root = accepted.transform_point3(groom.strand(s)[0]);
             for (k, p) in particles.positions.iter().enumerate() {
-                assert!(p.is_finite(), "strand {s} particle {k} is {p} after {f:?}");
-                let bound = reach[s][k] * largest_scale * max_stretch * 1.01 + 1e-3;
+                let Some(shapes) = reach_of_shapes else {
+                    continue;
+                };
+                if !connected {
+                    continue;
+                }
+                let root_out = groom.strand(s)[0].length();
+                let bound = (reach[s][k] * max_stretch * 1.01 + root_out + shapes) * largest_scale
+                    + 1e-3;
                 let d = p.distance(root);
                 assert!(
                     d <= bound || !root.is_finite(),

@@ -14,6 +14,10 @@ use super::contact::LocalShape;
 /// add your own (shoulders, arms, a hat brim, the floor) to any entity. Margins keep particles
 /// that far outside, or inside with [`HairColliderMode::Inside`].
 ///
+/// A shape that cannot be collided with is left out: a non-finite number, a radius or half
+/// extent not above 0 or over 100 km, a plane normal of zero, a point over 100 km from this
+/// entity (in its units).
+///
 /// Only colliders whose bounds (over the frame's motion, grown by the margin) meet a hair's
 /// reach are tested against it, so a scene of hundreds of them costs little.
 ///
@@ -67,9 +71,10 @@ impl HairCollider {
             .capsules
             .iter()
             .map(|c| LocalShape::Capsule(c.a.into(), c.b.into(), c.radius));
-        let planes = self.planes.iter().map(|p| {
-            LocalShape::Plane(p.point.into(), Vec3A::from(p.normal).normalize_or(Vec3A::Y))
-        });
+        let planes = self
+            .planes
+            .iter()
+            .map(|p| LocalShape::Plane(p.point.into(), Vec3A::from(p.normal).normalize_or_zero()));
         let boxes = self.boxes.iter().map(|b| {
             let q = Vec4::from(b.rotation).try_normalize().unwrap_or(Vec4::W);
             LocalShape::Box(
@@ -78,12 +83,13 @@ impl HairCollider {
                 Vec3A::from(b.half_extents).abs(),
             )
         });
-        // A shape with a non-finite number would put NaN into every strand it touches.
+        // A shape with a non-finite number would put NaN into every strand it touches; one of
+        // no size or far out would throw the hair away: such shapes are left out.
         spheres
             .chain(capsules)
             .chain(planes)
             .chain(boxes)
-            .filter(LocalShape::is_finite)
+            .filter(LocalShape::is_usable)
     }
 
     /// Whether particles are kept inside.

@@ -393,10 +393,10 @@ fn broken_collider_shapes_are_skipped_not_spread() {
         ..default()
     };
     let shapes: Vec<LocalShape> = c.shapes().collect();
-    // The NaN sphere goes; the zero normal becomes +Y; the zero rotation the identity.
-    assert_eq!(shapes.len(), 2);
-    assert!(matches!(shapes[0], LocalShape::Plane(_, n) if n == Vec3A::Y));
-    assert!(matches!(shapes[1], LocalShape::Box(_, q, _) if q == Quat::IDENTITY));
+    // The NaN sphere goes, and so does the plane without a normal (it has no side to keep);
+    // the zero rotation becomes the identity.
+    assert_eq!(shapes.len(), 1);
+    assert!(matches!(shapes[0], LocalShape::Box(_, q, _) if q == Quat::IDENTITY));
 }
 
 /// A point field (a blast source coming up beside the head) and a directional
@@ -625,4 +625,67 @@ fn hostile_colliders_and_fields_keep_the_hair_finite() {
         strands.iter().flatten().all(|p| p.is_finite()),
         "a particle is not finite"
     );
+}
+
+/// Found by the solver fuzz target: a collider built in code with a sphere of negative radius
+/// 100 km away, in inside mode, threw the hair 145 km off its head. Shapes of no size, far out
+/// or with a zero plane normal are left out; the usable ones still act.
+#[test]
+fn colliders_of_no_size_or_far_out_are_left_out() {
+    let mut h = Harness::new(spiky_groom(8, 5), HairSimSettings::default(), 60.0);
+    h.app.world_mut().spawn((
+        HairCollider {
+            spheres: vec![
+                CollisionSphere {
+                    center: Vec3::new(0.0, -102_286.0, -102_287.0),
+                    radius: -102_287.0,
+                },
+                CollisionSphere {
+                    center: Vec3::splat(2e6),
+                    radius: 1.0,
+                },
+            ],
+            planes: vec![CollisionPlane {
+                point: Vec3::new(0.0, 1.0, 0.0),
+                normal: Vec3::ZERO,
+            }],
+            boxes: vec![CollisionBox {
+                center: Vec3::ZERO,
+                half_extents: Vec3::new(0.0, 1.0, 1.0),
+                rotation: Quat::IDENTITY,
+            }],
+            mode: HairColliderMode::Inside,
+            ..default()
+        },
+        ChildOf(h.bone),
+    ));
+    for _ in 0..60 {
+        h.update();
+    }
+    let head = Vec3::new(0.0, 1.6, 0.0);
+    let far = h
+        .strands()
+        .iter()
+        .flatten()
+        .map(|p| p.distance(head))
+        .fold(0.0, f32::max);
+    assert!(far < 0.5, "the hair went {far} m from the head");
+    let usable = HairCollider {
+        spheres: vec![
+            CollisionSphere {
+                center: Vec3::ZERO,
+                radius: -1.0,
+            },
+            CollisionSphere {
+                center: Vec3::ZERO,
+                radius: 0.1,
+            },
+        ],
+        planes: vec![CollisionPlane {
+            point: Vec3::ZERO,
+            normal: Vec3::ZERO,
+        }],
+        ..default()
+    };
+    assert_eq!(usable.shapes().count(), 1, "only the sphere of radius 0.1 is used");
 }

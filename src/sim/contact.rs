@@ -4,6 +4,10 @@
 
 use bevy::math::{Affine3A, Mat3A, Quat, Vec3, Vec3A};
 
+/// Farthest a collider shape's points may be from its collider's origin, and its largest radius
+/// or half extent, in the collider's units (100 km at unit scale).
+pub(crate) const MAX_SHAPE_EXTENT: f32 = 1e5;
+
 /// A shape in a collider's space.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum LocalShape {
@@ -121,13 +125,20 @@ impl LocalShape {
         }
     }
 
-    /// Whether every number of the shape is finite.
-    pub(crate) fn is_finite(&self) -> bool {
+    /// Whether the shape can be collided with: every number finite, points within
+    /// [`MAX_SHAPE_EXTENT`] of its collider's origin, radii and half extents greater than 0 and
+    /// at most that, a plane's normal not zero. Anything else (a radius of 0 or below, a sphere
+    /// 1e19 m away: found by the solver fuzz target) would throw the hair off or overflow.
+    pub(crate) fn is_usable(&self) -> bool {
+        let point = |p: Vec3A| p.is_finite() && p.abs().max_element() <= MAX_SHAPE_EXTENT;
+        let size = |r: f32| r > 0.0 && r <= MAX_SHAPE_EXTENT;
         match *self {
-            Self::Sphere(c, r) => c.is_finite() && r.is_finite(),
-            Self::Capsule(a, b, r) => a.is_finite() && b.is_finite() && r.is_finite(),
-            Self::Plane(p, n) => p.is_finite() && n.is_finite(),
-            Self::Box(c, q, h) => c.is_finite() && q.is_finite() && h.is_finite(),
+            Self::Sphere(c, r) => point(c) && size(r),
+            Self::Capsule(a, b, r) => point(a) && point(b) && size(r),
+            Self::Plane(p, n) => point(p) && n.is_finite() && n.length_squared() > 0.5,
+            Self::Box(c, q, h) => {
+                point(c) && q.is_finite() && size(h.min_element()) && size(h.max_element())
+            }
         }
     }
 
