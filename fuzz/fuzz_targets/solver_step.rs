@@ -173,12 +173,12 @@ fn transform(f: &Frame) -> Transform {
 }
 
 /// The solver's rule for a bone it follows (`usable_frame`): finite, invertible, within 1e6 m
-/// of the origin, axis scales within 1e-6..=1e6.
+/// of the origin, axis scales within 1e-4..=1e3.
 fn usable(m: &bevy::math::Affine3A) -> bool {
     let axes = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
     m.is_finite()
         && m.translation.abs().max_element() <= 1e6
-        && axes.iter().all(|a| (1e-6..=1e6).contains(&a.length()))
+        && axes.iter().all(|a| (1e-4..=1e3).contains(&a.length()))
         && m.matrix3.determinant().abs() > 1e-12
 }
 
