@@ -7,7 +7,11 @@ pub fn check_error(file: &str, text: &str, e: &HairAssetError) {
     assert_eq!(e.file.as_deref(), Some(file), "{e}");
     assert!(!e.message.is_empty(), "an error without words: {e:?}");
     let lines = text.split('\n').count() as u32;
-    assert!(e.line <= lines, "line {} of a {lines}-line file: {e}", e.line);
+    assert!(
+        e.line <= lines,
+        "line {} of a {lines}-line file: {e}",
+        e.line
+    );
     if e.line > 0 {
         let line = text.split('\n').nth(e.line as usize - 1).unwrap_or("");
         let columns = line.chars().count() as u32 + 1;

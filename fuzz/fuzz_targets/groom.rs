@@ -28,7 +28,10 @@ fuzz_target!(|data: &[u8]| {
             for strand in groom.strands() {
                 assert!((2..=MAX_PARTICLES_PER_STRAND).contains(&strand.len()));
                 for p in strand {
-                    assert!(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE, "{p}");
+                    assert!(
+                        p.is_finite() && p.abs().max_element() <= MAX_COORDINATE,
+                        "{p}"
+                    );
                 }
                 for w in strand.windows(2) {
                     assert!(w[0].distance(w[1]) >= MIN_SEGMENT_LENGTH);

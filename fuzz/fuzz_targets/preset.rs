@@ -19,9 +19,17 @@ fuzz_target!(|data: &[u8]| {
                 "a round trip changed the preset"
             );
         }
-        Err(HairPresetError::Parse { line, column, message, .. }) => {
+        Err(HairPresetError::Parse {
+            line,
+            column,
+            message,
+            ..
+        }) => {
             assert!(!message.is_empty());
-            assert!(line >= 1 && line <= text.split('\n').count(), "line {line}: {message}");
+            assert!(
+                line >= 1 && line <= text.split('\n').count(),
+                "line {line}: {message}"
+            );
             assert!(column >= 1, "column {column}: {message}");
         }
         Err(_) => {}

@@ -224,7 +224,9 @@ fuzz_target!(|input: Input| {
         HairSchedulePlugin,
         HairSimulationPlugin,
     ));
-    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(16)));
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(
+        16,
+    )));
     let world = app.world_mut();
     let handle = world.resource_mut::<Assets<HairGroom>>().add(groom.clone());
     let bone = world.spawn(Transform::from_xyz(0.0, 1.6, 0.0)).id();
@@ -267,7 +269,11 @@ fuzz_target!(|input: Input| {
         let mut q = app.world_mut().query::<(&Strand, &StrandParticles)>();
         for (strand, particles) in q.iter(app.world()) {
             for (k, p) in particles.positions.iter().enumerate() {
-                assert!(p.is_finite(), "strand {} particle {k} is {p} after {f:?}", strand.index);
+                assert!(
+                    p.is_finite(),
+                    "strand {} particle {k} is {p} after {f:?}",
+                    strand.index
+                );
             }
         }
         let Some(computed) = app.world().get::<ComputedHair>(hair) else {
@@ -302,8 +308,8 @@ fuzz_target!(|input: Input| {
                     continue;
                 }
                 let root_out = groom.strand(s)[0].length();
-                let bound = (reach[s][k] * max_stretch * 1.01 + root_out + shapes) * largest_scale
-                    + 1e-3;
+                let bound =
+                    (reach[s][k] * max_stretch * 1.01 + root_out + shapes) * largest_scale + 1e-3;
                 let d = p.distance(root);
                 assert!(
                     d <= bound || !root.is_finite(),

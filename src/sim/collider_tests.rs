@@ -687,5 +687,9 @@ fn colliders_of_no_size_or_far_out_are_left_out() {
         }],
         ..default()
     };
-    assert_eq!(usable.shapes().count(), 1, "only the sphere of radius 0.1 is used");
+    assert_eq!(
+        usable.shapes().count(),
+        1,
+        "only the sphere of radius 0.1 is used"
+    );
 }
