@@ -337,8 +337,13 @@ impl HairStatus {
 
     /// Forgets failures of `id` (it was reloaded).
     pub(crate) fn forget(&mut self, id: UntypedAssetId) {
-        self.reported.retain(|(_, r)| *r != id);
+        self.allow_report(id);
         self.failed_reloads.retain(|(r, _)| *r != id);
+    }
+
+    /// Lets the next failure of `id` be reported again.
+    pub(crate) fn allow_report(&mut self, id: UntypedAssetId) {
+        self.reported.retain(|(_, r)| *r != id);
     }
 
     /// Records a failed reload of `id`; `false` when it repeats the last one reported for it.

@@ -204,6 +204,18 @@ pub(crate) fn attach_to_bones(
     }
 }
 
+/// The names of `root` and its descendants, depth first: what a missing-bone error lists.
+pub(super) fn names_under(
+    root: Entity,
+    names: &Query<&Name>,
+    children: &Query<&Children>,
+) -> Vec<String> {
+    std::iter::once(root)
+        .chain(children.iter_descendants(root))
+        .filter_map(|e| names.get(e).ok().map(|n| n.as_str().to_string()))
+        .collect()
+}
+
 fn report(
     commands: &mut Commands,
     hair: Entity,
@@ -219,10 +231,7 @@ fn report(
     let available: Vec<String> = if root_missing {
         Vec::new()
     } else {
-        std::iter::once(attach.root)
-            .chain(children.iter_descendants(attach.root))
-            .filter_map(|e| names.get(e).ok().map(|n| n.as_str().to_string()))
-            .collect()
+        names_under(attach.root, names, children)
     };
     let shown = available
         .iter()

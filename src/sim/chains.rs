@@ -16,7 +16,7 @@ use bevy::transform::helper::TransformHelper;
 use bevy::world_serialization::WorldAssetRoot;
 
 use super::attach::{AttachWork, Hair, HairStrands, Strand, StrandParticles};
-use super::bone::BonePredicate;
+use super::bone::{BonePredicate, CharacterSpawned, names_under};
 use super::events::BoneNotFound;
 use super::settings::HairSimSettings;
 use crate::asset::HairGroom;
@@ -109,7 +109,7 @@ pub struct BoneChainHair {
     tail: Vec<Vec3>,
 }
 
-/// A chain found under the character: its joints and their world transforms now.
+/// A chain found under the character: the bone it hangs from and its joints, root first.
 struct FoundChain {
     parent: Entity,
     joints: Vec<Entity>,
@@ -154,7 +154,7 @@ fn chain_starts(
 fn walk_chain(
     start: Entity,
     children: &Query<&Children>,
-    bones: &Query<(), With<Transform>>,
+    bones: &Query<&Transform>,
 ) -> Vec<Entity> {
     let mut joints = vec![start];
     let mut at = start;
@@ -183,32 +183,26 @@ pub(crate) fn build_bone_chains(
     children: Query<&Children>,
     names: Query<&Name>,
     parents: Query<&ChildOf>,
-    bones: Query<(), With<Transform>>,
     locals: Query<&Transform>,
-    scenes: Query<&WorldAssetRoot>,
+    roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
     helper: TransformHelper,
     (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
 ) {
     for (set, chains, settings) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
-            // A glTF character that has not spawned has no children yet: wait for it.
-            if scenes.contains(chains.root) && children.get(chains.root).is_err() {
+            // A glTF character whose scene has not spawned yet: wait for it, as a bone search
+            // does.
+            if roots
+                .get(chains.root)
+                .is_ok_and(|(scene, spawned)| scene && !spawned)
+            {
                 continue;
             }
-            let mut available = Vec::new();
-            let mut stack = vec![chains.root];
-            while let Some(e) = stack.pop() {
-                if let Ok(n) = names.get(e) {
-                    available.push(n.as_str().to_owned());
-                }
-                if let Ok(kids) = children.get(e) {
-                    stack.extend(kids.iter());
-                }
-            }
-            warn!(
+            let available = names_under(chains.root, &names, &children);
+            error!(
                 "hair bone chains {set}: no bone of character {} starts a chain ({:?}); it has {} \
-                 named entities: {:?}",
+                 named entities: {:?}. Fix HairBoneChains::select; no chain is simulated",
                 chains.root,
                 chains.select,
                 available.len(),
@@ -234,7 +228,7 @@ pub(crate) fn build_bone_chains(
             };
             let chain = FoundChain {
                 parent,
-                joints: walk_chain(start, &children, &bones),
+                joints: walk_chain(start, &children, &locals),
             };
             match groups.iter_mut().find(|(p, _)| *p == parent) {
                 Some((_, list)) => list.push(chain),

@@ -102,9 +102,7 @@ pub(crate) fn report_failed_reloads(
                 if !status.new_failed_reload(id, error) {
                     continue;
                 }
-                let kept = std::mem::take(&mut status.failed_reloads);
-                status.forget(id);
-                status.failed_reloads = kept;
+                status.allow_report(id);
                 report_failure(
                     &mut commands,
                     &mut status,
