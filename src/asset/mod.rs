@@ -16,6 +16,7 @@
 //! | [`HairGroom`] | `*.hair.xml` | [`HairGroomLoader`] |
 //! | [`HeadCollision`] | `*.collision.xml` | [`HeadCollisionLoader`] |
 //! | [`HairAnimation`] | `*.hairanim.xml` | [`HairAnimationLoader`] (keyframe grooms load as dependencies) |
+//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`]) |
 
 mod animation;
 mod collision;
@@ -27,6 +28,10 @@ mod hostile_tests;
 mod source;
 #[cfg(test)]
 mod tests;
+mod vrm;
+mod vrm_gltf;
+#[cfg(test)]
+mod vrm_tests;
 mod xml;
 
 pub use animation::{
@@ -46,6 +51,12 @@ pub use groom::{
 };
 #[cfg(not(target_arch = "wasm32"))]
 pub use source::{RegularFileReader, regular_file_source};
+pub use vrm::{
+    MAX_VRM_COLLIDERS, MAX_VRM_COORDINATE, MAX_VRM_FORCE, MAX_VRM_GROUPS, MAX_VRM_JOINTS,
+    MAX_VRM_NAME, MAX_VRM_SPRINGS, VrmCollider, VrmError, VrmJoint, VrmShape, VrmSpring,
+    VrmSprings, VrmVersion, parse_vrm_springs,
+};
+pub use vrm_gltf::{VrmLoader, VrmNode, VrmSpringBones};
 pub use xml::{MAX_ATTRIBUTES, MAX_DEPTH};
 
 use bevy::prelude::*;
@@ -63,5 +74,10 @@ impl Plugin for HairAssetPlugin {
             .register_asset_loader(HairGroomLoader)
             .register_asset_loader(HeadCollisionLoader)
             .register_asset_loader(HairAnimationLoader);
+        vrm_gltf::register_handler(app);
+    }
+
+    fn finish(&self, app: &mut App) {
+        vrm_gltf::register_vrm_loader(app);
     }
 }

@@ -6,7 +6,8 @@
 //! chains by the bone they hang from (usually the head) and spawns one [`Hair`] per group as that
 //! bone's child, its groom made from the joints' bind pose: particle `k` of a strand is joint `k`
 //! of its chain, and one more particle, the tail, lies past the last joint (as VRM's spring bones
-//! do). Everything the solver does for groomed hair applies: [`HairSimSettings`] (copied from the
+//! do). A [`HairCollidesOnly`] on the [`HairBoneChains`] entity is copied to its hairs.
+//! Everything the solver does for groomed hair applies: [`HairSimSettings`] (copied from the
 //! [`HairBoneChains`] entity), colliders, wind and force fields, volume, style limits, teleports,
 //! any rig scale. After each step the joints are turned, root to tip, so each points at the next
 //! particle; the bind pose is the style the chains return to.
@@ -17,6 +18,7 @@ use bevy::world_serialization::WorldAssetRoot;
 
 use super::attach::{AttachWork, Hair, HairStrands, Strand, StrandParticles};
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
+use super::collider::HairCollidesOnly;
 use super::events::BoneNotFound;
 use super::settings::HairSimSettings;
 use crate::asset::HairGroom;
@@ -37,6 +39,11 @@ pub enum ChainSelect {
     Matching(#[reflect(ignore)] BonePredicate),
     /// These bone entities.
     Entities(Vec<Entity>),
+    /// These chains, each its joints root first, each the parent of the next (a VRM spring's
+    /// joint list). The last joint is the tail: it moves with the chain but is not turned (VRM
+    /// 1.0's rule; add an empty child to turn a leaf bone), so a chain needs two joints. No child
+    /// is followed past them. A chain hangs from its first joint's parent.
+    Joints(Vec<Vec<Entity>>),
 }
 
 /// Simulates chains of a character's own bones as hair strands. Put it, with the
@@ -105,14 +112,18 @@ pub struct BoneChainHair {
     pub joints: Vec<Vec<Entity>>,
     /// Per strand: each joint's local transform in the bind pose.
     rest: Vec<Vec<Transform>>,
-    /// Per strand: the tail's offset in the last joint's local frame.
+    /// Per strand: the tail's offset in the last turned joint's local frame.
     tail: Vec<Vec3>,
+    /// Per strand: its last joint is the tail (moved, not turned).
+    tail_joint: Vec<bool>,
 }
 
 /// A chain found under the character: the bone it hangs from and its joints, root first.
 struct FoundChain {
     parent: Entity,
     joints: Vec<Entity>,
+    /// The last joint is the tail (not turned); otherwise a tail particle is added past it.
+    tail_joint: bool,
 }
 
 /// Descendants of `root` that start chains, in depth-first order.
@@ -122,8 +133,10 @@ fn chain_starts(
     children: &Query<&Children>,
     names: &Query<&Name>,
 ) -> Vec<Entity> {
-    if let ChainSelect::Entities(list) = select {
-        return list.clone();
+    match select {
+        ChainSelect::Entities(list) => return list.clone(),
+        ChainSelect::Joints(chains) => return chains.iter().filter_map(|c| c.first().copied()).collect(),
+        _ => {}
     }
     let name_of = |e: Entity| names.get(e).map(Name::as_str).ok();
     let mut out = Vec::new();
@@ -179,7 +192,15 @@ fn walk_chain(
 )]
 pub(crate) fn build_bone_chains(
     mut commands: Commands,
-    sets: Query<(Entity, &HairBoneChains, &HairSimSettings), Without<BoneChainHairs>>,
+    sets: Query<
+        (
+            Entity,
+            &HairBoneChains,
+            &HairSimSettings,
+            Option<&HairCollidesOnly>,
+        ),
+        Without<BoneChainHairs>,
+    >,
     children: Query<&Children>,
     names: Query<&Name>,
     parents: Query<&ChildOf>,
@@ -188,7 +209,7 @@ pub(crate) fn build_bone_chains(
     helper: TransformHelper,
     (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
 ) {
-    for (set, chains, settings) in &sets {
+    for (set, chains, settings, only) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
             // A glTF character whose scene has not spawned yet: wait for it, as a bone search
@@ -226,9 +247,31 @@ pub(crate) fn build_bone_chains(
                 warn!("hair bone chains {set}: bone {start} has no parent to hang from; skipped");
                 continue;
             };
+            let (joints, tail_joint) = match &chains.select {
+                ChainSelect::Joints(listed) => {
+                    let joints = listed
+                        .iter()
+                        .find(|c| c.first() == Some(&start))
+                        .map(|c| c[..c.len().min(crate::asset::MAX_PARTICLES_PER_STRAND)].to_vec())
+                        .unwrap_or_default();
+                    let linked = joints.windows(2).all(|w| {
+                        parents.get(w[1]).is_ok_and(|p| p.parent() == w[0])
+                    });
+                    if joints.len() < 2 || !linked {
+                        warn!(
+                            "hair bone chains {set}: the chain from bone {start} needs two or more \
+                             joints, each the parent of the next; skipped"
+                        );
+                        continue;
+                    }
+                    (joints, true)
+                }
+                _ => (walk_chain(start, &children, &locals), false),
+            };
             let chain = FoundChain {
                 parent,
-                joints: walk_chain(start, &children, &locals),
+                joints,
+                tail_joint,
             };
             match groups.iter_mut().find(|(p, _)| *p == parent) {
                 Some((_, list)) => list.push(chain),
@@ -247,6 +290,7 @@ pub(crate) fn build_bone_chains(
                 joints: Vec::new(),
                 rest: Vec::new(),
                 tail: Vec::new(),
+                tail_joint: Vec::new(),
             };
             for chain in found {
                 let Some(built) = chain_strand(&chain, chains.tail, &helper, &locals) else {
@@ -264,6 +308,7 @@ pub(crate) fn build_bone_chains(
                         .map(|p| to_parent.transform_point3(*p))
                         .collect(),
                 );
+                driven.tail_joint.push(chain.tail_joint);
                 driven.joints.push(chain.joints);
                 driven.rest.push(rest);
                 driven.tail.push(tail);
@@ -278,8 +323,7 @@ pub(crate) fn build_bone_chains(
             let name = names
                 .get(parent)
                 .map_or(String::new(), |n| n.as_str().to_owned());
-            let hair = commands
-                .spawn((
+            let mut hair = commands.spawn((
                     Name::new(format!("hair bone chains on {name}")),
                     // Where propagation will put it (on the bone, identity transform): the
                     // strands are built this frame, at the bone's scale.
@@ -292,9 +336,11 @@ pub(crate) fn build_bone_chains(
                     settings.clone(),
                     driven,
                     ChildOf(parent),
-                ))
-                .id();
-            hairs.push(hair);
+                ));
+            if let Some(only) = only {
+                hair.insert(only.clone());
+            }
+            hairs.push(hair.id());
         }
         commands.entity(set).insert(BoneChainHairs(hairs));
     }
@@ -318,6 +364,15 @@ fn chain_strand(
         last = Some(g);
     }
     let last = last?;
+    if chain.tail_joint {
+        // The last joint is the tail: no particle past it; its offset in the joint before.
+        let n = rest.len();
+        if n < 2 || world[n - 1].distance(world[n - 2]) <= f32::EPSILON {
+            return None;
+        }
+        let tail_local = rest[n - 1].translation;
+        return Some((world, rest, tail_local));
+    }
     let before = if world.len() >= 2 {
         world[world.len() - 2]
     } else {
@@ -354,7 +409,9 @@ pub(crate) fn pose_bone_chains(
             else {
                 continue;
             };
-            if particles.positions.len() != chain.len() + 1
+            let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+            let particles_expected = chain.len() + usize::from(!tail_joint);
+            if particles.positions.len() != particles_expected
                 || !particles.positions.iter().all(|p| p.is_finite())
             {
                 continue;
@@ -365,6 +422,11 @@ pub(crate) fn pose_bone_chains(
                 let Ok((mut local, mut global)) = joints.get_mut(joint) else {
                     break;
                 };
+                if tail_joint && k + 1 == chain.len() {
+                    // The tail joint follows the turned chain, unturned.
+                    *global = parent.mul_transform(*local);
+                    break;
+                }
                 let bind = Transform {
                     rotation: rest[k].rotation,
                     ..*local

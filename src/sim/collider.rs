@@ -40,6 +40,15 @@ pub struct HairCollider {
     pub mode: HairColliderMode,
 }
 
+/// On a hair: it collides with the [`HairCollider`]s on these entities only, not with the
+/// others (its own head collider included, unless listed). Without it a hair collides with every
+/// [`HairCollider`]. A VRM character's chains get one from their collider groups; use it to keep
+/// a character's hair off another character's colliders. The world's physics colliders are
+/// chosen apart from this (`HairCollisionGroups`, `HairCollisionLayers`).
+#[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Component, Debug, Default, PartialEq)]
+pub struct HairCollidesOnly(pub Vec<Entity>);
+
 /// Which side of a [`HairCollider`]'s shapes particles are kept on.
 #[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Debug, Default, PartialEq)]

@@ -115,3 +115,16 @@ pub struct HairAnimationMismatch {
     /// How they differ.
     pub message: String,
 }
+
+/// A VRM character's spring-bone JSON could not be read: the character is shown, but its
+/// spring bones are not simulated. Triggered on the scene root that carries the
+/// [`VrmSpringBones`](crate::asset::VrmSpringBones).
+#[derive(EntityEvent, Clone, Debug, PartialEq)]
+pub struct VrmSpringsFailed {
+    /// The scene root.
+    pub entity: Entity,
+    /// The file.
+    pub file: String,
+    /// What is wrong (file, JSON path, what to do).
+    pub error: String,
+}

@@ -41,6 +41,7 @@ mod step;
 #[cfg(test)]
 mod tests;
 mod volume;
+mod vrm;
 mod wind;
 
 pub use attach::{
@@ -50,10 +51,10 @@ pub use attach::{
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
 pub use chains::{BoneChainHair, BoneChainHairs, ChainSelect, HairBoneChains, MIN_TAIL};
 pub use clock::{HairTime, HairTimeExt};
-pub use collider::{HairCollider, HairColliderMode};
+pub use collider::{HairCollidesOnly, HairCollider, HairColliderMode};
 pub use events::{
     BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
-    HairAssetKind, HairReady, HairRebuilt, RebuildReason,
+    HairAssetKind, HairReady, HairRebuilt, RebuildReason, VrmSpringsFailed,
 };
 #[cfg(feature = "rapier")]
 pub use physics::HairCollisionGroups;
@@ -61,6 +62,7 @@ pub use physics::HairCollisionGroups;
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
 pub use volume::{HairVolume, VolumeScratch, keep_apart};
+pub use vrm::{VRM0_TAIL, VrmSpringChains, vrm_sim_settings};
 pub use wind::{FieldStep, HairForceField, HairForceFieldKind, HairWind, HairWindOverride};
 
 use bevy::prelude::*;
@@ -103,6 +105,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairSimControl>()
             .register_type::<AttachToBone>()
             .register_type::<HairCollider>()
+            .register_type::<HairCollidesOnly>()
             .register_type::<ComputedHair>()
             .register_type::<HairStatus>()
             .register_type::<StrandParticles>()
@@ -110,12 +113,14 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairBoneChains>()
             .register_type::<BoneChainHairs>()
             .register_type::<BoneChainHair>()
+            .register_type::<VrmSpringChains>()
             .add_observer(attach::detach_hair)
             .add_observer(bone::mark_spawned_characters)
             .add_systems(
                 PostUpdate,
                 (
                     bone::attach_to_bones,
+                    vrm::build_vrm_springs,
                     chains::build_bone_chains,
                     reload::mark_reloaded_hairs,
                     reload::report_failed_reloads,

@@ -12,7 +12,7 @@ use crate::parallel;
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
-use super::collider::HairCollider;
+use super::collider::{HairCollidesOnly, HairCollider};
 use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
@@ -26,8 +26,9 @@ use super::{HairSimControl, HairTime};
 pub(crate) struct ColliderHistory {
     poses: EntityHashMap<Affine3A>,
     fields: EntityHashMap<Affine3A>,
-    /// Every `HairCollider` shape this frame: pose last frame, now, shape, keep inside.
-    shapes: Vec<ShapeView>,
+    /// Every `HairCollider` shape this frame (pose last frame, now, shape, keep inside) and the
+    /// entity it is on.
+    shapes: Vec<(ShapeView, Entity)>,
     /// Every force field that blows: pose last frame, now, field.
     field_views: Vec<(Affine3A, Affine3A, HairForceField)>,
 }
@@ -106,7 +107,10 @@ pub(crate) fn step_hair_strands(
         Option<&crate::mesh::HairMeshSettings>,
         Option<(&crate::mesh::HairCulling, &crate::mesh::HairInView)>,
     )>,
-    own: Query<(Entity, &HairCollider, &GlobalTransform)>,
+    (own, only_colliders): (
+        Query<(Entity, &HairCollider, &GlobalTransform)>,
+        Query<&HairCollidesOnly>,
+    ),
     animations: Res<Assets<crate::asset::HairAnimation>>,
     (global_wind, own_wind, fields): (
         Option<Res<HairWind>>,
@@ -125,7 +129,7 @@ pub(crate) fn step_hair_strands(
         let inside = collider.inside();
         history
             .shapes
-            .extend(collider.shapes().map(|shape| (prev, now, shape, inside)));
+            .extend(collider.shapes().map(|shape| ((prev, now, shape, inside), e)));
     }
     history.poses.clear();
     history
@@ -315,8 +319,9 @@ pub(crate) fn step_hair_strands(
         };
         templates.clear();
         // A collider whose pose is not usable (NaN, zero scale) is skipped until it is.
-        for &(prev, now, shape, inside) in &history.shapes {
-            if !usable_frame(&now) {
+        let only = only_colliders.get(hair_entity).ok();
+        for &((prev, now, shape, inside), on) in &history.shapes {
+            if !usable_frame(&now) || only.is_some_and(|o| !o.0.contains(&on)) {
                 continue;
             }
             let prev = if jumped(&prev, &now) { now } else { prev };

@@ -1,0 +1,178 @@
+//! VRM characters through Bevy's own glTF loader: a glTF extension handler that reads the
+//! spring bones of any glTF or VRM file as it loads, and a loader that opens `*.vrm` files with
+//! Bevy's glTF loader (a `.vrm` is a binary glTF).
+//!
+//! The handler marks each node of a file with spring bones with its glTF index ([`VrmNode`])
+//! and puts what the file says ([`VrmSpringBones`]) on the scene's root, so the simulation
+//! can find the bones once the scene spawns. A file with broken spring-bone JSON still loads
+//! (its meshes and skeleton are fine); [`VrmSpringBones::error`] says what is wrong, and the
+//! simulation reports it.
+
+use bevy::asset::io::Reader;
+use bevy::asset::{AssetLoader, LoadContext};
+use bevy::gltf::extensions::{
+    ErasedGltfExtensionHandler, GltfExtensionHandler, GltfExtensionHandlers,
+};
+use bevy::gltf::{Gltf, GltfError, GltfLoader, GltfLoaderSettings, GltfPlugin, gltf};
+use bevy::image::CompressedImageFormatSupport;
+use bevy::prelude::*;
+
+use super::vrm::{VrmSprings, parse_vrm_springs};
+
+/// On each node entity of a glTF scene whose file has VRM spring bones: the node's glTF index.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Reflect)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct VrmNode(pub u32);
+
+/// On the root of a glTF scene whose file has VRM spring bones (`VRMC_springBone` or VRM 0.x
+/// `secondaryAnimation`): what it says, or what is wrong with it.
+#[derive(Component, Clone, Debug, PartialEq, Reflect)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct VrmSpringBones {
+    /// The file.
+    pub file: String,
+    /// Its springs and colliders (empty when [`VrmSpringBones::error`] is set).
+    pub springs: VrmSprings,
+    /// Why the spring bones could not be read, naming the JSON path and what to do.
+    pub error: Option<String>,
+}
+
+/// Reads spring bones while Bevy loads a glTF file (one clone per load).
+#[derive(Clone, Default)]
+struct VrmExtensionHandler {
+    found: Option<VrmSpringBones>,
+}
+
+impl GltfExtensionHandler for VrmExtensionHandler {
+    fn dyn_clone(&self) -> Box<dyn ErasedGltfExtensionHandler> {
+        Box::new(self.clone())
+    }
+
+    fn on_root(
+        &mut self,
+        load_context: &mut LoadContext<'_>,
+        gltf: &gltf::Gltf,
+        _settings: &GltfLoaderSettings,
+    ) {
+        let file = load_context.path().to_string();
+        self.found = match parse_vrm_springs(&file, &gltf.document) {
+            Ok(None) => None,
+            Ok(Some(springs)) => Some(VrmSpringBones {
+                file,
+                springs,
+                error: None,
+            }),
+            Err(e) => {
+                error!("{e}; the character loads without simulated spring bones");
+                Some(VrmSpringBones {
+                    file,
+                    springs: VrmSprings::default(),
+                    error: Some(e.to_string()),
+                })
+            }
+        };
+    }
+
+    fn on_gltf_node(
+        &mut self,
+        _load_context: &mut LoadContext<'_>,
+        gltf_node: &gltf::Node,
+        entity: &mut EntityWorldMut,
+    ) {
+        if self.found.is_some()
+            && let Ok(index) = u32::try_from(gltf_node.index())
+        {
+            entity.insert(VrmNode(index));
+        }
+    }
+
+    fn on_scene_completed(
+        &mut self,
+        _load_context: &mut LoadContext<'_>,
+        _scene: &gltf::Scene,
+        world_root_id: Entity,
+        scene_world: &mut World,
+    ) {
+        if let Some(found) = &self.found {
+            scene_world.entity_mut(world_root_id).insert(found.clone());
+        }
+    }
+}
+
+/// Opens `*.vrm` files with Bevy's glTF loader (same settings and extension handlers).
+#[derive(TypePath)]
+pub struct VrmLoader(GltfLoader);
+
+impl AssetLoader for VrmLoader {
+    type Asset = Gltf;
+    type Settings = GltfLoaderSettings;
+    type Error = GltfError;
+
+    async fn load(
+        &self,
+        reader: &mut dyn Reader,
+        settings: &GltfLoaderSettings,
+        load_context: &mut LoadContext<'_>,
+    ) -> Result<Gltf, GltfError> {
+        self.0.load(reader, settings, load_context).await
+    }
+
+    fn extensions(&self) -> &[&str] {
+        &["vrm"]
+    }
+}
+
+/// Registers the handler (in `build`: the glTF loader takes the handler list when it is made).
+pub(crate) fn register_handler(app: &mut App) {
+    app.register_type::<VrmNode>()
+        .register_type::<VrmSpringBones>();
+    // Without Bevy's glTF plugin (added before this one) no glTF loads, VRM or not.
+    let Some(handlers) = app.world_mut().get_resource_mut::<GltfExtensionHandlers>() else {
+        return;
+    };
+    handlers
+        .0
+        .write_blocking()
+        .push(Box::new(VrmExtensionHandler::default()));
+}
+
+/// Registers the `.vrm` loader (in `finish`, after Bevy's glTF loader, whose settings it copies).
+pub(crate) fn register_vrm_loader(app: &mut App) {
+    let Some(plugin) = app.get_added_plugins::<GltfPlugin>().first().map(|p| {
+        (
+            p.custom_vertex_attributes.clone(),
+            p.convert_coordinates,
+            p.skinned_mesh_bounds_policy,
+            p.mesh_compression.clone(),
+            p.default_sampler.clone(),
+        )
+    }) else {
+        return;
+    };
+    let (custom_vertex_attributes, convert, bounds, compression, sampler) = plugin;
+    let world = app.world();
+    let supported_compressed_formats = world
+        .get_resource::<CompressedImageFormatSupport>()
+        .map_or(bevy::image::CompressedImageFormats::NONE, |s| s.0);
+    let default_sampler = world
+        .get_resource::<bevy::gltf::DefaultGltfImageSampler>()
+        .map_or_else(
+            || bevy::gltf::DefaultGltfImageSampler::new(&sampler).get_internal(),
+            bevy::gltf::DefaultGltfImageSampler::get_internal,
+        );
+    let Some(extensions) = world
+        .get_resource::<GltfExtensionHandlers>()
+        .map(|h| h.0.clone())
+    else {
+        return;
+    };
+    app.register_asset_loader(VrmLoader(GltfLoader {
+        supported_compressed_formats,
+        custom_vertex_attributes,
+        default_sampler,
+        default_convert_coordinates: convert,
+        extensions,
+        default_skinned_mesh_bounds_policy: bounds,
+        default_mesh_compression: compression,
+    }));
+}

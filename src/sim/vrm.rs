@@ -1,0 +1,385 @@
+//! VRM spring bones as hair: once a VRM (or any glTF with `VRMC_springBone` or VRM 0.x
+//! `secondaryAnimation`) scene spawns, each spring becomes a [`HairBoneChains`] simulated by the
+//! hair solver and each collider a [`HairCollider`] on its node, with collider groups applying
+//! only to the springs that name them ([`HairCollidesOnly`]).
+//!
+//! ## The parameter mapping
+//!
+//! VRM's reference step is per frame; the hair solver is per second with fixed substeps, so the
+//! same numbers behave the same at 30, 60 or 144 fps. [`vrm_sim_settings`] maps a spring (VRM
+//! 1.0: its joints but the last, which is only a tail; VRM 0.x: its group) as follows, reading
+//! VRM's per-frame quantities at 60 frames a second, the rate authors tune at:
+//!
+//! | VRM | hair | mapping |
+//! |---|---|---|
+//! | `dragForce` `d` (share of velocity lost per frame) | [`HairSimSettings::damping`] | `-60 ln(1 - d)` per second (`d` capped at 0.95) |
+//! | `gravityPower` `g`, `gravityDir` | [`HairSimSettings::gravity`] | `gravityDir * g * k`, `k = -60 ln(1 - d) / d` (`60` when `d` is 0): the fall speed VRM settles at, `g / d` per frame, is the one the damped solver settles at |
+//! | `stiffness` `s` (per joint) | [`HairSimSettings::anchor_stiffness`] | `s / (s + 2)` at each joint, root `x = 0` to last `x = 1`, fitted by a least-squares quadratic |
+//! | `hitRadius` | [`HairSimSettings::margin_min`], `margin_max` | the spring's largest, capped at [`MAX_MARGIN`](super::MAX_MARGIN) |
+//! | `center` | [`HairSimSettings::damping_frame`] | [`HairDampingFrame::Bone`]: motion is damped relative to the bone the chain hangs from, not the world |
+//!
+//! Averages are over the spring's joints. Stiffness has no exact counterpart (VRM pushes the
+//! tail back at a constant speed, the solver pulls it with a spring); the mapping was chosen so
+//! VRM's default `1` holds a chain's style loosely and `4` stiffly. Edit the spawned
+//! [`HairBoneChains`]' [`HairSimSettings`] to tune further.
+//!
+//! ## Colliders
+//!
+//! Each collider becomes a child entity of its node with one [`HairCollider`] shape, so it
+//! moves, turns **and scales** with the node: a collider's radius follows its node's scale (as
+//! UniVRM does; three-vrm does not scale radii). VRM 0.x offsets are converted from Unity's
+//! space (`z` negated). Inside spheres and capsules keep joints inside; planes keep them on the
+//! normal's side. The hair's own colliders and any other [`HairCollider`] in the scene do not
+//! affect VRM springs unless the user adds them to the springs' [`HairCollidesOnly`].
+//!
+//! ## Chains
+//!
+//! A VRM 1.0 spring is one chain; its last joint is a tail that moves but is not turned (the
+//! specification's rule). A VRM 0.x group's root bones swing with every descendant: a chain runs
+//! through each joint's first child, every other child starts a chain of its own, and each leaf
+//! gets a tail node 7 cm (in its own units) along its bone, as UniVRM adds.
+
+use bevy::prelude::*;
+use bevy::transform::helper::TransformHelper;
+
+use crate::asset::{
+    CollisionCapsule, CollisionPlane, CollisionSphere, MAX_PARTICLES_PER_STRAND, VrmNode,
+    VrmShape, VrmSpring, VrmSpringBones, VrmVersion,
+};
+use crate::curve::QuadraticCurve;
+
+use super::chains::{ChainSelect, HairBoneChains};
+use super::collider::{HairCollider, HairColliderMode, HairCollidesOnly};
+use super::events::VrmSpringsFailed;
+use super::settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN};
+
+/// VRM 0.x's tail past a leaf bone, in the leaf's units.
+pub const VRM0_TAIL: f32 = 0.07;
+
+/// Frame rate at which VRM's per-frame quantities are read.
+const VRM_RATE: f32 = 60.0;
+
+/// On a scene root with [`VrmSpringBones`] once they are built: one [`HairBoneChains`] entity per
+/// spring (in the file's order; springs with nothing to simulate are left out) and one
+/// [`HairCollider`] entity per collider. Remove it (after despawning those) to build again.
+#[derive(Component, Clone, Debug, Default, Reflect)]
+#[reflect(Component, Debug)]
+pub struct VrmSpringChains {
+    /// The [`HairBoneChains`] entities.
+    pub springs: Vec<Entity>,
+    /// The collider entities, in the file's order.
+    pub colliders: Vec<Entity>,
+}
+
+/// The hair settings a VRM spring maps to (see the module docs).
+pub fn vrm_sim_settings(spring: &VrmSpring, version: VrmVersion) -> HairSimSettings {
+    // A VRM 1.0 spring's last joint is only a tail: its parameters are unused.
+    let joints = match version {
+        VrmVersion::V1 if spring.joints.len() > 1 => &spring.joints[..spring.joints.len() - 1],
+        _ => &spring.joints[..],
+    };
+    let mut settings = HairSimSettings::default();
+    if joints.is_empty() {
+        return settings;
+    }
+    let n = joints.len() as f32;
+    let drag = (joints.iter().map(|j| j.drag_force).sum::<f32>() / n).clamp(0.0, 0.95);
+    let damping = -VRM_RATE * (1.0 - drag).ln();
+    let fall = if drag > 1e-4 {
+        damping / drag
+    } else {
+        VRM_RATE
+    };
+    let gravity = joints
+        .iter()
+        .map(|j| j.gravity_dir * j.gravity_power)
+        .sum::<Vec3>()
+        / n;
+    let hit = joints.iter().map(|j| j.hit_radius).fold(0.0, f32::max);
+    settings.damping = damping;
+    settings.gravity = gravity * fall;
+    settings.anchor_stiffness = fit_quadratic(
+        joints
+            .iter()
+            .enumerate()
+            .map(|(k, j)| {
+                let x = if joints.len() > 1 {
+                    k as f32 / (n - 1.0)
+                } else {
+                    0.0
+                };
+                (x, j.stiffness / (j.stiffness + 2.0))
+            })
+            .collect::<Vec<_>>()
+            .as_slice(),
+    );
+    settings.margin_min = hit.min(MAX_MARGIN);
+    settings.margin_max = settings.margin_min;
+    if spring.center.is_some() {
+        settings.damping_frame = HairDampingFrame::Bone;
+    }
+    settings
+}
+
+/// The least-squares quadratic through `points` (a constant for one, a line for two).
+fn fit_quadratic(points: &[(f32, f32)]) -> QuadraticCurve {
+    match points {
+        [] => QuadraticCurve::new(0.0, 0.0, 0.0),
+        [(_, y)] => QuadraticCurve::new(0.0, 0.0, *y),
+        [(x0, y0), (x1, y1)] => {
+            let b = if (x1 - x0).abs() > 1e-6 {
+                (y1 - y0) / (x1 - x0)
+            } else {
+                0.0
+            };
+            QuadraticCurve::new(0.0, b, y0 - b * x0)
+        }
+        _ => {
+            // Normal equations of y = a x^2 + b x + c.
+            let mut m = Mat3::ZERO;
+            let mut r = Vec3::ZERO;
+            for &(x, y) in points {
+                let v = Vec3::new(x * x, x, 1.0);
+                m += Mat3::from_cols(v * v.x, v * v.y, v * v.z);
+                r += v * y;
+            }
+            if m.determinant().abs() < 1e-9 {
+                let mean = points.iter().map(|p| p.1).sum::<f32>() / points.len() as f32;
+                return QuadraticCurve::new(0.0, 0.0, mean);
+            }
+            let s = m.inverse() * r;
+            QuadraticCurve::new(s.x, s.y, s.z)
+        }
+    }
+}
+
+/// Builds the chains and colliders of every spawned scene root with [`VrmSpringBones`].
+pub(crate) fn build_vrm_springs(
+    mut commands: Commands,
+    roots: Query<(Entity, &VrmSpringBones), Without<VrmSpringChains>>,
+    nodes: Query<&VrmNode>,
+    children: Query<&Children>,
+    locals: Query<&Transform>,
+    helper: TransformHelper,
+) {
+    for (root, bones) in &roots {
+        if let Some(error) = &bones.error {
+            commands.trigger(VrmSpringsFailed {
+                entity: root,
+                file: bones.file.clone(),
+                error: error.clone(),
+            });
+            commands.entity(root).insert(VrmSpringChains::default());
+            continue;
+        }
+        // Node index -> entity, over the scene's descendants.
+        let mut by_index: Vec<Option<Entity>> = Vec::new();
+        let mut stack = vec![root];
+        while let Some(e) = stack.pop() {
+            if let Ok(VrmNode(i)) = nodes.get(e) {
+                let i = *i as usize;
+                if by_index.len() <= i {
+                    by_index.resize(i + 1, None);
+                }
+                by_index[i] = Some(e);
+            }
+            if let Ok(kids) = children.get(e) {
+                stack.extend(kids.iter());
+            }
+        }
+        let entity_of = |i: u32| by_index.get(i as usize).copied().flatten();
+        let file = &bones.file;
+        let springs = &bones.springs;
+        let mut built = VrmSpringChains::default();
+        let mut collider_entities = Vec::with_capacity(springs.colliders.len());
+        for (i, c) in springs.colliders.iter().enumerate() {
+            let Some(node) = entity_of(c.node) else {
+                warn!("{file}: collider {i}: node {} is not in the spawned scene; left out", c.node);
+                collider_entities.push(None);
+                continue;
+            };
+            let global = helper
+                .compute_global_transform(node)
+                .unwrap_or_default();
+            let e = commands
+                .spawn((
+                    Name::new(format!("VRM collider {i}")),
+                    Transform::IDENTITY,
+                    global,
+                    collider(&c.shape),
+                    ChildOf(node),
+                ))
+                .id();
+            collider_entities.push(Some(e));
+            built.colliders.push(e);
+        }
+        for (s, spring) in springs.springs.iter().enumerate() {
+            let chains = match springs.version {
+                VrmVersion::V1 => {
+                    let joints: Option<Vec<Entity>> =
+                        spring.nodes.iter().map(|&n| entity_of(n)).collect();
+                    match joints {
+                        Some(j) if j.len() >= 2 => vec![j],
+                        Some(_) => {
+                            warn!(
+                                "{file}: spring {s} ({:?}) has fewer than two joints: nothing \
+                                 turns; give it a tail joint",
+                                spring.name
+                            );
+                            continue;
+                        }
+                        None => {
+                            warn!("{file}: spring {s}: a joint is not in the spawned scene; skipped");
+                            continue;
+                        }
+                    }
+                }
+                VrmVersion::V0 => {
+                    let mut out = Vec::new();
+                    for &n in &spring.nodes {
+                        let Some(start) = entity_of(n) else {
+                            warn!("{file}: bone group {s}: node {n} is not in the spawned scene");
+                            continue;
+                        };
+                        vrm0_chains(start, &children, &locals, &mut commands, &mut out);
+                    }
+                    out
+                }
+            };
+            if chains.is_empty() {
+                continue;
+            }
+            let mut only: Vec<Entity> = Vec::new();
+            for &g in &spring.groups {
+                for &c in springs.groups.get(g as usize).map_or(&[][..], Vec::as_slice) {
+                    if let Some(Some(e)) = collider_entities.get(c as usize)
+                        && !only.contains(e)
+                    {
+                        only.push(*e);
+                    }
+                }
+            }
+            let name = if spring.name.is_empty() {
+                format!("VRM spring {s}")
+            } else {
+                format!("VRM spring {s} {}", spring.name)
+            };
+            let e = commands
+                .spawn((
+                    Name::new(name),
+                    HairBoneChains {
+                        root,
+                        select: ChainSelect::Joints(chains),
+                        tail: 1.0,
+                    },
+                    vrm_sim_settings(spring, springs.version),
+                    HairCollidesOnly(only),
+                ))
+                .id();
+            built.springs.push(e);
+        }
+        info!(
+            "{file}: {} VRM springs and {} colliders simulated as hair",
+            built.springs.len(),
+            built.colliders.len()
+        );
+        commands.entity(root).insert(built);
+    }
+}
+
+/// The hair collider of a VRM collider shape.
+fn collider(shape: &VrmShape) -> HairCollider {
+    match *shape {
+        VrmShape::Sphere {
+            offset,
+            radius,
+            inside,
+        } => HairCollider {
+            spheres: vec![CollisionSphere {
+                center: offset,
+                radius,
+            }],
+            mode: mode(inside),
+            ..default()
+        },
+        VrmShape::Capsule {
+            offset,
+            tail,
+            radius,
+            inside,
+        } => HairCollider {
+            capsules: vec![CollisionCapsule {
+                a: offset,
+                b: tail,
+                radius,
+            }],
+            mode: mode(inside),
+            ..default()
+        },
+        VrmShape::Plane { offset, normal } => HairCollider {
+            planes: vec![CollisionPlane {
+                point: offset,
+                normal,
+            }],
+            ..default()
+        },
+    }
+}
+
+fn mode(inside: bool) -> HairColliderMode {
+    if inside {
+        HairColliderMode::Inside
+    } else {
+        HairColliderMode::Outside
+    }
+}
+
+/// VRM 0.x: the chains of the tree under `start` (through first children; other children start
+/// their own), each ending in a tail node spawned past its leaf.
+fn vrm0_chains(
+    start: Entity,
+    children: &Query<&Children>,
+    locals: &Query<&Transform>,
+    commands: &mut Commands,
+    out: &mut Vec<Vec<Entity>>,
+) {
+    let mut starts = vec![start];
+    while let Some(first) = starts.pop() {
+        if out.len() >= crate::asset::MAX_VRM_JOINTS {
+            return;
+        }
+        let mut chain = vec![first];
+        let mut at = first;
+        loop {
+            let kids: Vec<Entity> = children
+                .get(at)
+                .map(|c| c.iter().filter(|k| locals.contains(*k)).collect())
+                .unwrap_or_default();
+            let Some((&next, rest)) = kids.split_first() else {
+                break;
+            };
+            starts.extend(rest.iter().rev());
+            if chain.len() >= MAX_PARTICLES_PER_STRAND - 2 || chain.contains(&next) {
+                break;
+            }
+            chain.push(next);
+            at = next;
+        }
+        // The tail: 7 cm along the leaf's own bone, in its space.
+        let leaf = at;
+        let along = locals
+            .get(leaf)
+            .ok()
+            .and_then(|t| t.translation.try_normalize())
+            .unwrap_or(Vec3::Y);
+        let tail = commands
+            .spawn((
+                Name::new("VRM 0.x tail"),
+                Transform::from_translation(along * VRM0_TAIL),
+                ChildOf(leaf),
+            ))
+            .id();
+        chain.push(tail);
+        out.push(chain);
+    }
+}
