@@ -15,8 +15,8 @@
 //! colliders.
 
 use bevy::gltf::gltf;
-use serde_json::Value;
 use bevy::prelude::*;
+use serde_json::Value;
 
 /// Most springs (VRM 1.0) or bone groups (VRM 0.x) a file may have.
 pub const MAX_VRM_SPRINGS: usize = 4096;
@@ -165,19 +165,18 @@ pub fn parse_vrm_springs(
     document: &gltf::Document,
 ) -> Result<Option<VrmSprings>, VrmError> {
     let nodes = Nodes::of(document);
-    let reader = Reader { file, nodes: &nodes };
+    let reader = Reader {
+        file,
+        nodes: &nodes,
+    };
     if let Some(v1) = document.extension_value("VRMC_springBone") {
-        return reader
-            .v1(v1, "extensions.VRMC_springBone")
-            .map(Some);
+        return reader.v1(v1, "extensions.VRMC_springBone").map(Some);
     }
     let v0 = document
         .extension_value("VRM")
         .and_then(|vrm| vrm.get("secondaryAnimation"));
     match v0 {
-        Some(v0) => reader
-            .v0(v0, "extensions.VRM.secondaryAnimation")
-            .map(Some),
+        Some(v0) => reader.v0(v0, "extensions.VRM.secondaryAnimation").map(Some),
         None => Ok(None),
     }
 }
@@ -229,7 +228,13 @@ impl Reader<'_> {
     }
 
     /// An optional array, at most `max` long.
-    fn array<'v>(&self, o: &'v serde_map::Map, key: &str, path: &str, max: usize) -> Res<&'v [Value]> {
+    fn array<'v>(
+        &self,
+        o: &'v serde_map::Map,
+        key: &str,
+        path: &str,
+        max: usize,
+    ) -> Res<&'v [Value]> {
         let Some(v) = o.get(key) else {
             return Ok(&[]);
         };
@@ -238,13 +243,23 @@ impl Reader<'_> {
             Some(a) if a.len() <= max => Ok(a),
             Some(a) => self.err(
                 &path,
-                format!("{} entries, more than the {max} allowed; split the model", a.len()),
+                format!(
+                    "{} entries, more than the {max} allowed; split the model",
+                    a.len()
+                ),
             ),
             None => self.err(&path, format!("expected an array, found {}", kind(v))),
         }
     }
 
-    fn number(&self, o: &serde_map::Map, key: &str, path: &str, range: (f32, f32), default: f32) -> Res<f32> {
+    fn number(
+        &self,
+        o: &serde_map::Map,
+        key: &str,
+        path: &str,
+        range: (f32, f32),
+        default: f32,
+    ) -> Res<f32> {
         let Some(v) = o.get(key) else {
             return Ok(default);
         };
@@ -256,7 +271,10 @@ impl Reader<'_> {
         if !x.is_finite() || x < range.0 || x > range.1 {
             return self.err(
                 &path,
-                format!("{x} is outside [{}, {}]; fix the value in the VRM exporter", range.0, range.1),
+                format!(
+                    "{x} is outside [{}, {}]; fix the value in the VRM exporter",
+                    range.0, range.1
+                ),
             );
         }
         Ok(x)
@@ -266,7 +284,10 @@ impl Reader<'_> {
         match o.get(key) {
             None => Ok(false),
             Some(Value::Bool(b)) => Ok(*b),
-            Some(v) => self.err(&format!("{path}.{key}"), format!("expected true or false, found {}", kind(v))),
+            Some(v) => self.err(
+                &format!("{path}.{key}"),
+                format!("expected true or false, found {}", kind(v)),
+            ),
         }
     }
 
@@ -276,7 +297,10 @@ impl Reader<'_> {
             Some(i) if (i as usize) < self.nodes.len() => Ok(i as u32),
             Some(i) => self.err(
                 path,
-                format!("node {i} does not exist (the file has {} nodes)", self.nodes.len()),
+                format!(
+                    "node {i} does not exist (the file has {} nodes)",
+                    self.nodes.len()
+                ),
             ),
             None => self.err(path, format!("expected a node index, found {}", kind(v))),
         }
@@ -286,7 +310,10 @@ impl Reader<'_> {
     fn index(&self, v: &Value, path: &str, len: usize, what: &str) -> Res<u32> {
         match v.as_u64() {
             Some(i) if (i as usize) < len => Ok(i as u32),
-            Some(i) => self.err(path, format!("{what} {i} does not exist (the file has {len})")),
+            Some(i) => self.err(
+                path,
+                format!("{what} {i} does not exist (the file has {len})"),
+            ),
             None => self.err(path, format!("expected an index, found {}", kind(v))),
         }
     }
@@ -299,12 +326,22 @@ impl Reader<'_> {
                 &format!("{path}.{key}"),
                 format!("{} bytes, longer than the {MAX_VRM_NAME} allowed", s.len()),
             ),
-            Some(v) => self.err(&format!("{path}.{key}"), format!("expected a string, found {}", kind(v))),
+            Some(v) => self.err(
+                &format!("{path}.{key}"),
+                format!("expected a string, found {}", kind(v)),
+            ),
         }
     }
 
     /// A vector given as `[x, y, z]` (VRM 1.0) or `{"x":, "y":, "z":}` (VRM 0.x).
-    fn vec3(&self, o: &serde_map::Map, key: &str, path: &str, default: Vec3, max: f32) -> Res<Vec3> {
+    fn vec3(
+        &self,
+        o: &serde_map::Map,
+        key: &str,
+        path: &str,
+        default: Vec3,
+        max: f32,
+    ) -> Res<Vec3> {
         let Some(v) = o.get(key) else {
             return Ok(default);
         };
@@ -321,7 +358,9 @@ impl Reader<'_> {
                 None => 0.0,
                 Some(p) => match p.as_f64() {
                     Some(x) => x as f32,
-                    None => return self.err(&path, format!("expected a number, found {}", kind(p))),
+                    None => {
+                        return self.err(&path, format!("expected a number, found {}", kind(p)));
+                    }
                 },
             };
             if !x.is_finite() || x.abs() > max {
@@ -336,14 +375,21 @@ impl Reader<'_> {
         let v = self.vec3(o, key, path, default, MAX_VRM_COORDINATE)?;
         match v.try_normalize() {
             Some(n) => Ok(n),
-            None => self.err(&format!("{path}.{key}"), "a direction of zero length; give a unit vector"),
+            None => self.err(
+                &format!("{path}.{key}"),
+                "a direction of zero length; give a unit vector",
+            ),
         }
     }
 
     fn v1(&self, v: &Value, path: &str) -> Res<VrmSprings> {
         let root = self.object(v, path)?;
         let mut colliders = Vec::new();
-        for (i, c) in self.array(root, "colliders", path, MAX_VRM_COLLIDERS)?.iter().enumerate() {
+        for (i, c) in self
+            .array(root, "colliders", path, MAX_VRM_COLLIDERS)?
+            .iter()
+            .enumerate()
+        {
             let p = format!("{path}.colliders[{i}]");
             let c = self.object(c, &p)?;
             let Some(node) = c.get("node") else {
@@ -362,7 +408,9 @@ impl Reader<'_> {
                         other => {
                             return self.err(
                                 &format!("{ep}.specVersion"),
-                                format!("{other:?} is not a version this reads (\"1.0\", \"1.0-draft\")"),
+                                format!(
+                                    "{other:?} is not a version this reads (\"1.0\", \"1.0-draft\")"
+                                ),
                             );
                         }
                     }
@@ -373,27 +421,47 @@ impl Reader<'_> {
             colliders.push(VrmCollider { node, shape });
         }
         let mut groups = Vec::new();
-        for (i, g) in self.array(root, "colliderGroups", path, MAX_VRM_GROUPS)?.iter().enumerate() {
+        for (i, g) in self
+            .array(root, "colliderGroups", path, MAX_VRM_GROUPS)?
+            .iter()
+            .enumerate()
+        {
             let p = format!("{path}.colliderGroups[{i}]");
             let g = self.object(g, &p)?;
             self.name(g, "name", &p)?;
             let mut members = Vec::new();
-            for (k, c) in self.array(g, "colliders", &p, MAX_VRM_GROUPS)?.iter().enumerate() {
-                members.push(self.index(c, &format!("{p}.colliders[{k}]"), colliders.len(), "collider")?);
+            for (k, c) in self
+                .array(g, "colliders", &p, MAX_VRM_GROUPS)?
+                .iter()
+                .enumerate()
+            {
+                members.push(self.index(
+                    c,
+                    &format!("{p}.colliders[{k}]"),
+                    colliders.len(),
+                    "collider",
+                )?);
             }
             groups.push(members);
         }
         let mut springs = Vec::new();
         let mut owner: Vec<Option<usize>> = vec![None; self.nodes.len()];
         let mut total = 0usize;
-        for (i, s) in self.array(root, "springs", path, MAX_VRM_SPRINGS)?.iter().enumerate() {
+        for (i, s) in self
+            .array(root, "springs", path, MAX_VRM_SPRINGS)?
+            .iter()
+            .enumerate()
+        {
             let p = format!("{path}.springs[{i}]");
             let s = self.object(s, &p)?;
             let name = self.name(s, "name", &p)?;
             let list = self.array(s, "joints", &p, crate::asset::MAX_PARTICLES_PER_STRAND)?;
             total += list.len();
             if total > MAX_VRM_JOINTS {
-                return self.err(&format!("{p}.joints"), format!("more than {MAX_VRM_JOINTS} joints in all"));
+                return self.err(
+                    &format!("{p}.joints"),
+                    format!("more than {MAX_VRM_JOINTS} joints in all"),
+                );
             }
             let mut nodes = Vec::with_capacity(list.len());
             let mut joints = Vec::with_capacity(list.len());
@@ -429,15 +497,35 @@ impl Reader<'_> {
                 None => None,
                 Some(c) => Some(self.node(c, &format!("{p}.center"))?),
             };
-            springs.push(VrmSpring { name, nodes, joints, groups: groups_of, center });
+            springs.push(VrmSpring {
+                name,
+                nodes,
+                joints,
+                groups: groups_of,
+                center,
+            });
         }
-        Ok(VrmSprings { version: VrmVersion::V1, colliders, groups, springs })
+        Ok(VrmSprings {
+            version: VrmVersion::V1,
+            colliders,
+            groups,
+            springs,
+        })
     }
 
     fn group_refs(&self, s: &serde_map::Map, p: &str, len: usize) -> Res<Vec<u32>> {
         let mut out = Vec::new();
-        for (k, g) in self.array(s, "colliderGroups", p, MAX_VRM_GROUPS)?.iter().enumerate() {
-            out.push(self.index(g, &format!("{p}.colliderGroups[{k}]"), len, "collider group")?);
+        for (k, g) in self
+            .array(s, "colliderGroups", p, MAX_VRM_GROUPS)?
+            .iter()
+            .enumerate()
+        {
+            out.push(self.index(
+                g,
+                &format!("{p}.colliderGroups[{k}]"),
+                len,
+                "collider group",
+            )?);
         }
         Ok(out)
     }
@@ -452,7 +540,13 @@ impl Reader<'_> {
         Ok(VrmJoint {
             hit_radius: self.number(j, hit, p, (0.0, MAX_VRM_COORDINATE), d.hit_radius)?,
             stiffness: self.number(j, stiffness_key, p, (0.0, MAX_VRM_FORCE), d.stiffness)?,
-            gravity_power: self.number(j, "gravityPower", p, (0.0, MAX_VRM_FORCE), d.gravity_power)?,
+            gravity_power: self.number(
+                j,
+                "gravityPower",
+                p,
+                (0.0, MAX_VRM_FORCE),
+                d.gravity_power,
+            )?,
             gravity_dir: self.direction(j, "gravityDir", p, d.gravity_dir)?,
             drag_force: self.number(j, "dragForce", p, (0.0, 1.0), d.drag_force)?,
         })
@@ -465,10 +559,21 @@ impl Reader<'_> {
         };
         let p = format!("{p}.shape");
         let shape = self.object(shape, &p)?;
-        let kinds: &[&str] = if extended { &["sphere", "capsule", "plane"] } else { &["sphere", "capsule"] };
-        let present: Vec<&str> = kinds.iter().copied().filter(|k| shape.contains_key(*k)).collect();
+        let kinds: &[&str] = if extended {
+            &["sphere", "capsule", "plane"]
+        } else {
+            &["sphere", "capsule"]
+        };
+        let present: Vec<&str> = kinds
+            .iter()
+            .copied()
+            .filter(|k| shape.contains_key(*k))
+            .collect();
         let [which] = present[..] else {
-            return self.err(&p, format!("needs exactly one of {kinds:?}, has {present:?}"));
+            return self.err(
+                &p,
+                format!("needs exactly one of {kinds:?}, has {present:?}"),
+            );
         };
         let sp = format!("{p}.{which}");
         let s = self.object(&shape[which], &sp)?;
@@ -476,7 +581,11 @@ impl Reader<'_> {
         let offset = self.vec3(s, "offset", &sp, Vec3::ZERO, MAX_VRM_COORDINATE)?;
         let inside = extended && self.boolean(s, "inside", &sp)?;
         Ok(match which {
-            "sphere" => VrmShape::Sphere { offset, radius: radius()?, inside },
+            "sphere" => VrmShape::Sphere {
+                offset,
+                radius: radius()?,
+                inside,
+            },
             "capsule" => VrmShape::Capsule {
                 offset,
                 tail: self.vec3(s, "tail", &sp, Vec3::ZERO, MAX_VRM_COORDINATE)?,
@@ -494,7 +603,11 @@ impl Reader<'_> {
         let root = self.object(v, path)?;
         let mut colliders = Vec::new();
         let mut groups = Vec::new();
-        for (i, g) in self.array(root, "colliderGroups", path, MAX_VRM_GROUPS)?.iter().enumerate() {
+        for (i, g) in self
+            .array(root, "colliderGroups", path, MAX_VRM_GROUPS)?
+            .iter()
+            .enumerate()
+        {
             let p = format!("{path}.colliderGroups[{i}]");
             let g = self.object(g, &p)?;
             let Some(node) = g.get("node") else {
@@ -502,11 +615,18 @@ impl Reader<'_> {
             };
             let node = self.node(node, &format!("{p}.node"))?;
             let mut members = Vec::new();
-            for (k, c) in self.array(g, "colliders", &p, MAX_VRM_COLLIDERS)?.iter().enumerate() {
+            for (k, c) in self
+                .array(g, "colliders", &p, MAX_VRM_COLLIDERS)?
+                .iter()
+                .enumerate()
+            {
                 let cp = format!("{p}.colliders[{k}]");
                 let c = self.object(c, &cp)?;
                 if colliders.len() >= MAX_VRM_COLLIDERS {
-                    return self.err(&cp, format!("more than {MAX_VRM_COLLIDERS} colliders in all"));
+                    return self.err(
+                        &cp,
+                        format!("more than {MAX_VRM_COLLIDERS} colliders in all"),
+                    );
                 }
                 let offset = self.vec3(c, "offset", &cp, Vec3::ZERO, MAX_VRM_COORDINATE)?;
                 let radius = self.number(c, "radius", &cp, (0.0, MAX_VRM_COORDINATE), 0.0)?;
@@ -525,14 +645,21 @@ impl Reader<'_> {
         }
         let mut springs = Vec::new();
         let mut total = 0usize;
-        for (i, g) in self.array(root, "boneGroups", path, MAX_VRM_SPRINGS)?.iter().enumerate() {
+        for (i, g) in self
+            .array(root, "boneGroups", path, MAX_VRM_SPRINGS)?
+            .iter()
+            .enumerate()
+        {
             let p = format!("{path}.boneGroups[{i}]");
             let g = self.object(g, &p)?;
             let name = self.name(g, "comment", &p)?;
             let bones = self.array(g, "bones", &p, MAX_VRM_GROUPS)?;
             total += bones.len();
             if total > MAX_VRM_JOINTS {
-                return self.err(&format!("{p}.bones"), format!("more than {MAX_VRM_JOINTS} root bones in all"));
+                return self.err(
+                    &format!("{p}.bones"),
+                    format!("more than {MAX_VRM_JOINTS} root bones in all"),
+                );
             }
             let mut nodes = Vec::with_capacity(bones.len());
             for (k, b) in bones.iter().enumerate() {
@@ -552,7 +679,12 @@ impl Reader<'_> {
                 center,
             });
         }
-        Ok(VrmSprings { version: VrmVersion::V0, colliders, groups, springs })
+        Ok(VrmSprings {
+            version: VrmVersion::V0,
+            colliders,
+            groups,
+            springs,
+        })
     }
 }
 

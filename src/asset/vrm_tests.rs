@@ -46,18 +46,29 @@ fn a_vrm_1_file_reads_its_colliders_groups_springs_and_defaults() {
     assert_eq!(s.colliders.len(), 4);
     assert_eq!(
         s.colliders[0].shape,
-        VrmShape::Sphere { offset: Vec3::new(0.0, 0.1, 0.0), radius: 0.09, inside: false }
+        VrmShape::Sphere {
+            offset: Vec3::new(0.0, 0.1, 0.0),
+            radius: 0.09,
+            inside: false
+        }
     );
     assert!(matches!(s.colliders[1].shape, VrmShape::Capsule { tail, .. } if tail.y == -0.2));
     // The extended shape replaces its fallback.
     assert_eq!(
         s.colliders[2].shape,
-        VrmShape::Sphere { offset: Vec3::new(0.0, 0.1, 0.0), radius: 0.3, inside: true }
+        VrmShape::Sphere {
+            offset: Vec3::new(0.0, 0.1, 0.0),
+            radius: 0.3,
+            inside: true
+        }
     );
     // A plane's normal is made unit length.
     assert_eq!(
         s.colliders[3].shape,
-        VrmShape::Plane { offset: Vec3::new(0.0, -0.3, 0.0), normal: Vec3::Y }
+        VrmShape::Plane {
+            offset: Vec3::new(0.0, -0.3, 0.0),
+            normal: Vec3::Y
+        }
     );
     assert_eq!(s.groups, vec![vec![0, 1], vec![2, 3]]);
     let bangs = &s.springs[0];
@@ -84,16 +95,25 @@ const V0: &str = r#"{"VRM":{"secondaryAnimation":{
 
 #[test]
 fn a_vrm_0_file_converts_collider_offsets_from_unity_space() {
-    let s = parse_vrm_springs("old.vrm", &document(V0)).unwrap().unwrap();
+    let s = parse_vrm_springs("old.vrm", &document(V0))
+        .unwrap()
+        .unwrap();
     assert_eq!(s.version, VrmVersion::V0);
     // z is opposite in VRM 0.x (written in Unity's left-handed space).
     assert_eq!(
         s.colliders[0].shape,
-        VrmShape::Sphere { offset: Vec3::new(0.01, 0.1, -0.02), radius: 0.09, inside: false }
+        VrmShape::Sphere {
+            offset: Vec3::new(0.01, 0.1, -0.02),
+            radius: 0.09,
+            inside: false
+        }
     );
     assert_eq!(s.colliders[0].node, 0);
     let g = &s.springs[0];
-    assert_eq!((g.name.as_str(), g.nodes.clone(), g.center), ("hair", vec![1, 4], None));
+    assert_eq!(
+        (g.name.as_str(), g.nodes.clone(), g.center),
+        ("hair", vec![1, 4], None)
+    );
     assert_eq!(g.joints.len(), 1);
     assert_eq!(g.joints[0].stiffness, 0.8);
     assert_eq!(g.joints[0].drag_force, 0.3);
@@ -102,48 +122,158 @@ fn a_vrm_0_file_converts_collider_offsets_from_unity_space() {
 
 #[test]
 fn a_gltf_without_spring_bones_has_none() {
-    assert_eq!(parse_vrm_springs("plain.glb", &document("{}")).unwrap(), None);
+    assert_eq!(
+        parse_vrm_springs("plain.glb", &document("{}")).unwrap(),
+        None
+    );
     // VRM 0.x metadata without secondaryAnimation.
     let meta = r#"{"VRM":{"meta":{"title":"x"}}}"#;
-    assert_eq!(parse_vrm_springs("meta.vrm", &document(meta)).unwrap(), None);
+    assert_eq!(
+        parse_vrm_springs("meta.vrm", &document(meta)).unwrap(),
+        None
+    );
 }
 
 /// `V1` with `from` replaced by `to` must fail at `path` with a message containing `says`.
 fn refused(from: &str, to: &str, path: &str, says: &str) {
     assert!(V1.contains(from), "{from} not in the test file");
     let json = V1.replacen(from, to, 1);
-    let err = parse_vrm_springs("bad.vrm", &document(&json))
-        .expect_err(&format!("{to} was accepted"));
+    let err =
+        parse_vrm_springs("bad.vrm", &document(&json)).expect_err(&format!("{to} was accepted"));
     assert_eq!(err.file, "bad.vrm");
     assert_eq!(err.path, path, "{err}");
     assert!(err.message.contains(says), "{err}");
-    assert!(err.to_string().starts_with("bad.vrm: extensions.VRMC_springBone"), "{err}");
+    assert!(
+        err.to_string()
+            .starts_with("bad.vrm: extensions.VRMC_springBone"),
+        "{err}"
+    );
 }
 
 #[test]
 fn hostile_vrm_1_json_is_refused_naming_the_json_path() {
     let c = "extensions.VRMC_springBone.colliders";
     let s = "extensions.VRMC_springBone.springs";
-    refused(r#"{"node":3}]"#, r#"{"node":99}]"#, &format!("{s}[0].joints[2].node"), "node 99 does not exist (the file has 6 nodes)");
-    refused(r#"{"node":2,"stiffness":1}"#, r#"{"node":4,"stiffness":1}"#, &format!("{s}[0].joints[1].node"), "not a child of the previous joint");
-    refused(r#"{"node":4},{"node":5}"#, r#"{"node":2},{"node":3}"#, &format!("{s}[1].joints[0].node"), "also a joint of spring 0");
-    refused(r#""stiffness":2"#, r#""stiffness":-1"#, &format!("{s}[0].joints[0].stiffness"), "outside [0, 10000]");
-    refused(r#""dragForce":0.4"#, r#""dragForce":1.5"#, &format!("{s}[0].joints[0].dragForce"), "outside [0, 1]");
-    refused(r#""gravityPower":0.1"#, r#""gravityPower":1e39"#, &format!("{s}[0].joints[0].gravityPower"), "outside");
-    refused(r#""gravityDir":[0,-1,0]"#, r#""gravityDir":[0,0,0]"#, &format!("{s}[0].joints[0].gravityDir"), "zero length");
-    refused(r#""gravityDir":[0,-1,0]"#, r#""gravityDir":[0,-1]"#, &format!("{s}[0].joints[0].gravityDir"), "expected 3 numbers");
-    refused(r#""hitRadius":0.02"#, r#""hitRadius":"big""#, &format!("{s}[0].joints[0].hitRadius"), "expected a number, found a string");
-    refused(r#""radius":0.09"#, r#""radius":-0.09"#, &format!("{c}[0].shape.sphere.radius"), "outside");
-    refused(r#""offset":[0,0.1,0],"radius":0.09"#, r#""offset":[0,1e6,0],"radius":0.09"#, &format!("{c}[0].shape.sphere.offset"), "within ±100000");
-    refused(r#"{"sphere":{"offset":[0,0.1,0],"radius":0.09}}"#, r#"{"sphere":{},"capsule":{}}"#, &format!("{c}[0].shape"), "exactly one of");
-    refused(r#"{"node":0,"shape":{"sphere":{"offset":[0,0.1,0],"radius":0.09}}}"#, r#"{"node":0}"#, &format!("{c}[0]"), "without a shape");
-    refused(r#""specVersion":"1.0-draft""#, r#""specVersion":"2.0""#, &format!("{c}[3].extensions.VRMC_springBone_extended_collider.specVersion"), "not a version");
-    refused(r#""normal":[0,2,0]"#, r#""normal":[0,0,0]"#, &format!("{c}[3].extensions.VRMC_springBone_extended_collider.shape.plane.normal"), "zero length");
-    refused(r#""colliders":[0,1]"#, r#""colliders":[0,7]"#, "extensions.VRMC_springBone.colliderGroups[0].colliders[1]", "collider 7 does not exist");
-    refused(r#""colliderGroups":[1]"#, r#""colliderGroups":[2]"#, &format!("{s}[1].colliderGroups[0]"), "collider group 2 does not exist");
-    refused(r#""center":0"#, r#""center":-3"#, &format!("{s}[0].center"), "expected a node index");
-    refused(r#""name":"bangs""#, &format!(r#""name":"{}""#, "x".repeat(MAX_VRM_NAME + 1)), &format!("{s}[0].name"), "longer than");
-    refused(r#""springs":["#, r#""springs":{"a":1},"x":["#, s, "expected an array");
+    refused(
+        r#"{"node":3}]"#,
+        r#"{"node":99}]"#,
+        &format!("{s}[0].joints[2].node"),
+        "node 99 does not exist (the file has 6 nodes)",
+    );
+    refused(
+        r#"{"node":2,"stiffness":1}"#,
+        r#"{"node":4,"stiffness":1}"#,
+        &format!("{s}[0].joints[1].node"),
+        "not a child of the previous joint",
+    );
+    refused(
+        r#"{"node":4},{"node":5}"#,
+        r#"{"node":2},{"node":3}"#,
+        &format!("{s}[1].joints[0].node"),
+        "also a joint of spring 0",
+    );
+    refused(
+        r#""stiffness":2"#,
+        r#""stiffness":-1"#,
+        &format!("{s}[0].joints[0].stiffness"),
+        "outside [0, 10000]",
+    );
+    refused(
+        r#""dragForce":0.4"#,
+        r#""dragForce":1.5"#,
+        &format!("{s}[0].joints[0].dragForce"),
+        "outside [0, 1]",
+    );
+    refused(
+        r#""gravityPower":0.1"#,
+        r#""gravityPower":1e39"#,
+        &format!("{s}[0].joints[0].gravityPower"),
+        "outside",
+    );
+    refused(
+        r#""gravityDir":[0,-1,0]"#,
+        r#""gravityDir":[0,0,0]"#,
+        &format!("{s}[0].joints[0].gravityDir"),
+        "zero length",
+    );
+    refused(
+        r#""gravityDir":[0,-1,0]"#,
+        r#""gravityDir":[0,-1]"#,
+        &format!("{s}[0].joints[0].gravityDir"),
+        "expected 3 numbers",
+    );
+    refused(
+        r#""hitRadius":0.02"#,
+        r#""hitRadius":"big""#,
+        &format!("{s}[0].joints[0].hitRadius"),
+        "expected a number, found a string",
+    );
+    refused(
+        r#""radius":0.09"#,
+        r#""radius":-0.09"#,
+        &format!("{c}[0].shape.sphere.radius"),
+        "outside",
+    );
+    refused(
+        r#""offset":[0,0.1,0],"radius":0.09"#,
+        r#""offset":[0,1e6,0],"radius":0.09"#,
+        &format!("{c}[0].shape.sphere.offset"),
+        "within ±100000",
+    );
+    refused(
+        r#"{"sphere":{"offset":[0,0.1,0],"radius":0.09}}"#,
+        r#"{"sphere":{},"capsule":{}}"#,
+        &format!("{c}[0].shape"),
+        "exactly one of",
+    );
+    refused(
+        r#"{"node":0,"shape":{"sphere":{"offset":[0,0.1,0],"radius":0.09}}}"#,
+        r#"{"node":0}"#,
+        &format!("{c}[0]"),
+        "without a shape",
+    );
+    refused(
+        r#""specVersion":"1.0-draft""#,
+        r#""specVersion":"2.0""#,
+        &format!("{c}[3].extensions.VRMC_springBone_extended_collider.specVersion"),
+        "not a version",
+    );
+    refused(
+        r#""normal":[0,2,0]"#,
+        r#""normal":[0,0,0]"#,
+        &format!("{c}[3].extensions.VRMC_springBone_extended_collider.shape.plane.normal"),
+        "zero length",
+    );
+    refused(
+        r#""colliders":[0,1]"#,
+        r#""colliders":[0,7]"#,
+        "extensions.VRMC_springBone.colliderGroups[0].colliders[1]",
+        "collider 7 does not exist",
+    );
+    refused(
+        r#""colliderGroups":[1]"#,
+        r#""colliderGroups":[2]"#,
+        &format!("{s}[1].colliderGroups[0]"),
+        "collider group 2 does not exist",
+    );
+    refused(
+        r#""center":0"#,
+        r#""center":-3"#,
+        &format!("{s}[0].center"),
+        "expected a node index",
+    );
+    refused(
+        r#""name":"bangs""#,
+        &format!(r#""name":"{}""#, "x".repeat(MAX_VRM_NAME + 1)),
+        &format!("{s}[0].name"),
+        "longer than",
+    );
+    refused(
+        r#""springs":["#,
+        r#""springs":{"a":1},"x":["#,
+        s,
+        "expected an array",
+    );
 }
 
 #[test]
@@ -162,8 +292,14 @@ fn oversized_lists_are_refused_before_they_are_read() {
     // VRM 0.x: a collider group's node must exist, and so must a bone.
     let bad = V0.replace(r#""bones":[1,4]"#, r#""bones":[1,40]"#);
     let err = parse_vrm_springs("old.vrm", &document(&bad)).unwrap_err();
-    assert_eq!(err.path, "extensions.VRM.secondaryAnimation.boneGroups[0].bones[1]");
+    assert_eq!(
+        err.path,
+        "extensions.VRM.secondaryAnimation.boneGroups[0].bones[1]"
+    );
     let bad = V0.replace(r#""dragForce":0.3"#, r#""dragForce":-0.3"#);
     let err = parse_vrm_springs("old.vrm", &document(&bad)).unwrap_err();
-    assert_eq!(err.path, "extensions.VRM.secondaryAnimation.boneGroups[0].dragForce");
+    assert_eq!(
+        err.path,
+        "extensions.VRM.secondaryAnimation.boneGroups[0].dragForce"
+    );
 }

@@ -19,6 +19,7 @@ mod shader_validation;
 mod stroke;
 mod tonal_maps;
 mod toon;
+mod user_mesh;
 
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, MAX_OUTLINE_DILATION,
@@ -33,6 +34,7 @@ pub use toon::{
     AngelRingProfile, HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey,
     ToonHairUniform, ToonLighting, ToonShading,
 };
+pub use user_mesh::{ToonHairMeshes, ToonHairMeshesApplied};
 
 /// Every WESL library module of the crate, as `(file, source)`, for validation and tools. A file
 /// `f.wesl` is embedded at `embedded://bevy_cartoon_hair/render/f.wesl` and imported as
@@ -75,7 +77,9 @@ impl Plugin for ToonHairMaterialPlugin {
             MaterialPlugin::<HairStrokeMaterial>::default(),
         ))
         .register_type::<ToonHairMaterial>()
-        .register_type::<HairStrokeMaterial>();
+        .register_type::<HairStrokeMaterial>()
+        .register_type::<ToonHairMeshes>()
+        .register_type::<ToonHairMeshesApplied>();
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         let texture = app
             .world_mut()
@@ -112,6 +116,7 @@ impl Plugin for ToonHairMaterialPlugin {
                 PostUpdate,
                 (
                     apply_hair_materials,
+                    user_mesh::apply_toon_to_user_meshes,
                     apply_stroke_material,
                     apply_highlight_material,
                 )

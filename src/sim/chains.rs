@@ -135,7 +135,9 @@ fn chain_starts(
 ) -> Vec<Entity> {
     match select {
         ChainSelect::Entities(list) => return list.clone(),
-        ChainSelect::Joints(chains) => return chains.iter().filter_map(|c| c.first().copied()).collect(),
+        ChainSelect::Joints(chains) => {
+            return chains.iter().filter_map(|c| c.first().copied()).collect();
+        }
         _ => {}
     }
     let name_of = |e: Entity| names.get(e).map(Name::as_str).ok();
@@ -254,9 +256,9 @@ pub(crate) fn build_bone_chains(
                         .find(|c| c.first() == Some(&start))
                         .map(|c| c[..c.len().min(crate::asset::MAX_PARTICLES_PER_STRAND)].to_vec())
                         .unwrap_or_default();
-                    let linked = joints.windows(2).all(|w| {
-                        parents.get(w[1]).is_ok_and(|p| p.parent() == w[0])
-                    });
+                    let linked = joints
+                        .windows(2)
+                        .all(|w| parents.get(w[1]).is_ok_and(|p| p.parent() == w[0]));
                     if joints.len() < 2 || !linked {
                         warn!(
                             "hair bone chains {set}: the chain from bone {start} needs two or more \
@@ -324,19 +326,19 @@ pub(crate) fn build_bone_chains(
                 .get(parent)
                 .map_or(String::new(), |n| n.as_str().to_owned());
             let mut hair = commands.spawn((
-                    Name::new(format!("hair bone chains on {name}")),
-                    // Where propagation will put it (on the bone, identity transform): the
-                    // strands are built this frame, at the bone's scale.
-                    Transform::IDENTITY,
-                    parent_world,
-                    Hair {
-                        groom: grooms.add(groom),
-                        ..default()
-                    },
-                    settings.clone(),
-                    driven,
-                    ChildOf(parent),
-                ));
+                Name::new(format!("hair bone chains on {name}")),
+                // Where propagation will put it (on the bone, identity transform): the
+                // strands are built this frame, at the bone's scale.
+                Transform::IDENTITY,
+                parent_world,
+                Hair {
+                    groom: grooms.add(groom),
+                    ..default()
+                },
+                settings.clone(),
+                driven,
+                ChildOf(parent),
+            ));
             if let Some(only) = only {
                 hair.insert(only.clone());
             }

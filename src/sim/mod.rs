@@ -51,7 +51,7 @@ pub use attach::{
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
 pub use chains::{BoneChainHair, BoneChainHairs, ChainSelect, HairBoneChains, MIN_TAIL};
 pub use clock::{HairTime, HairTimeExt};
-pub use collider::{HairCollidesOnly, HairCollider, HairColliderMode};
+pub use collider::{HairCollider, HairColliderMode, HairCollidesOnly};
 pub use events::{
     BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
     HairAssetKind, HairReady, HairRebuilt, RebuildReason, VrmSpringsFailed,
@@ -62,7 +62,7 @@ pub use physics::HairCollisionGroups;
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
 pub use volume::{HairVolume, VolumeScratch, keep_apart};
-pub use vrm::{VRM0_TAIL, VrmSpringChains, vrm_sim_settings};
+pub use vrm::{VRM0_TAIL, VrmSpringChains, anchor_for_rate, vrm_sim_settings};
 pub use wind::{FieldStep, HairForceField, HairForceFieldKind, HairWind, HairWindOverride};
 
 use bevy::prelude::*;

@@ -12,7 +12,7 @@ use crate::parallel;
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
-use super::collider::{HairCollidesOnly, HairCollider};
+use super::collider::{HairCollider, HairCollidesOnly};
 use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
@@ -127,9 +127,11 @@ pub(crate) fn step_hair_strands(
         let now = g.affine();
         let prev = history.poses.get(&e).copied().unwrap_or(now);
         let inside = collider.inside();
-        history
-            .shapes
-            .extend(collider.shapes().map(|shape| ((prev, now, shape, inside), e)));
+        history.shapes.extend(
+            collider
+                .shapes()
+                .map(|shape| ((prev, now, shape, inside), e)),
+        );
     }
     history.poses.clear();
     history

@@ -14,13 +14,14 @@
 //! |---|---|---|
 //! | `dragForce` `d` (share of velocity lost per frame) | [`HairSimSettings::damping`] | `-60 ln(1 - d)` per second (`d` capped at 0.95) |
 //! | `gravityPower` `g`, `gravityDir` | [`HairSimSettings::gravity`] | `gravityDir * g * k`, `k = -60 ln(1 - d) / d` (`60` when `d` is 0): the fall speed VRM settles at, `g / d` per frame, is the one the damped solver settles at |
-//! | `stiffness` `s` (per joint) | [`HairSimSettings::anchor_stiffness`] | `s / (s + 2)` at each joint, root `x = 0` to last `x = 1`, fitted by a least-squares quadratic |
+//! | `stiffness` `s` (per joint) | [`HairSimSettings::anchor_stiffness`] | VRM moves a tail back toward its bind direction at `s` metres a second; a bone of length `L` so returns at a rate `s / L` a second, and each joint gets the anchor whose pull removes that rate ([`anchor_for_rate`]), root `x = 0` to last `x = 1`, fitted by a least-squares quadratic. `L` is the spring's mean bone length at the character's size |
+//! | `stiffness` | [`HairSimSettings::bend_stiffness`], `torsion_stiffness` | half the mean anchor (VRM has no bending springs) |
 //! | `hitRadius` | [`HairSimSettings::margin_min`], `margin_max` | the spring's largest, capped at [`MAX_MARGIN`](super::MAX_MARGIN) |
 //! | `center` | [`HairSimSettings::damping_frame`] | [`HairDampingFrame::Bone`]: motion is damped relative to the bone the chain hangs from, not the world |
 //!
 //! Averages are over the spring's joints. Stiffness has no exact counterpart (VRM pushes the
-//! tail back at a constant speed, the solver pulls it with a spring); the mapping was chosen so
-//! VRM's default `1` holds a chain's style loosely and `4` stiffly. Edit the spawned
+//! tail back at a constant speed, the solver pulls it with a spring): the mapping matches the
+//! rate at which a displaced joint returns. Edit the spawned
 //! [`HairBoneChains`]' [`HairSimSettings`] to tune further.
 //!
 //! ## Colliders
@@ -43,8 +44,8 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 
 use crate::asset::{
-    CollisionCapsule, CollisionPlane, CollisionSphere, MAX_PARTICLES_PER_STRAND, VrmNode,
-    VrmShape, VrmSpring, VrmSpringBones, VrmVersion,
+    CollisionCapsule, CollisionPlane, CollisionSphere, MAX_PARTICLES_PER_STRAND, VrmNode, VrmShape,
+    VrmSpring, VrmSpringBones, VrmVersion,
 };
 use crate::curve::QuadraticCurve;
 
@@ -71,8 +72,13 @@ pub struct VrmSpringChains {
     pub colliders: Vec<Entity>,
 }
 
-/// The hair settings a VRM spring maps to (see the module docs).
-pub fn vrm_sim_settings(spring: &VrmSpring, version: VrmVersion) -> HairSimSettings {
+/// The hair settings a VRM spring maps to (see the module docs); `bone_length` is the spring's
+/// mean bone length in metres (world), which turns VRM's stiffness (a speed) into a rate.
+pub fn vrm_sim_settings(
+    spring: &VrmSpring,
+    version: VrmVersion,
+    bone_length: f32,
+) -> HairSimSettings {
     // A VRM 1.0 spring's last joint is only a tail: its parameters are unused.
     let joints = match version {
         VrmVersion::V1 if spring.joints.len() > 1 => &spring.joints[..spring.joints.len() - 1],
@@ -96,6 +102,13 @@ pub fn vrm_sim_settings(spring: &VrmSpring, version: VrmVersion) -> HairSimSetti
         .sum::<Vec3>()
         / n;
     let hit = joints.iter().map(|j| j.hit_radius).fold(0.0, f32::max);
+    let h = settings.substep();
+    let length = if bone_length.is_finite() && bone_length > 1e-6 {
+        bone_length
+    } else {
+        VRM0_TAIL
+    };
+    let anchor = |s: f32| anchor_for_rate(s / length, h);
     settings.damping = damping;
     settings.gravity = gravity * fall;
     settings.anchor_stiffness = fit_quadratic(
@@ -108,17 +121,34 @@ pub fn vrm_sim_settings(spring: &VrmSpring, version: VrmVersion) -> HairSimSetti
                 } else {
                     0.0
                 };
-                (x, j.stiffness / (j.stiffness + 2.0))
+                (x, anchor(j.stiffness))
             })
             .collect::<Vec<_>>()
             .as_slice(),
     );
+    // VRM has no bending springs: a joint's only pull back is its stiffness. Bending and
+    // torsion get half the mean anchor, so a soft spring is soft all along.
+    let mean_anchor = joints.iter().map(|j| anchor(j.stiffness)).sum::<f32>() / n;
+    settings.bend_stiffness = 0.5 * mean_anchor;
+    settings.torsion_stiffness = 0.5 * mean_anchor;
     settings.margin_min = hit.min(MAX_MARGIN);
     settings.margin_max = settings.margin_min;
     if spring.center.is_some() {
         settings.damping_frame = HairDampingFrame::Bone;
     }
     settings
+}
+
+/// The anchor stiffness whose pull removes `rate` of a particle's offset per second (for a
+/// small offset, substeps of `h`): the inverse of
+/// [`compliance_factor`](super::compliance_factor) for one particle.
+pub fn anchor_for_rate(rate: f32, h: f32) -> f32 {
+    if !(rate > 0.0) || !rate.is_finite() {
+        return 0.0;
+    }
+    let f = (rate * h).clamp(1e-7, 0.999);
+    let compliance = h * h * (1.0 - f) / f;
+    (-compliance.log10() / 9.0).clamp(0.0, 1.0)
 }
 
 /// The least-squares quadratic through `points` (a constant for one, a line for two).
@@ -194,13 +224,14 @@ pub(crate) fn build_vrm_springs(
         let mut collider_entities = Vec::with_capacity(springs.colliders.len());
         for (i, c) in springs.colliders.iter().enumerate() {
             let Some(node) = entity_of(c.node) else {
-                warn!("{file}: collider {i}: node {} is not in the spawned scene; left out", c.node);
+                warn!(
+                    "{file}: collider {i}: node {} is not in the spawned scene; left out",
+                    c.node
+                );
                 collider_entities.push(None);
                 continue;
             };
-            let global = helper
-                .compute_global_transform(node)
-                .unwrap_or_default();
+            let global = helper.compute_global_transform(node).unwrap_or_default();
             let e = commands
                 .spawn((
                     Name::new(format!("VRM collider {i}")),
@@ -229,7 +260,9 @@ pub(crate) fn build_vrm_springs(
                             continue;
                         }
                         None => {
-                            warn!("{file}: spring {s}: a joint is not in the spawned scene; skipped");
+                            warn!(
+                                "{file}: spring {s}: a joint is not in the spawned scene; skipped"
+                            );
                             continue;
                         }
                     }
@@ -251,7 +284,11 @@ pub(crate) fn build_vrm_springs(
             }
             let mut only: Vec<Entity> = Vec::new();
             for &g in &spring.groups {
-                for &c in springs.groups.get(g as usize).map_or(&[][..], Vec::as_slice) {
+                for &c in springs
+                    .groups
+                    .get(g as usize)
+                    .map_or(&[][..], Vec::as_slice)
+                {
                     if let Some(Some(e)) = collider_entities.get(c as usize)
                         && !only.contains(e)
                     {
@@ -259,6 +296,7 @@ pub(crate) fn build_vrm_springs(
                     }
                 }
             }
+            let bone_length = mean_bone_length(&chains, &helper);
             let name = if spring.name.is_empty() {
                 format!("VRM spring {s}")
             } else {
@@ -272,7 +310,7 @@ pub(crate) fn build_vrm_springs(
                         select: ChainSelect::Joints(chains),
                         tail: 1.0,
                     },
-                    vrm_sim_settings(spring, springs.version),
+                    vrm_sim_settings(spring, springs.version, bone_length),
                     HairCollidesOnly(only),
                 ))
                 .id();
@@ -285,6 +323,24 @@ pub(crate) fn build_vrm_springs(
         );
         commands.entity(root).insert(built);
     }
+}
+
+/// The mean distance between consecutive joints that exist now (a VRM 0.x tail is spawned
+/// this frame and not counted), in world units; `NaN` when there is none.
+fn mean_bone_length(chains: &[Vec<Entity>], helper: &TransformHelper) -> f32 {
+    let (mut sum, mut count) = (0.0, 0.0);
+    for chain in chains {
+        let points: Vec<Vec3> = chain
+            .iter()
+            .map_while(|j| helper.compute_global_transform(*j).ok())
+            .map(|g| g.translation())
+            .collect();
+        for w in points.windows(2) {
+            sum += w[0].distance(w[1]);
+            count += 1.0;
+        }
+    }
+    sum / count
 }
 
 /// The hair collider of a VRM collider shape.

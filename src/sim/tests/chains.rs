@@ -67,7 +67,7 @@ fn joint_positions(app: &App, joints: &[Entity]) -> Vec<Vec3> {
 /// A head turning from side to side (at 30 fps up to 0.12 rad a frame; the fast [`shake`]
 /// turns up to 0.28, and how the bone's path is sampled between frames then matters more than
 /// the solver).
-fn turn(t: f32) -> Quat {
+pub(super) fn turn(t: f32) -> Quat {
     Quat::from_rotation_y(1.2 * (3.0 * t).sin())
 }
 
@@ -146,22 +146,22 @@ fn bone_chains_become_strands_through_their_joints_and_a_tail() {
 }
 
 /// What [`shake_run`] saw, joint positions in metres in the head's frame.
-struct ShakeRun {
+pub(super) struct ShakeRun {
     /// Where the joints rested before the shake.
-    rest: Vec<Vec3>,
+    pub(super) rest: Vec<Vec3>,
     /// At the end of the shake.
-    shaken: Vec<Vec3>,
+    pub(super) shaken: Vec<Vec3>,
     /// Particles at the end of the shake, in the head's frame.
     particles: Vec<Vec3>,
     /// After resting again as long as they settled first.
-    after: Vec<Vec3>,
+    pub(super) after: Vec<Vec3>,
     /// The largest distance of a joint from its rest during the shake.
-    swing: f32,
+    pub(super) swing: f32,
 }
 
 /// Joint positions relative to the head while the head rests for 3 s, shakes for `seconds`
 /// and rests for 3 s again, at `fps`, on a rig whose root is `root` and units `unit` metres.
-fn shake_run(
+pub(super) fn shake_run(
     fps: f64,
     root: Transform,
     unit: f32,
@@ -236,7 +236,7 @@ fn shake_run(
     }
 }
 
-fn farthest(a: &[Vec3], b: &[Vec3]) -> f32 {
+pub(super) fn farthest(a: &[Vec3], b: &[Vec3]) -> f32 {
     a.iter()
         .zip(b)
         .map(|(p, q)| p.distance(*q))

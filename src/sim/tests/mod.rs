@@ -672,3 +672,4 @@ mod attach;
 mod chains;
 mod motion;
 mod volume;
+mod vrm;

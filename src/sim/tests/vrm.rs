@@ -1,0 +1,391 @@
+//! VRM spring bones as hair: the parameter mapping, chains and colliders built from what a file
+//! says (on hand-made node trees; the glTF side is tested on real files by the render tests),
+//! collider groups, VRM 0.x branches and tails, and a broken file's report.
+
+use bevy::prelude::*;
+
+use super::chains::{ShakeRun, farthest, shake_run, turn};
+use super::*;
+use crate::asset::{
+    VrmCollider, VrmJoint, VrmNode, VrmShape, VrmSpring, VrmSpringBones, VrmSprings, VrmVersion,
+};
+use crate::sim::{
+    HairCollidesOnly, VRM0_TAIL, VrmSpringChains, VrmSpringsFailed, anchor_for_rate,
+    compliance_factor, vrm_sim_settings,
+};
+
+fn joint(stiffness: f32, drag_force: f32, gravity_power: f32) -> VrmJoint {
+    VrmJoint {
+        hit_radius: 0.01,
+        stiffness,
+        gravity_power,
+        gravity_dir: Vec3::NEG_Y,
+        drag_force,
+    }
+}
+
+#[test]
+fn vrm_parameters_map_to_per_second_settings() {
+    let spring = VrmSpring {
+        name: "bangs".into(),
+        nodes: vec![1, 2, 3],
+        joints: vec![
+            joint(2.0, 0.4, 0.1),
+            joint(1.0, 0.4, 0.1),
+            joint(50.0, 0.0, 9.0),
+        ],
+        groups: vec![],
+        center: Some(0),
+    };
+    let s = vrm_sim_settings(&spring, VrmVersion::V1, 0.05);
+    // The last joint is only a tail: its parameters are unused.
+    let damping = -60.0 * (1.0f32 - 0.4).ln();
+    assert!((s.damping - damping).abs() < 1e-4, "{}", s.damping);
+    assert!((s.damping - 30.65).abs() < 0.01);
+    // Gravity falls at the speed VRM settles at: g / d a frame, 60 frames a second.
+    let g = 0.1 * damping / 0.4;
+    assert!(
+        (s.gravity - Vec3::new(0.0, -g, 0.0)).length() < 1e-4,
+        "{}",
+        s.gravity
+    );
+    // Stiffness s (m/s) on 5 cm bones -> a return rate of s / 0.05 a second at each joint.
+    let h = s.substep();
+    let (a0, a1) = (
+        anchor_for_rate(2.0 / 0.05, h),
+        anchor_for_rate(1.0 / 0.05, h),
+    );
+    assert!((s.anchor_stiffness.eval(0.0) - a0).abs() < 1e-5);
+    assert!((s.anchor_stiffness.eval(1.0) - a1).abs() < 1e-5);
+    assert!(a0 > a1 && a1 > 0.3, "{a0} {a1}");
+    // The anchor removes that rate: per substep, rate * h of the offset.
+    for rate in [2.0, 20.0, 100.0] {
+        let f = compliance_factor(anchor_for_rate(rate, h), h, 1.0);
+        assert!((f / (rate * h) - 1.0).abs() < 1e-3, "{rate}: {f}");
+    }
+    assert!((s.bend_stiffness - 0.5 * (a0 + a1) / 2.0).abs() < 1e-5);
+    assert_eq!(s.torsion_stiffness, s.bend_stiffness);
+    assert_eq!((s.margin_min, s.margin_max), (0.01, 0.01));
+    assert_eq!(s.damping_frame, HairDampingFrame::Bone);
+    // Without drag gravity is g a frame at 60 fps; VRM 0.x uses its one entry.
+    let free = VrmSpring {
+        joints: vec![joint(0.0, 0.0, 0.2)],
+        center: None,
+        ..spring
+    };
+    let s = vrm_sim_settings(&free, VrmVersion::V0, 0.05);
+    assert!((s.gravity.y + 12.0).abs() < 1e-4, "{}", s.gravity);
+    assert_eq!(s.damping, 0.0);
+    assert_eq!(s.anchor_stiffness.eval(0.5), 0.0);
+    assert_eq!(s.damping_frame, HairDampingFrame::World);
+}
+
+#[test]
+fn vrm_mapped_chains_move_alike_at_30_60_and_144_fps() {
+    let spring = VrmSpring {
+        name: String::new(),
+        nodes: vec![],
+        joints: vec![
+            joint(0.3, 0.1, 0.05),
+            joint(0.2, 0.1, 0.05),
+            joint(1.0, 0.5, 0.0),
+        ],
+        groups: vec![],
+        center: None,
+    };
+    // The test chains' bones are about 4 cm.
+    let settings = vrm_sim_settings(&spring, VrmVersion::V1, 0.04);
+    let runs: Vec<ShakeRun> = [30.0, 60.0, 144.0]
+        .into_iter()
+        .map(|fps| shake_run(fps, Transform::default(), 1.0, 2.0, turn, settings.clone()))
+        .collect();
+    let (ab, ac) = (
+        farthest(&runs[0].shaken, &runs[1].shaken),
+        farthest(&runs[0].shaken, &runs[2].shaken),
+    );
+    println!(
+        "VRM-mapped chains: 30 vs 60 fps {ab:e} m, 30 vs 144 fps {ac:e} m (swing {:.3} m)",
+        runs[1].swing
+    );
+    assert!(runs[1].swing > 0.005, "the turn must swing the chains");
+    assert!(
+        ab < 2e-3 && ac < 2e-3,
+        "30 vs 60 fps: {ab} m, 30 vs 144 fps: {ac} m"
+    );
+    let back = farthest(&runs[1].after, &runs[1].rest);
+    assert!(back < 2e-3, "back within {back} m of rest");
+}
+
+/// A scene root with VRM nodes: 0 the head; chain A 1 -> 2 -> 3 at x = +0.05 and chain B
+/// 4 -> 5 -> 6 at x = -0.05, hanging down 5 cm a joint. Returns the root and the nodes.
+fn vrm_scene(app: &mut App, springs: VrmSprings) -> (Entity, Vec<Entity>) {
+    let world = app.world_mut();
+    let root = world
+        .spawn((
+            Name::new("vrm"),
+            Transform::default(),
+            VrmSpringBones {
+                file: "test.vrm".into(),
+                springs,
+                error: None,
+            },
+        ))
+        .id();
+    let head = world
+        .spawn((
+            Name::new("head"),
+            VrmNode(0),
+            Transform::from_xyz(0.0, 1.6, 0.0),
+            ChildOf(root),
+        ))
+        .id();
+    let mut nodes = vec![head];
+    for x in [0.05, -0.05] {
+        let mut parent = head;
+        for k in 0..3 {
+            let at = if k == 0 {
+                Vec3::new(x, 0.0, 0.0)
+            } else {
+                Vec3::new(0.0, -0.05, 0.0)
+            };
+            let index = nodes.len() as u32;
+            let e = world
+                .spawn((
+                    VrmNode(index),
+                    Transform::from_translation(at),
+                    ChildOf(parent),
+                ))
+                .id();
+            nodes.push(e);
+            parent = e;
+        }
+    }
+    (root, nodes)
+}
+
+fn sphere(at: Vec3) -> VrmCollider {
+    VrmCollider {
+        node: 0,
+        shape: VrmShape::Sphere {
+            offset: at,
+            radius: 0.02,
+            inside: false,
+        },
+    }
+}
+
+/// Two springs and two spheres, each sphere on the *other* chain's middle joint; `a_groups`
+/// are spring A's collider groups (group 0: the sphere on A, group 1: the sphere on B).
+fn crossed(a_groups: Vec<u32>) -> VrmSprings {
+    let still = VrmJoint {
+        gravity_power: 0.0,
+        ..joint(1.0, 0.4, 0.0)
+    };
+    VrmSprings {
+        version: VrmVersion::V1,
+        colliders: vec![
+            sphere(Vec3::new(0.05, -0.05, 0.0)),
+            sphere(Vec3::new(-0.05, -0.05, 0.0)),
+        ],
+        groups: vec![vec![0], vec![1]],
+        springs: vec![
+            VrmSpring {
+                name: "a".into(),
+                nodes: vec![1, 2, 3],
+                joints: vec![still; 3],
+                groups: a_groups,
+                center: None,
+            },
+            VrmSpring {
+                name: "b".into(),
+                nodes: vec![4, 5, 6],
+                joints: vec![still; 3],
+                groups: vec![0],
+                center: None,
+            },
+        ],
+    }
+}
+
+fn positions(app: &App, nodes: &[Entity]) -> Vec<Vec3> {
+    nodes
+        .iter()
+        .map(|e| {
+            app.world()
+                .get::<GlobalTransform>(*e)
+                .unwrap()
+                .translation()
+        })
+        .collect()
+}
+
+#[test]
+fn vrm_springs_become_chains_that_collide_only_with_their_groups() {
+    let mut app = event_app();
+    let (root, nodes) = vrm_scene(&mut app, crossed(vec![1]));
+    app.update();
+    let bind = positions(&app, &nodes);
+    for _ in 0..60 {
+        app.update();
+    }
+    let built = app
+        .world()
+        .get::<VrmSpringChains>(root)
+        .expect("springs built")
+        .clone();
+    assert_eq!((built.springs.len(), built.colliders.len()), (2, 2));
+    // Each collider is a child of its node.
+    for c in &built.colliders {
+        assert_eq!(app.world().get::<ChildOf>(*c).unwrap().parent(), nodes[0]);
+        assert!(app.world().get::<HairCollider>(*c).is_some());
+    }
+    // Spring A collides only with group 1 (the sphere on B), B only with group 0 (on A):
+    // neither sphere touches the chain that sees it, so both rest at their bind pose.
+    let hairs: Vec<Entity> = built
+        .springs
+        .iter()
+        .map(|s| app.world().get::<BoneChainHairs>(*s).unwrap().0[0])
+        .collect();
+    assert_eq!(
+        app.world().get::<HairCollidesOnly>(hairs[0]).unwrap().0,
+        vec![built.colliders[1]]
+    );
+    let drift = farthest(&positions(&app, &nodes), &bind);
+    assert!(
+        drift < 1e-4,
+        "chains left their bind pose by {drift} m: a collider of another group acted"
+    );
+    // The tail joint moves with its chain but is not turned.
+    let driven = app.world().get::<BoneChainHair>(hairs[0]).unwrap();
+    assert_eq!(driven.joints[0], vec![nodes[1], nodes[2], nodes[3]]);
+
+    // Spring A now naming group 0: its own sphere pushes its middle joint out.
+    let mut app = event_app();
+    let (_, nodes) = vrm_scene(&mut app, crossed(vec![0]));
+    app.update();
+    let bind = positions(&app, &nodes);
+    for _ in 0..60 {
+        app.update();
+    }
+    let now = positions(&app, &nodes);
+    let pushed = now[2].distance(bind[2]);
+    assert!(
+        pushed > 0.015,
+        "the sphere in A's group moved its joint only {pushed} m"
+    );
+    let other = farthest(&now[4..], &bind[4..]);
+    assert!(other < 1e-4, "B moved {other} m");
+}
+
+#[test]
+fn a_vrm_tail_joint_follows_unturned() {
+    let mut app = event_app();
+    // Loose and hardly damped, so the turn swings the chain.
+    let mut springs = crossed(vec![]);
+    springs.springs[0].joints = vec![joint(0.0, 0.05, 0.0); 3];
+    let (root, nodes) = vrm_scene(&mut app, springs);
+    for _ in 0..30 {
+        app.update();
+    }
+    let tail_rotation = app.world().get::<Transform>(nodes[3]).unwrap().rotation;
+    for f in 0..30 {
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = turn(f as f32 / 60.0);
+        app.update();
+    }
+    let world = app.world();
+    let turned = world
+        .get::<Transform>(nodes[1])
+        .unwrap()
+        .rotation
+        .angle_between(Quat::IDENTITY);
+    assert!(turned > 0.01, "the first joint did not turn ({turned} rad)");
+    assert_eq!(
+        world.get::<Transform>(nodes[3]).unwrap().rotation,
+        tail_rotation
+    );
+    // Its global transform follows its turned parent.
+    let expected = world
+        .get::<GlobalTransform>(nodes[2])
+        .unwrap()
+        .mul_transform(*world.get::<Transform>(nodes[3]).unwrap());
+    let actual = world.get::<GlobalTransform>(nodes[3]).unwrap();
+    assert!(actual.translation().distance(expected.translation()) < 1e-5);
+}
+
+#[test]
+fn a_vrm_0_group_swings_every_branch_with_a_7_cm_tail() {
+    let mut app = event_app();
+    let mut springs = crossed(vec![]);
+    springs.version = VrmVersion::V0;
+    // One group rooted at node 1 (chain A); B (4) is moved under node 1 as a branch.
+    springs.springs = vec![VrmSpring {
+        name: "hair".into(),
+        nodes: vec![1],
+        joints: vec![joint(1.0, 0.4, 0.0)],
+        groups: vec![],
+        center: None,
+    }];
+    let (root, nodes) = vrm_scene(&mut app, springs);
+    app.world_mut()
+        .entity_mut(nodes[4])
+        .insert(ChildOf(nodes[1]));
+    for _ in 0..3 {
+        app.update();
+    }
+    let built = app.world().get::<VrmSpringChains>(root).unwrap().clone();
+    assert_eq!(built.springs.len(), 1);
+    let chains = app
+        .world()
+        .get::<HairBoneChains>(built.springs[0])
+        .unwrap()
+        .clone();
+    let ChainSelect::Joints(chains) = chains.select else {
+        panic!("VRM chains list their joints");
+    };
+    assert_eq!(chains.len(), 2, "{chains:?}");
+    assert_eq!(&chains[0][..3], &[nodes[1], nodes[2], nodes[3]]);
+    assert_eq!(&chains[1][..3], &[nodes[4], nodes[5], nodes[6]]);
+    for chain in &chains {
+        let tail = *chain.last().unwrap();
+        let world = app.world();
+        assert_eq!(world.get::<Name>(tail).unwrap().as_str(), "VRM 0.x tail");
+        let t = world.get::<Transform>(tail).unwrap().translation;
+        // Along the leaf's own bone (straight down here), 7 cm.
+        assert!((t - Vec3::new(0.0, -VRM0_TAIL, 0.0)).length() < 1e-6, "{t}");
+    }
+    // Both chains simulate (the branch hangs from the joint it branches at).
+    let hairs = app.world().get::<BoneChainHairs>(built.springs[0]).unwrap();
+    assert_eq!(hairs.0.len(), 2, "one hair per bone the chains hang from");
+}
+
+#[test]
+fn a_broken_vrm_is_reported_once_and_simulates_nothing() {
+    let mut app = event_app();
+    #[derive(Resource, Default)]
+    struct Failed(Vec<String>);
+    app.init_resource::<Failed>()
+        .add_observer(|e: On<VrmSpringsFailed>, mut f: ResMut<Failed>| {
+            f.0.push(format!("{} | {}", e.file, e.error));
+        });
+    let (root, _) = vrm_scene(&mut app, VrmSprings::default());
+    let message =
+        "broken.vrm: extensions.VRMC_springBone.springs[0].joints[1].node: node 99 does not exist";
+    app.world_mut()
+        .get_mut::<VrmSpringBones>(root)
+        .unwrap()
+        .error = Some(message.into());
+    app.world_mut()
+        .get_mut::<VrmSpringBones>(root)
+        .unwrap()
+        .file = "broken.vrm".into();
+    for _ in 0..10 {
+        app.update();
+    }
+    assert_eq!(
+        app.world().resource::<Failed>().0,
+        vec![format!("broken.vrm | {message}")]
+    );
+    let built = app.world().get::<VrmSpringChains>(root).unwrap();
+    assert!(built.springs.is_empty() && built.colliders.is_empty());
+    assert_eq!(strand_count(&mut app), 0);
+}
