@@ -191,8 +191,8 @@ pub mod prelude {
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
-        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonLighting,
-        ToonRamps, ToonShading,
+        HairMaterial, ImageSpaceOutline, OutlineSource, RampMode, ToonHairMaterial, ToonHairMeshes,
+        ToonLighting, ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};
@@ -202,8 +202,9 @@ pub mod prelude {
     pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
         AttachToBone, ChainSelect, Hair, HairBoneChains, HairCollider, HairColliderMode,
-        HairForceField, HairForceFieldKind, HairSimControl, HairSimSettings, HairTime, HairTimeExt,
-        HairWind, HairWindOverride, Strand, StrandParticles,
+        HairCollidesOnly, HairForceField, HairForceFieldKind, HairSimControl, HairSimSettings,
+        HairTime, HairTimeExt, HairWind, HairWindOverride, Strand, StrandParticles,
+        VrmSpringChains, VrmSpringsFailed,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

@@ -20,6 +20,7 @@ mod outline_render;
 mod render_smoke;
 mod silhouette_render;
 mod toon_render;
+mod vrm_render;
 
 use libtest_mimic::{Arguments, Failed, Trial};
 use std::sync::Mutex;
@@ -53,6 +54,7 @@ fn main() {
         .chain(mass_render::RENDER_TESTS)
         .chain(look_suite::RENDER_TESTS)
         .chain(chain_render::RENDER_TESTS)
+        .chain(vrm_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
