@@ -2,9 +2,13 @@
 //! it), moved by the hair solver: the character of `assets/chain_hair/` (authored by
 //! `tools/blender/author_chain_hair.py`) has bangs, side locks and a ponytail skinned to chains
 //! of bones named `hair_*`. The chains swing, collide with the head and neck and take the wind
-//! while the character turns its head.
+//! while the character turns its head, and the hair mesh wears the crate's toon look.
 //!
-//! Run: `cargo run --example bone_chain_hair`. Keys: W toggles wind.
+//! With `--vrm` (VRM 1.0) or `--vrm0` (VRM 0.x) the same character is loaded from a `.vrm` file
+//! instead: its spring bones, joint parameters, colliders and collider groups come from the file
+//! (`VRMC_springBone`, `secondaryAnimation`), and nothing is set up by hand but the look.
+//!
+//! Run: `cargo run --example bone_chain_hair [-- --vrm | --vrm0]`. Keys: W toggles wind.
 
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
@@ -14,17 +18,73 @@ use bevy_cartoon_hair::prelude::*;
 #[derive(Component)]
 struct Character;
 
+/// Which file the character comes from.
+#[derive(Resource, Clone, Copy, PartialEq, Eq)]
+enum Source {
+    /// `chain_hair.glb`, chains and colliders set up here.
+    Gltf,
+    /// `chain_hair.vrm` (VRM 1.0).
+    Vrm,
+    /// `chain_hair_vrm0.vrm` (VRM 0.x).
+    Vrm0,
+}
+
 fn main() {
+    let source = match std::env::args().nth(1).as_deref() {
+        Some("--vrm") => Source::Vrm,
+        Some("--vrm0") => Source::Vrm0,
+        None => Source::Gltf,
+        Some(other) => {
+            eprintln!("bone_chain_hair: unknown argument {other:?}; use --vrm or --vrm0");
+            std::process::exit(2);
+        }
+    };
     App::new()
+        .insert_resource(source)
         .add_plugins((DefaultPlugins, CartoonHairPlugins))
         .add_systems(Startup, setup)
         .add_systems(Update, (turn_head, toggle_wind))
         .run();
 }
 
-fn setup(mut commands: Commands, assets: Res<AssetServer>) {
-    let scene = assets.load(GltfAssetLabel::Scene(0).from_asset("chain_hair/chain_hair.glb"));
-    let character = commands.spawn((WorldAssetRoot(scene), Character)).id();
+fn setup(
+    mut commands: Commands,
+    assets: Res<AssetServer>,
+    source: Res<Source>,
+    ramps: Res<ToonRamps>,
+    mut materials: ResMut<Assets<ToonHairMaterial>>,
+) {
+    let file = match *source {
+        Source::Gltf => "chain_hair/chain_hair.glb",
+        Source::Vrm => "chain_hair/chain_hair.vrm",
+        Source::Vrm0 => "chain_hair/chain_hair_vrm0.vrm",
+    };
+    let scene = assets.load(GltfAssetLabel::Scene(0).from_asset(file));
+    // The mesh whose glTF material is "hair" is drawn in the toon look, in the hair's colour.
+    let shading = ToonShading {
+        base_color: Color::srgb(0.55, 0.22, 0.1),
+        ..default()
+    };
+    let look = materials.add(ToonHairMaterial::new(shading, ramps.three_tone.clone()));
+    let character = commands
+        .spawn((
+            WorldAssetRoot(scene),
+            Character,
+            ToonHairMeshes::matching(|name| name == "hair").with_material(look),
+        ))
+        .id();
+    commands.spawn((
+        DirectionalLight::default(),
+        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    commands.spawn((
+        Camera3d::default(),
+        Transform::from_xyz(0.6, 1.8, 0.9).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
+    ));
+    if *source != Source::Gltf {
+        // A VRM file brings its springs and colliders: nothing more to set up.
+        return;
+    }
     // Every bone whose name starts with "hair_" (and whose parent's does not) starts a chain.
     commands.spawn((
         HairBoneChains::matching(character, |name| name.starts_with("hair_")),
@@ -54,14 +114,6 @@ fn setup(mut commands: Commands, assets: Res<AssetServer>) {
             ..default()
         },
         AttachToBone::named(character, "head"),
-    ));
-    commands.spawn((
-        DirectionalLight::default(),
-        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    commands.spawn((
-        Camera3d::default(),
-        Transform::from_xyz(0.6, 1.8, 0.9).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
     ));
 }
 

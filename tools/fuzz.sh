@@ -18,7 +18,7 @@ seconds="${1:-60}"
 shift || true
 targets=("$@")
 if [ ${#targets[@]} -eq 0 ]; then
-  targets=(groom collision animation preset solver_step)
+  targets=(groom collision animation preset solver_step vrm)
 fi
 work="${FUZZ_WORK:-$HOME/.cache/bevy_cartoon_hair/fuzz}"
 target_dir="${FUZZ_TARGET_DIR:-$HOME/.cache/bevy_cartoon_hair/fuzz-target}"

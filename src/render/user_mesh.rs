@@ -63,6 +63,13 @@ impl ToonHairMeshes {
 #[reflect(Component, Debug)]
 pub struct ToonHairMeshesApplied(pub Vec<Entity>);
 
+/// A mesh entity's name, glTF material name and parent.
+type MeshNames = (
+    Option<&'static Name>,
+    Option<&'static GltfMaterialName>,
+    Option<&'static ChildOf>,
+);
+
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
     clippy::too_many_arguments,
@@ -73,7 +80,7 @@ pub(crate) fn apply_toon_to_user_meshes(
     characters: Query<(Entity, &ToonHairMeshes), Without<ToonHairMeshesApplied>>,
     roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
     children: Query<&Children>,
-    meshes: Query<(Option<&Name>, Option<&GltfMaterialName>, Option<&ChildOf>), With<Mesh3d>>,
+    meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
     ramps: Res<ToonRamps>,
     (mut materials, mut default_material): (

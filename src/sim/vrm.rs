@@ -143,7 +143,7 @@ pub fn vrm_sim_settings(
 /// small offset, substeps of `h`): the inverse of
 /// [`compliance_factor`](super::compliance_factor) for one particle.
 pub fn anchor_for_rate(rate: f32, h: f32) -> f32 {
-    if !(rate > 0.0) || !rate.is_finite() {
+    if rate.is_nan() || rate <= 0.0 || !rate.is_finite() {
         return 0.0;
     }
     let f = (rate * h).clamp(1e-7, 0.999);

@@ -77,8 +77,10 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
     let world = app.world_mut();
     let ramp = world.resource::<ToonRamps>().three_tone.clone();
-    let mut shading = ToonShading::default();
-    shading.base_color = HAIR;
+    let shading = ToonShading {
+        base_color: HAIR,
+        ..default()
+    };
     let material = world
         .resource_mut::<Assets<ToonHairMaterial>>()
         .add(ToonHairMaterial::new(shading, ramp));
