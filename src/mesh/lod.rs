@@ -468,4 +468,56 @@ mod culled_rate_tests {
         app.update();
         assert_eq!(substeps(&app, behind), 4);
     }
+
+    /// A bone chain hair (not meshed here) is culled by its particles' bounds: behind the
+    /// camera it simulates coarser, in front at the full rate.
+    #[test]
+    fn culled_chain_hair_simulates_coarser_too() {
+        use crate::sim::{BoneChainHairs, HairBoneChains, HairSimSettings};
+        let mut app = lod_app();
+        camera(app.world_mut());
+        let chain_at = |app: &mut App, z: f32| {
+            let world = app.world_mut();
+            let root = world.spawn(Transform::from_xyz(0.0, 0.0, z)).id();
+            let mut parent = root;
+            for k in 0..3 {
+                parent = world
+                    .spawn((
+                        Name::new(format!("hair_{k}")),
+                        Transform::from_xyz(0.0, if k == 0 { 0.0 } else { -0.04 }, 0.0),
+                        ChildOf(parent),
+                    ))
+                    .id();
+            }
+            let set = world
+                .spawn((
+                    HairBoneChains::matching(root, |n| n.starts_with("hair_")),
+                    HairSimSettings::default(),
+                ))
+                .id();
+            (root, set)
+        };
+        let (_, seen) = chain_at(&mut app, -0.8);
+        let (behind_root, behind) = chain_at(&mut app, 5.0);
+        for _ in 0..6 {
+            app.update();
+        }
+        let hair = |app: &App, set| app.world().get::<BoneChainHairs>(set).unwrap().0[0];
+        let substeps = |app: &App, set| {
+            app.world()
+                .get::<ComputedHair>(hair(app, set))
+                .unwrap()
+                .stats
+                .substeps
+        };
+        assert_eq!((substeps(&app, seen), substeps(&app, behind)), (4, 1));
+        app.world_mut()
+            .get_mut::<Transform>(behind_root)
+            .unwrap()
+            .translation
+            .z = -0.8;
+        app.update();
+        app.update();
+        assert_eq!(substeps(&app, behind), 4);
+    }
 }

@@ -143,7 +143,11 @@ impl Plugin for HairMeshPlugin {
             .init_resource::<culling::HairCullingStats>()
             .add_systems(
                 PostUpdate,
-                (rebuild_strand_meshes, highlights::build_specular_quads)
+                (
+                    rebuild_strand_meshes,
+                    highlights::build_specular_quads,
+                    chain_hairs_in_view,
+                )
                     .chain()
                     .in_set(HairSystems::BuildMesh)
                     // Culling tests this frame's bounds against this frame's frusta.
@@ -462,6 +466,44 @@ thread_local! {
 }
 
 /// The box around every finite particle, grown by `pad`; `None` if there is none.
+/// How far a modelled hair mesh may reach past its bone chains (ribbons around the bones), in
+/// metres at the character's size: the culling bounds of a chain hair are its particles grown by
+/// this.
+pub const CHAIN_MESH_REACH: f32 = 0.1;
+
+/// Culling for hairs built from bone chains ([`BoneChainHair`]): not meshed here, so their view
+/// test is their particles' bounds, grown by [`CHAIN_MESH_REACH`], against the cameras. A chain
+/// hair no camera sees simulates at [`HairCulling::culled_substep_rate`].
+fn chain_hairs_in_view(
+    mut hairs: Query<
+        (&HairStrands, &ComputedHair, &HairCulling, &mut HairInView),
+        With<BoneChainHair>,
+    >,
+    strands: Query<&StrandParticles>,
+    cameras: Query<(&Camera, &Frustum), With<Camera3d>>,
+    mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
+) {
+    let any_camera = cameras.iter().any(|(c, _)| c.is_active);
+    for (list, sim, culling, mut in_view) in &mut hairs {
+        scratch.clear();
+        scratch.extend(
+            list.iter()
+                .filter_map(|s| strands.get(s).ok())
+                .map(|p| (0, p.positions.clone())),
+        );
+        let bounds = particle_bounds(&scratch, CHAIN_MESH_REACH * sim.size());
+        let seen = !culling.enabled
+            || !any_camera
+            || bounds.is_none_or(|b| {
+                culling::seen_by_any(
+                    &b,
+                    cameras.iter().filter(|(c, _)| c.is_active).map(|(_, f)| f),
+                )
+            });
+        in_view.set_if_neq(HairInView(seen));
+    }
+}
+
 fn particle_bounds(strands: &[(u32, Vec<Vec3>)], pad: f32) -> Option<Aabb> {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);
