@@ -12,6 +12,7 @@ use bevy::shader::load_shader_library;
 use crate::schedule::HairSystems;
 use crate::silhouette::StrokeScope;
 
+mod fringe_shadow;
 mod outline;
 mod ramps;
 #[cfg(test)]
@@ -21,6 +22,10 @@ mod tonal_maps;
 mod toon;
 mod user_mesh;
 
+pub use fringe_shadow::{
+    FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
+    FringeShadowUniform,
+};
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, MAX_OUTLINE_DILATION,
     OutlineSource,
@@ -46,6 +51,7 @@ pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
     ("toon.wesl", include_str!("toon.wesl")),
     ("hair_prepass.wesl", include_str!("hair_prepass.wesl")),
     ("stroke.wesl", include_str!("stroke.wesl")),
+    ("fringe_shadow.wesl", include_str!("fringe_shadow.wesl")),
 ];
 
 /// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
@@ -72,14 +78,18 @@ impl Plugin for ToonHairMaterialPlugin {
         bevy::asset::embedded_asset!(app, "toon.wesl");
         bevy::asset::embedded_asset!(app, "hair_prepass.wesl");
         bevy::asset::embedded_asset!(app, "stroke.wesl");
+        bevy::asset::embedded_asset!(app, "fringe_shadow.wesl");
         app.add_plugins((
             MaterialPlugin::<ToonHairMaterial>::default(),
             MaterialPlugin::<HairStrokeMaterial>::default(),
+            MaterialPlugin::<FringeShadowMaterial>::default(),
         ))
         .register_type::<ToonHairMaterial>()
         .register_type::<HairStrokeMaterial>()
         .register_type::<ToonHairMeshes>()
-        .register_type::<ToonHairMeshesApplied>();
+        .register_type::<ToonHairMeshesApplied>()
+        .register_type::<FringeShadowMeshes>()
+        .register_type::<FringeShadowMeshesApplied>();
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         let texture = app
             .world_mut()
@@ -117,6 +127,7 @@ impl Plugin for ToonHairMaterialPlugin {
                 (
                     apply_hair_materials,
                     user_mesh::apply_toon_to_user_meshes,
+                    fringe_shadow::apply_fringe_shadow,
                     apply_stroke_material,
                     apply_highlight_material,
                 )

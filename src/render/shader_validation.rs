@@ -157,6 +157,9 @@ fn bevy_shader_sources() -> Vec<(String, String)> {
             .disable::<bevy::winit::WinitPlugin>()
             .disable::<bevy::log::LogPlugin>(),
     );
+    // Some modules are embedded in `finish` (the mesh bindings, whose defs depend on the
+    // device's limits).
+    app.finish();
     let server = app.world().resource::<AssetServer>().clone();
     let source = server
         .get_source(bevy::asset::io::AssetSourceId::Name("embedded".into()))
@@ -456,4 +459,48 @@ fn every_stroke_material_variant_composes_and_validates() {
         }
     }
     assert_eq!(checked, 4);
+}
+
+#[test]
+fn every_fringe_shadow_variant_composes_and_validates() {
+    use super::MATERIAL_SHADERS;
+    let mut compiler = ShaderCompiler::new(&bevy_shader_sources());
+    let values = bevy_value_defs();
+    let (name, source) = MATERIAL_SHADERS
+        .iter()
+        .find(|(n, _)| *n == "fringe_shadow.wesl")
+        .expect("fringe_shadow.wesl is listed");
+    // A face: positions, normals and UVs (Bevy's sphere has them all).
+    let face = bevy::prelude::Mesh::from(bevy::prelude::Sphere::new(0.1));
+    let vertex = mesh_pipeline_vertex_defs(&face);
+    let mut checked = 0;
+    for normals in [false, true] {
+        for depth in [false, true] {
+            for multisampled in [false, true] {
+                let mut defs = vertex.clone();
+                if normals {
+                    defs.push("NORMAL_PREPASS");
+                }
+                if depth {
+                    defs.push("DEPTH_PREPASS");
+                }
+                if multisampled {
+                    defs.push("MULTISAMPLED");
+                }
+                let module = compiler
+                    .compile(name, source, &defs, &values)
+                    .unwrap_or_else(|e| panic!("fringe shadow {defs:?}: {e}"));
+                let reads = |texture: &str| {
+                    module
+                        .global_variables
+                        .iter()
+                        .any(|(_, g)| g.name.as_deref().is_some_and(|n| n.contains(texture)))
+                };
+                assert_eq!(reads("normal_prepass_texture"), normals, "{defs:?}");
+                assert_eq!(reads("depth_prepass_texture"), normals && depth, "{defs:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 8);
 }

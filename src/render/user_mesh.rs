@@ -63,8 +63,41 @@ impl ToonHairMeshes {
 #[reflect(Component, Debug)]
 pub struct ToonHairMeshesApplied(pub Vec<Entity>);
 
+/// The mesh entities under `root` whose name, parent (node) name or glTF material name passes
+/// `select`.
+pub(crate) fn meshes_passing(
+    root: Entity,
+    select: &BonePredicate,
+    children: &Query<&Children>,
+    meshes: &Query<MeshNames, With<Mesh3d>>,
+    names: &Query<&Name>,
+) -> Vec<Entity> {
+    let mut found = Vec::new();
+    let mut stack = vec![root];
+    while let Some(e) = stack.pop() {
+        if let Ok((name, material_name, parent)) = meshes.get(e) {
+            let parent_name = parent.and_then(|p| names.get(p.parent()).ok());
+            let selected = [
+                name.map(Name::as_str),
+                parent_name.map(Name::as_str),
+                material_name.map(|m| m.0.as_str()),
+            ]
+            .into_iter()
+            .flatten()
+            .any(|n| select.matches(n));
+            if selected {
+                found.push(e);
+            }
+        }
+        if let Ok(kids) = children.get(e) {
+            stack.extend(kids.iter());
+        }
+    }
+    found
+}
+
 /// A mesh entity's name, glTF material name and parent.
-type MeshNames = (
+pub(crate) type MeshNames = (
     Option<&'static Name>,
     Option<&'static GltfMaterialName>,
     Option<&'static ChildOf>,
@@ -106,30 +139,12 @@ pub(crate) fn apply_toon_to_user_meshes(
                 })
                 .clone(),
         };
-        let mut dressed = Vec::new();
-        let mut stack = vec![character];
-        while let Some(e) = stack.pop() {
-            if let Ok((name, material_name, parent)) = meshes.get(e) {
-                let parent_name = parent.and_then(|p| names.get(p.parent()).ok());
-                let selected = [
-                    name.map(Name::as_str),
-                    parent_name.map(Name::as_str),
-                    material_name.map(|m| m.0.as_str()),
-                ]
-                .into_iter()
-                .flatten()
-                .any(|n| wanted.select.matches(n));
-                if selected {
-                    commands
-                        .entity(e)
-                        .remove::<MeshMaterial3d<StandardMaterial>>()
-                        .insert(MeshMaterial3d(material.clone()));
-                    dressed.push(e);
-                }
-            }
-            if let Ok(kids) = children.get(e) {
-                stack.extend(kids.iter());
-            }
+        let dressed = meshes_passing(character, &wanted.select, &children, &meshes, &names);
+        for &e in &dressed {
+            commands
+                .entity(e)
+                .remove::<MeshMaterial3d<StandardMaterial>>()
+                .insert(MeshMaterial3d(material.clone()));
         }
         if dressed.is_empty() {
             warn!(

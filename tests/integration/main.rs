@@ -12,6 +12,7 @@ mod assets;
 mod chain_render;
 mod character_render;
 mod clip;
+mod fringe_render;
 mod hot_reload;
 mod lighting_render;
 mod look_suite;
@@ -55,6 +56,7 @@ fn main() {
         .chain(look_suite::RENDER_TESTS)
         .chain(chain_render::RENDER_TESTS)
         .chain(vrm_render::RENDER_TESTS)
+        .chain(fringe_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

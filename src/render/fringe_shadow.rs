@@ -1,0 +1,188 @@
+//! The fringe shadow: the hair throws a crisp, stylised shadow on the character's face and skin,
+//! as anime drawing does, without shadow maps.
+//!
+//! The face's material is Bevy's `StandardMaterial` extended with [`FringeShadow`]
+//! ([`FringeShadowMaterial`]); put a [`FringeShadowMeshes`] on a glTF character to extend the
+//! materials of its face meshes in place. Each face fragment looks `width` (in the face mesh's
+//! own units) back toward the main directional light, across the view; where the hair's prepass
+//! mask shows hair in front of the face there, the fragment is in the fringe's shadow, and
+//! [`FringeShadow::tone`] multiplies its base colour before lighting, so the shadow takes the
+//! scene's light like the rest of the face.
+//!
+//! Why a mask and an offset: Bevy's shadow maps give a soft, low-resolution and often absent
+//! shadow at face scale; the best toon renderers (StarRailNPRShader's hair depth texture,
+//! MooaToon's hair shadow width) sample a hair-only mask one offset away instead. The crate's
+//! hair already writes such a mask in its prepass (the normal target's alpha, for the mass
+//! outline), so the shadow costs four texture loads a face pixel and no extra pass, and the
+//! offset, a length in the scene, keeps the shadow's width in head units at any distance, field
+//! of view and window size. The camera needs `NormalPrepass` (the mask) and, so hair behind the
+//! face casts nothing, `DepthPrepass`. Hair never receives it: only materials that opt in do.
+
+use bevy::pbr::{ExtendedMaterial, MaterialExtension};
+use bevy::prelude::*;
+use bevy::render::render_resource::{AsBindGroup, ShaderType};
+use bevy::shader::ShaderRef;
+use bevy::world_serialization::WorldAssetRoot;
+
+use crate::math::finite_or;
+use crate::sim::{BonePredicate, CharacterSpawned};
+
+use super::user_mesh::{MeshNames, meshes_passing};
+
+/// A face material that receives the fringe shadow.
+pub type FringeShadowMaterial = ExtendedMaterial<StandardMaterial, FringeShadow>;
+
+/// The fringe shadow a face receives: the [`MaterialExtension`] of [`FringeShadowMaterial`].
+#[derive(Asset, AsBindGroup, Reflect, Clone, Debug, PartialEq)]
+#[uniform(100, FringeShadowUniform)]
+#[reflect(Debug, Default, PartialEq)]
+pub struct FringeShadow {
+    /// The shadow's tone: multiplies the face's base colour where the fringe shades it, before
+    /// lighting. Default: a warm rose, `srgb(0.78, 0.55, 0.58)`.
+    pub tone: Color,
+    /// How strongly the tone applies, `0` (no shadow) to `1`. Default: `1.0`.
+    pub strength: f32,
+    /// How far the shadow falls from the hair's edge, in the face mesh's own units (metres for
+    /// a character at scale 1): larger throws it farther down the face. Default: `0.02`.
+    pub width: f32,
+}
+
+impl Default for FringeShadow {
+    fn default() -> Self {
+        Self {
+            tone: Color::srgb(0.78, 0.55, 0.58),
+            strength: 1.0,
+            width: 0.02,
+        }
+    }
+}
+
+/// The uniform block of [`FringeShadow`] (see `fringe_shadow.wesl`).
+#[derive(Clone, Default, ShaderType)]
+pub struct FringeShadowUniform {
+    tone: Vec4,
+    params: Vec4,
+}
+
+impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> for FringeShadow {
+    fn as_bind_group_shader_type(
+        &self,
+        _images: &bevy::render::render_asset::RenderAssets<bevy::render::texture::GpuImage>,
+    ) -> FringeShadowUniform {
+        FringeShadowUniform {
+            tone: self
+                .tone
+                .to_linear()
+                .to_vec4()
+                .truncate()
+                .extend(finite_or(self.strength, 1.0).clamp(0.0, 1.0)),
+            params: Vec4::new(finite_or(self.width, 0.02).clamp(0.0, 1e3), 0.0, 0.0, 0.0),
+        }
+    }
+}
+
+impl MaterialExtension for FringeShadow {
+    fn fragment_shader() -> ShaderRef {
+        ShaderRef::Path(
+            bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!(
+                "fringe_shadow.wesl"
+            ))
+            .with_source("embedded"),
+        )
+    }
+}
+
+/// Put on a character (a glTF or VRM scene root): its meshes whose entity name, node name or
+/// glTF material name passes `select` (the face, the skin) get their `StandardMaterial`
+/// extended with [`FringeShadow`], keeping every setting of the original.
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMeshes};
+/// # fn setup(mut commands: Commands, character: Entity) {
+/// commands
+///     .entity(character)
+///     .insert(FringeShadowMeshes::matching(|name| name == "skin", FringeShadow::default()));
+/// # }
+/// ```
+#[derive(Component, Clone, Debug, Reflect)]
+#[reflect(Component, Debug)]
+pub struct FringeShadowMeshes {
+    /// Which meshes: tested on the mesh entity's name, its parent's name and its glTF
+    /// material's name.
+    #[reflect(ignore)]
+    pub select: BonePredicate,
+    /// The shadow they receive.
+    pub shadow: FringeShadow,
+}
+
+impl FringeShadowMeshes {
+    /// Meshes whose name, node name or material name passes `test`, receiving `shadow`.
+    pub fn matching(
+        test: impl Fn(&str) -> bool + Send + Sync + 'static,
+        shadow: FringeShadow,
+    ) -> Self {
+        Self {
+            select: BonePredicate::new(test),
+            shadow,
+        }
+    }
+}
+
+/// On a [`FringeShadowMeshes`] character once its meshes are extended: the mesh entities.
+#[derive(Component, Clone, Debug, Default, Reflect)]
+#[reflect(Component, Debug)]
+pub struct FringeShadowMeshesApplied(pub Vec<Entity>);
+
+/// Extends the selected meshes' materials of every spawned [`FringeShadowMeshes`] character.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+pub(crate) fn apply_fringe_shadow(
+    mut commands: Commands,
+    characters: Query<(Entity, &FringeShadowMeshes), Without<FringeShadowMeshesApplied>>,
+    roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
+    children: Query<&Children>,
+    meshes: Query<MeshNames, With<Mesh3d>>,
+    names: Query<&Name>,
+    standard: Query<&MeshMaterial3d<StandardMaterial>>,
+    (standards, mut extended): (
+        Res<Assets<StandardMaterial>>,
+        ResMut<Assets<FringeShadowMaterial>>,
+    ),
+) {
+    for (character, wanted) in &characters {
+        if roots
+            .get(character)
+            .is_ok_and(|(scene, spawned)| scene && !spawned)
+        {
+            continue;
+        }
+        let mut done = Vec::new();
+        for e in meshes_passing(character, &wanted.select, &children, &meshes, &names) {
+            let Some(base) = standard.get(e).ok().and_then(|m| standards.get(&m.0)) else {
+                continue;
+            };
+            let material = extended.add(ExtendedMaterial {
+                base: base.clone(),
+                extension: wanted.shadow.clone(),
+            });
+            commands
+                .entity(e)
+                .remove::<MeshMaterial3d<StandardMaterial>>()
+                .insert(MeshMaterial3d(material));
+            done.push(e);
+        }
+        if done.is_empty() {
+            warn!(
+                "FringeShadowMeshes on {character}: no mesh with a StandardMaterial under it has a \
+                 name, node name or material name that passes the test; no face receives the \
+                 fringe shadow"
+            );
+        }
+        commands
+            .entity(character)
+            .insert(FringeShadowMeshesApplied(done));
+    }
+}

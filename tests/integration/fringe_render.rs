@@ -1,0 +1,286 @@
+//! The fringe shadow: a fringe of hair (drawn with the toon hair material, whose prepass marks
+//! the hair mask) over a face (a `StandardMaterial` extended with `FringeShadow`). Rendered with
+//! the shadow on and off, the face pixels that change are the shadow: it must lie under the
+//! fringe, move when the light moves, keep its width in scene units when the camera moves away
+//! or the image is larger, and never touch the hair.
+
+use bevy::camera::RenderTarget;
+use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
+use bevy::pbr::ExtendedMaterial;
+use bevy::prelude::*;
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMaterial};
+use libtest_mimic::Failed;
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
+    "the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face",
+    the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face,
+)];
+
+/// The shadow's width in the scene (metres).
+const WIDTH: f32 = 0.02;
+
+struct Scene {
+    renderer: HeadlessRenderer,
+    face: Handle<FringeShadowMaterial>,
+    light: Entity,
+    camera: Entity,
+}
+
+fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
+    let mut renderer = HeadlessRenderer::new(CaptureSettings {
+        width,
+        height,
+        max_frames: 500,
+        ..default()
+    })?;
+    let target = renderer.target();
+    let app = &mut renderer.app;
+    app.add_plugins(CartoonHairPlugins);
+    let world = app.world_mut();
+    let ramp = world.resource::<ToonRamps>().three_tone.clone();
+    let hair = world
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .add(ToonHairMaterial::new(
+            ToonShading {
+                base_color: Color::srgb(0.2, 0.25, 0.6),
+                ..default()
+            },
+            ramp,
+        ));
+    let face = world
+        .resource_mut::<Assets<FringeShadowMaterial>>()
+        .add(ExtendedMaterial {
+            base: StandardMaterial {
+                base_color: Color::srgb(0.95, 0.8, 0.7),
+                perceptual_roughness: 1.0,
+                ..default()
+            },
+            extension: FringeShadow {
+                width: WIDTH,
+                ..default()
+            },
+        });
+    let mut meshes = world.resource_mut::<Assets<Mesh>>();
+    let sphere = meshes.add(Sphere::new(0.1).mesh().uv(48, 32));
+    // Narrower than the face, so a light from the side shows the shadow past its end.
+    let fringe = meshes.add(Cuboid::new(0.12, 0.05, 0.02));
+    world.spawn((Mesh3d(sphere), MeshMaterial3d(face.clone())));
+    world.spawn((
+        Mesh3d(fringe),
+        MeshMaterial3d(hair),
+        Transform::from_xyz(0.0, 0.05, 0.1),
+    ));
+    let light = world
+        .spawn((
+            DirectionalLight {
+                illuminance: 8_000.0,
+                ..default()
+            },
+            Transform::from_xyz(0.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ))
+        .id();
+    let camera = world
+        .spawn((
+            Camera3d::default(),
+            RenderTarget::Image(target.into()),
+            Msaa::Off,
+            DepthPrepass,
+            NormalPrepass,
+            Transform::from_xyz(0.0, 0.0, 0.6).looking_at(Vec3::ZERO, Vec3::Y),
+        ))
+        .id();
+    renderer.warm_up(|_| true)?;
+    Ok(Scene {
+        renderer,
+        face,
+        light,
+        camera,
+    })
+}
+
+impl Scene {
+    /// A frame with the shadow at `strength`.
+    fn frame(&mut self, strength: f32) -> Result<CapturedFrame, Failed> {
+        let world = self.renderer.app.world_mut();
+        world
+            .resource_mut::<Assets<FringeShadowMaterial>>()
+            .get_mut(&self.face)
+            .ok_or("face material")?
+            .extension
+            .strength = strength;
+        for _ in 0..3 {
+            self.renderer.update();
+        }
+        Ok(self.renderer.capture()?)
+    }
+
+    /// The shadow: pixels that change when it is turned on.
+    fn shadow(&mut self) -> Result<Shadow, Failed> {
+        let on = self.frame(1.0)?;
+        let off = self.frame(0.0)?;
+        Ok(Shadow::between(&off, &on))
+    }
+}
+
+/// The pixels the shadow changed, and the fringe (hair-blue) pixels.
+struct Shadow {
+    width: u32,
+    height: u32,
+    changed: Vec<bool>,
+    hair: Vec<bool>,
+    hair_changed: usize,
+    on: CapturedFrame,
+}
+
+fn is_fringe([r, g, b, _]: [u8; 4]) -> bool {
+    u16::from(b) > u16::from(r) + 30 && b > g
+}
+
+impl Shadow {
+    fn between(off: &CapturedFrame, on: &CapturedFrame) -> Self {
+        let (w, h) = (off.width, off.height);
+        let mut changed = vec![false; (w * h) as usize];
+        let mut hair = vec![false; (w * h) as usize];
+        let mut hair_changed = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let (a, b) = (off.pixel(x, y), on.pixel(x, y));
+                let d = (0..3)
+                    .map(|k| i32::from(a[k]).abs_diff(i32::from(b[k])))
+                    .max()
+                    .unwrap_or(0);
+                let i = (y * w + x) as usize;
+                hair[i] = is_fringe(a);
+                changed[i] = d > 12;
+                if hair[i] && d > 2 {
+                    hair_changed += 1;
+                }
+            }
+        }
+        Self {
+            width: w,
+            height: h,
+            changed,
+            hair,
+            hair_changed,
+            on: on.clone(),
+        }
+    }
+
+    fn count(&self) -> usize {
+        self.changed.iter().filter(|c| **c).count()
+    }
+
+    /// Mean position of the changed pixels.
+    fn centroid(&self) -> Vec2 {
+        let mut sum = Vec2::ZERO;
+        let mut n: f32 = 0.0;
+        for y in 0..self.height {
+            for x in 0..self.width {
+                if self.changed[(y * self.width + x) as usize] {
+                    sum += Vec2::new(x as f32, y as f32);
+                    n += 1.0;
+                }
+            }
+        }
+        sum / n.max(1.0)
+    }
+
+    /// Rows of shadow in the middle column below the fringe's lowest pixel there.
+    fn band_below_fringe(&self) -> (u32, u32) {
+        let x = self.width / 2;
+        let bottom = (0..self.height)
+            .filter(|y| self.hair[(y * self.width + x) as usize])
+            .max()
+            .unwrap_or(0);
+        let rows = (bottom + 1..self.height)
+            .filter(|y| self.changed[(y * self.width + x) as usize])
+            .count() as u32;
+        (bottom, rows)
+    }
+}
+
+fn the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face() -> Result<(), Failed> {
+    let mut near = scene(320, 240)?;
+    let base = near.shadow()?;
+    // The light from the upper left instead of above.
+    near.renderer
+        .app
+        .world_mut()
+        .entity_mut(near.light)
+        .insert(Transform::from_xyz(-1.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y));
+    let moved = near.shadow()?;
+    near.renderer
+        .app
+        .world_mut()
+        .entity_mut(near.light)
+        .insert(Transform::from_xyz(0.0, 1.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y));
+    // The camera twice as far.
+    near.renderer
+        .app
+        .world_mut()
+        .entity_mut(near.camera)
+        .insert(Transform::from_xyz(0.0, 0.0, 1.2).looking_at(Vec3::ZERO, Vec3::Y));
+    let far = near.shadow()?;
+    let mut large = scene(640, 480)?;
+    let big = large.shadow()?;
+    if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+        let dir = std::path::Path::new(&dir);
+        base.on.save_png(dir.join("fringe_shadow.png"))?;
+        moved
+            .on
+            .save_png(dir.join("fringe_shadow_light_left.png"))?;
+        far.on.save_png(dir.join("fringe_shadow_far.png"))?;
+        big.on.save_png(dir.join("fringe_shadow_640.png"))?;
+    }
+    let (fringe_bottom, rows) = base.band_below_fringe();
+    let (_, far_rows) = far.band_below_fringe();
+    let (_, big_rows) = big.band_below_fringe();
+    let (c, m) = (base.centroid(), moved.centroid());
+    // The face under the fringe is about 0.51 m from the camera; with a 45-degree field of view
+    // 240 rows span 0.43 m there: 2 cm is 11.3 rows.
+    let expected = WIDTH / (2.0 * 0.515 * (std::f32::consts::FRAC_PI_8).tan()) * 240.0;
+    println!(
+        "fringe shadow: {} px ({rows} rows below the fringe's edge at row {fringe_bottom}, \
+         expected about {expected:.1}); light moved left: centroid {c} -> {m}; camera twice as \
+         far: {far_rows} rows; 640x480: {big_rows} rows; hair pixels changed: {}, {}, {}, {}",
+        base.count(),
+        base.hair_changed,
+        moved.hair_changed,
+        far.hair_changed,
+        big.hair_changed
+    );
+    if base.count() < 200 {
+        return Err(format!("only {} face pixels shaded", base.count()).into());
+    }
+    if (rows as f32 - expected).abs() > 0.25 * expected {
+        return Err(format!("{rows} rows of shadow, expected about {expected:.1}").into());
+    }
+    // The shadow lies below the fringe (screen y grows downward).
+    if c.y <= fringe_bottom as f32 - 4.0 {
+        return Err(
+            format!("shadow centroid {c} is not below the fringe's edge {fringe_bottom}").into(),
+        );
+    }
+    // Light from the left: the shadow falls to the right.
+    if m.x < c.x + 3.0 {
+        return Err(
+            format!("the light moved left but the shadow did not move right: {c} -> {m}").into(),
+        );
+    }
+    // Width in scene units: half the rows at twice the distance, twice the rows at twice the
+    // resolution (within two rows for rounding at the edges).
+    if (far_rows as f32 - rows as f32 / 2.0).abs() > 2.0 {
+        return Err(format!("{far_rows} rows at twice the distance, from {rows}").into());
+    }
+    if (big_rows as f32 - rows as f32 * 2.0).abs() > 2.0 {
+        return Err(format!("{big_rows} rows at 640x480, from {rows}").into());
+    }
+    let hair_changed = base.hair_changed + moved.hair_changed + far.hair_changed + big.hair_changed;
+    if hair_changed > 0 {
+        return Err(format!("the shadow changed {hair_changed} hair pixels").into());
+    }
+    Ok(())
+}
