@@ -2,7 +2,8 @@
 //! it), moved by the hair solver: the character of `assets/chain_hair/` (authored by
 //! `tools/blender/author_chain_hair.py`) has bangs, side locks and a ponytail skinned to chains
 //! of bones named `hair_*`. The chains swing, collide with the head and neck and take the wind
-//! while the character turns its head, and the hair mesh wears the crate's toon look.
+//! while the character turns its head, the hair mesh wears the crate's toon look, and the bangs
+//! throw the fringe shadow on the face.
 //!
 //! With `--vrm` (VRM 1.0) or `--vrm0` (VRM 0.x) the same character is loaded from a `.vrm` file
 //! instead: its spring bones, joint parameters, colliders and collider groups come from the file
@@ -10,10 +11,12 @@
 //!
 //! Run: `cargo run --example bone_chain_hair [-- --vrm | --vrm0]`. Keys: W toggles wind.
 
+use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionSphere};
 use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMeshes};
 
 #[derive(Component)]
 struct Character;
@@ -71,6 +74,8 @@ fn setup(
             WorldAssetRoot(scene),
             Character,
             ToonHairMeshes::matching(|name| name == "hair").with_material(look),
+            // The bangs' shadow on the face (read from the camera's prepasses).
+            FringeShadowMeshes::matching(|name| name == "skin", FringeShadow::default()),
         ))
         .id();
     commands.spawn((
@@ -79,6 +84,8 @@ fn setup(
     ));
     commands.spawn((
         Camera3d::default(),
+        DepthPrepass,
+        NormalPrepass,
         Transform::from_xyz(0.6, 1.8, 0.9).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
     ));
     if *source != Source::Gltf {

@@ -196,6 +196,14 @@ fn spawn_ninja_scene(
                 graph: graphs.add(graph),
                 node,
             },
+            // The fringe's shadow on the face and neck (the camera has the prepasses it reads).
+            crate::render::FringeShadowMeshes::matching(
+                |name| name == "skin",
+                crate::render::FringeShadow {
+                    width: 0.015,
+                    ..default()
+                },
+            ),
         ))
         .observe(play_idle_when_ready)
         .observe(shade_scalp_as_hair)
@@ -248,6 +256,9 @@ fn spawn_ninja_stage(
     let mut camera = commands.spawn((
         Name::new("camera"),
         Camera3d::default(),
+        // The hair mask and depth the fringe shadow reads.
+        bevy::core_pipeline::prepass::DepthPrepass,
+        bevy::core_pipeline::prepass::NormalPrepass,
         orbit.transform(),
         orbit,
     ));
