@@ -389,3 +389,31 @@ fn a_broken_vrm_is_reported_once_and_simulates_nothing() {
     assert!(built.springs.is_empty() && built.colliders.is_empty());
     assert_eq!(strand_count(&mut app), 0);
 }
+
+#[test]
+fn a_vrm_collider_radius_follows_its_node_scale() {
+    // The head (and everything under it) at twice the size: the 2 cm sphere on chain A's middle
+    // joint is 4 cm in the world, and the joint rests outside it by its hit radius (measured:
+    // 5.0 cm from the centre). Were the radius not scaled, at most 2 cm + 2 cm.
+    let mut app = event_app();
+    let (_, nodes) = vrm_scene(&mut app, crossed(vec![0]));
+    app.world_mut()
+        .get_mut::<Transform>(nodes[0])
+        .unwrap()
+        .scale = Vec3::splat(2.0);
+    for _ in 0..90 {
+        app.update();
+    }
+    let world = app.world();
+    let head = world.get::<GlobalTransform>(nodes[0]).unwrap();
+    let centre = head.transform_point(Vec3::new(0.05, -0.05, 0.0));
+    let joint = world
+        .get::<GlobalTransform>(nodes[2])
+        .unwrap()
+        .translation();
+    let out = joint.distance(centre);
+    assert!(
+        out > 0.045,
+        "the joint is {out} m from the sphere's centre: its radius did not scale"
+    );
+}
