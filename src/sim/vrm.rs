@@ -62,7 +62,8 @@ const VRM_RATE: f32 = 60.0;
 
 /// On a scene root with [`VrmSpringBones`] once they are built: one [`HairBoneChains`] entity per
 /// spring (in the file's order; springs with nothing to simulate are left out) and one
-/// [`HairCollider`] entity per collider. Remove it (after despawning those) to build again.
+/// [`HairCollider`] entity per collider. All are descendants of the scene root, so despawning
+/// the character despawns them and their hairs. Remove it (after despawning those) to build again.
 #[derive(Component, Clone, Debug, Default, Reflect)]
 #[reflect(Component, Debug)]
 pub struct VrmSpringChains {
@@ -312,6 +313,9 @@ pub(crate) fn build_vrm_springs(
                     },
                     vrm_sim_settings(spring, springs.version, bone_length),
                     HairCollidesOnly(only),
+                    // Under the scene root: despawning the character despawns its springs.
+                    Transform::IDENTITY,
+                    ChildOf(root),
                 ))
                 .id();
             built.springs.push(e);

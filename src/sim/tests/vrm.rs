@@ -417,3 +417,23 @@ fn a_vrm_collider_radius_follows_its_node_scale() {
         "the joint is {out} m from the sphere's centre: its radius did not scale"
     );
 }
+
+#[test]
+fn despawning_a_vrm_character_leaves_no_springs_hairs_or_colliders() {
+    let mut app = event_app();
+    let (root, _) = vrm_scene(&mut app, crossed(vec![1]));
+    for _ in 0..5 {
+        app.update();
+    }
+    assert!(strand_count(&mut app) > 0);
+    app.world_mut().entity_mut(root).despawn();
+    for _ in 0..3 {
+        app.update();
+    }
+    let world = app.world_mut();
+    let chains = world.query::<&HairBoneChains>().iter(world).count();
+    let colliders = world.query::<&HairCollider>().iter(world).count();
+    let hairs = world.query::<&Hair>().iter(world).count();
+    assert_eq!((chains, colliders, hairs), (0, 0, 0));
+    assert_eq!(strand_count(&mut app), 0);
+}
