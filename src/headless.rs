@@ -240,6 +240,20 @@ impl HeadlessRenderer {
         self.frames += 1;
     }
 
+    /// Runs one frame that advances time by `seconds`, the app's clock otherwise standing still
+    /// (`TimeUpdateStrategy::ManualDuration` of zero between calls): frames that only wait for
+    /// pipelines or captures move nothing.
+    pub fn update_by(&mut self, seconds: f32) {
+        use bevy::time::TimeUpdateStrategy;
+        self.app.insert_resource(TimeUpdateStrategy::ManualDuration(
+            std::time::Duration::from_secs_f32(seconds.max(0.0)),
+        ));
+        self.update();
+        self.app.insert_resource(TimeUpdateStrategy::ManualDuration(
+            std::time::Duration::ZERO,
+        ));
+    }
+
     /// Runs frames until every render pipeline has compiled and stayed settled, then captures the
     /// target image and returns its pixels.
     pub fn capture(&mut self) -> Result<CapturedFrame, HeadlessError> {

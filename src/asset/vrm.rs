@@ -306,6 +306,14 @@ impl Reader<'_> {
         }
     }
 
+    /// The required node index at `o.node`; `what` names the object in the error.
+    fn node_at(&self, o: &serde_map::Map, path: &str, what: &str) -> Res<u32> {
+        match o.get("node") {
+            Some(node) => self.node(node, &format!("{path}.node")),
+            None => self.err(path, format!("{what} without a node")),
+        }
+    }
+
     /// An index into a list of `len`, named `what`.
     fn index(&self, v: &Value, path: &str, len: usize, what: &str) -> Res<u32> {
         match v.as_u64() {
@@ -392,10 +400,7 @@ impl Reader<'_> {
         {
             let p = format!("{path}.colliders[{i}]");
             let c = self.object(c, &p)?;
-            let Some(node) = c.get("node") else {
-                return self.err(&p, "a collider without a node");
-            };
-            let node = self.node(node, &format!("{p}.node"))?;
+            let node = self.node_at(c, &p, "a collider")?;
             let extended = c
                 .get("extensions")
                 .and_then(|e| e.get("VRMC_springBone_extended_collider"));
@@ -468,10 +473,7 @@ impl Reader<'_> {
             for (k, j) in list.iter().enumerate() {
                 let jp = format!("{p}.joints[{k}]");
                 let j = self.object(j, &jp)?;
-                let Some(node) = j.get("node") else {
-                    return self.err(&jp, "a joint without a node");
-                };
-                let node = self.node(node, &format!("{jp}.node"))?;
+                let node = self.node_at(j, &jp, "a joint")?;
                 if let Some(&prev) = nodes.last()
                     && self.nodes.parent[node as usize] != Some(prev)
                 {
@@ -532,13 +534,13 @@ impl Reader<'_> {
 
     fn joint(&self, j: &serde_map::Map, p: &str, version: VrmVersion) -> Res<VrmJoint> {
         let d = VrmJoint::defaults(version);
-        let (stiffness_key, hit) = match version {
-            VrmVersion::V1 => ("stiffness", "hitRadius"),
+        let stiffness_key = match version {
+            VrmVersion::V1 => "stiffness",
             // VRM 0.x spells it so.
-            VrmVersion::V0 => ("stiffiness", "hitRadius"),
+            VrmVersion::V0 => "stiffiness",
         };
         Ok(VrmJoint {
-            hit_radius: self.number(j, hit, p, (0.0, MAX_VRM_COORDINATE), d.hit_radius)?,
+            hit_radius: self.number(j, "hitRadius", p, (0.0, MAX_VRM_COORDINATE), d.hit_radius)?,
             stiffness: self.number(j, stiffness_key, p, (0.0, MAX_VRM_FORCE), d.stiffness)?,
             gravity_power: self.number(
                 j,
@@ -610,10 +612,7 @@ impl Reader<'_> {
         {
             let p = format!("{path}.colliderGroups[{i}]");
             let g = self.object(g, &p)?;
-            let Some(node) = g.get("node") else {
-                return self.err(&p, "a collider group without a node");
-            };
-            let node = self.node(node, &format!("{p}.node"))?;
+            let node = self.node_at(g, &p, "a collider group")?;
             let mut members = Vec::new();
             for (k, c) in self
                 .array(g, "colliders", &p, MAX_VRM_COLLIDERS)?

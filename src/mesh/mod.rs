@@ -481,25 +481,27 @@ fn chain_hairs_in_view(
     >,
     strands: Query<&StrandParticles>,
     cameras: Query<(&Camera, &Frustum), With<Camera3d>>,
-    mut scratch: Local<Vec<(u32, Vec<Vec3>)>>,
 ) {
     let any_camera = cameras.iter().any(|(c, _)| c.is_active);
     for (list, sim, culling, mut in_view) in &mut hairs {
-        scratch.clear();
-        scratch.extend(
-            list.iter()
-                .filter_map(|s| strands.get(s).ok())
-                .map(|p| (0, p.positions.clone())),
-        );
-        let bounds = particle_bounds(&scratch, CHAIN_MESH_REACH * sim.size());
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in list
+            .iter()
+            .filter_map(|s| strands.get(s).ok())
+            .flat_map(|p| &p.positions)
+            .filter(|p| p.is_finite())
+        {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        let pad = Vec3::splat(CHAIN_MESH_REACH * sim.size());
         let seen = !culling.enabled
             || !any_camera
-            || bounds.is_none_or(|b| {
-                culling::seen_by_any(
-                    &b,
-                    cameras.iter().filter(|(c, _)| c.is_active).map(|(_, f)| f),
-                )
-            });
+            || lo.x > hi.x
+            || culling::seen_by_any(
+                &Aabb::from_min_max(lo - pad, hi + pad),
+                cameras.iter().filter(|(c, _)| c.is_active).map(|(_, f)| f),
+            );
         in_view.set_if_neq(HairInView(seen));
     }
 }

@@ -160,14 +160,26 @@ pub(crate) fn apply_fringe_shadow(
             continue;
         }
         let mut done = Vec::new();
+        // Meshes sharing a material share its extension.
+        let mut made: Vec<(AssetId<StandardMaterial>, Handle<FringeShadowMaterial>)> = Vec::new();
         for e in meshes_passing(character, &wanted.select, &children, &meshes, &names) {
-            let Some(base) = standard.get(e).ok().and_then(|m| standards.get(&m.0)) else {
+            let Ok(MeshMaterial3d(handle)) = standard.get(e) else {
                 continue;
             };
-            let material = extended.add(ExtendedMaterial {
-                base: base.clone(),
-                extension: wanted.shadow.clone(),
-            });
+            let material = match made.iter().find(|(id, _)| *id == handle.id()) {
+                Some((_, m)) => m.clone(),
+                None => {
+                    let Some(base) = standards.get(handle) else {
+                        continue;
+                    };
+                    let m = extended.add(ExtendedMaterial {
+                        base: base.clone(),
+                        extension: wanted.shadow.clone(),
+                    });
+                    made.push((handle.id(), m.clone()));
+                    m
+                }
+            };
             commands
                 .entity(e)
                 .remove::<MeshMaterial3d<StandardMaterial>>()

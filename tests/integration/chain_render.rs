@@ -39,6 +39,22 @@ fn head_yaw(t: f32) -> Quat {
     Quat::from_rotation_y(0.9 * (std::f32::consts::TAU * 1.5 * t).sin())
 }
 
+/// A sun and a camera rendering into `target`, close on the modelled-hair character's head.
+pub fn stage(world: &mut World, target: Handle<Image>) {
+    world.spawn((
+        DirectionalLight {
+            illuminance: 9_000.0,
+            ..default()
+        },
+        Transform::from_xyz(1.0, 3.0, 2.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 1.75, 0.75).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
+    ));
+}
+
 fn run(chains: bool) -> Result<Run, Failed> {
     let mut renderer = HeadlessRenderer::new(CaptureSettings {
         width: 320,
@@ -76,18 +92,7 @@ fn run(chains: bool) -> Result<Run, Failed> {
         },
         AttachToBone::named(character, "head"),
     ));
-    world.spawn((
-        DirectionalLight {
-            illuminance: 9_000.0,
-            ..default()
-        },
-        Transform::from_xyz(1.0, 3.0, 2.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        RenderTarget::Image(target.into()),
-        Transform::from_xyz(0.0, 1.75, 0.75).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
-    ));
+    stage(world, target);
     renderer.warm_up(|world| {
         let mut names = world.query::<&Name>();
         let loaded = names.iter(world).any(|n| n.as_str() == "hair_tail_0");
@@ -123,20 +128,9 @@ fn run(chains: bool) -> Result<Run, Failed> {
             .map(|j| h.transform_point3(world.get::<GlobalTransform>(*j).unwrap().translation()))
             .collect()
     };
-    let step = |renderer: &mut HeadlessRenderer, seconds: f32| {
-        renderer
-            .app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
-                seconds,
-            )));
-        renderer.update();
-        renderer
-            .app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-    };
     // Settle for 1.5 s, still.
     for _ in 0..45 {
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
     }
     let rest_joints = in_head(renderer.app.world());
     let rest = renderer.capture()?;
@@ -150,7 +144,7 @@ fn run(chains: bool) -> Result<Run, Failed> {
             .get_mut::<Transform>(character)
             .unwrap()
             .rotation = head_yaw(t);
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
         let now = in_head(renderer.app.world());
         swing = swing.max(
             now.iter()
@@ -168,7 +162,7 @@ fn run(chains: bool) -> Result<Run, Failed> {
         .unwrap()
         .rotation = Quat::IDENTITY;
     for _ in 0..90 {
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
     }
     let back = in_head(renderer.app.world())
         .iter()

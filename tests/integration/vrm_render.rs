@@ -5,7 +5,6 @@
 
 use std::time::Duration;
 
-use bevy::camera::RenderTarget;
 use bevy::mesh::VertexAttributeValues;
 use bevy::mesh::skinning::{SkinnedMesh, SkinnedMeshInverseBindposes};
 use bevy::prelude::*;
@@ -14,7 +13,7 @@ use bevy::world_serialization::WorldAssetRoot;
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied, ToonRamps};
-use bevy_cartoon_hair::sim::{BoneChainHairs, HairCollidesOnly, VrmSpringChains};
+use bevy_cartoon_hair::sim::{BoneChainHairs, HairCollidesOnly, VrmSpringChains, VrmSpringsFailed};
 use libtest_mimic::Failed;
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
@@ -25,6 +24,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "a_vrm_0_character_gets_its_bone_groups_and_converted_colliders",
         a_vrm_0_character_gets_its_bone_groups_and_converted_colliders,
+    ),
+    (
+        "a_vrm_with_broken_spring_json_shows_the_character_and_says_where",
+        a_vrm_with_broken_spring_json_shows_the_character_and_says_where,
     ),
 ];
 
@@ -89,18 +92,7 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
         WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(file))),
         ToonHairMeshes::matching(|n| n == "hair").with_material(material),
     ));
-    world.spawn((
-        DirectionalLight {
-            illuminance: 9_000.0,
-            ..default()
-        },
-        Transform::from_xyz(1.0, 3.0, 2.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        RenderTarget::Image(target.into()),
-        Transform::from_xyz(0.0, 1.75, 0.75).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
-    ));
+    crate::chain_render::stage(world, target);
     renderer.warm_up(|world| {
         let mut springs = world.query::<&VrmSpringChains>();
         let Some(built) = springs.iter(world).next().cloned() else {
@@ -166,17 +158,6 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
         .collect();
     let skin = hair_skin(world)?;
     let head_rest = world.get::<Transform>(head).unwrap().rotation;
-    let step = |renderer: &mut HeadlessRenderer, seconds: f32| {
-        renderer
-            .app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
-                seconds,
-            )));
-        renderer.update();
-        renderer
-            .app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-    };
     let in_head = |world: &World| -> Vec<Vec3> {
         let h = world
             .get::<GlobalTransform>(head)
@@ -189,7 +170,7 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
             .collect()
     };
     for _ in 0..45 {
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
     }
     let rest_joints = in_head(renderer.app.world());
     let rest_depth = skin.depths(renderer.app.world(), &built.colliders);
@@ -205,7 +186,7 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
             .get_mut::<Transform>(head)
             .unwrap()
             .rotation = head_rest * head_turn(t);
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
         let world = renderer.app.world();
         swing = swing.max(farthest(&in_head(world), &rest_joints));
         for (now, then) in skin.depths(world, &built.colliders).iter().zip(&rest_depth) {
@@ -224,7 +205,7 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
         .unwrap()
         .rotation = head_rest;
     for _ in 0..90 {
-        step(&mut renderer, 1.0 / 30.0);
+        renderer.update_by(1.0 / 30.0);
     }
     let back = farthest(&in_head(renderer.app.world()), &rest_joints);
     let after = renderer.capture()?;
@@ -491,6 +472,87 @@ fn a_vrm_0_character_gets_its_bone_groups_and_converted_colliders() -> Result<()
     }
     if old.swing < 0.01 || old.back > 0.002 {
         return Err(format!("swing {} m, back {} m", old.swing, old.back).into());
+    }
+    Ok(())
+}
+
+/// The VRM 1.0 character with its first joint's `dragForce` 0.4 written as 4.0 (same length, so
+/// the binary glTF stays valid): outside VRM's `[0, 1]`.
+fn a_vrm_with_broken_spring_json_shows_the_character_and_says_where() -> Result<(), Failed> {
+    let dir = std::env::temp_dir().join(format!("hair_broken_vrm_{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let good = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/chain_hair/chain_hair.vrm"),
+    )?;
+    let (from, to) = (
+        b"\"dragForce\":0.4".as_slice(),
+        b"\"dragForce\":4.0".as_slice(),
+    );
+    let at = good
+        .windows(from.len())
+        .position(|w| w == from)
+        .ok_or("the fixture has no dragForce 0.4")?;
+    let mut broken = good.clone();
+    broken[at..at + to.len()].copy_from_slice(to);
+    std::fs::write(dir.join("broken.vrm"), &broken)?;
+
+    #[derive(Resource, Default)]
+    struct Reports(Vec<String>);
+    let mut renderer = HeadlessRenderer::new(CaptureSettings {
+        width: 64,
+        height: 64,
+        asset_folder: Some(dir.display().to_string()),
+        ..default()
+    })?;
+    let target = renderer.target();
+    let app = &mut renderer.app;
+    app.add_plugins(CartoonHairPlugins)
+        .init_resource::<Reports>()
+        .add_observer(|e: On<VrmSpringsFailed>, mut r: ResMut<Reports>| {
+            r.0.push(format!("{} | {}", e.file, e.error));
+        });
+    let world = app.world_mut();
+    let assets = world.resource::<AssetServer>().clone();
+    world.spawn(WorldAssetRoot(
+        assets.load(GltfAssetLabel::Scene(0).from_asset("broken.vrm")),
+    ));
+    crate::chain_render::stage(world, target);
+    renderer.warm_up(|world| {
+        world
+            .query::<&VrmSpringChains>()
+            .iter(world)
+            .next()
+            .is_some()
+    })?;
+    for _ in 0..10 {
+        renderer.update();
+    }
+    let world = renderer.app.world_mut();
+    let reports = world.resource::<Reports>().0.clone();
+    let head = world
+        .query::<&Name>()
+        .iter(world)
+        .any(|n| n.as_str() == "head");
+    let springs: usize = world
+        .query::<&VrmSpringChains>()
+        .iter(world)
+        .map(|c| c.springs.len() + c.colliders.len())
+        .sum();
+    let strands = world
+        .query::<&bevy_cartoon_hair::sim::StrandOf>()
+        .iter(world)
+        .count();
+    let _ = std::fs::remove_dir_all(&dir);
+    println!(
+        "broken VRM: {reports:?}; head bone spawned: {head}; springs and colliders: {springs}"
+    );
+    let expected = "broken.vrm: extensions.VRMC_springBone.springs[0].joints[0].dragForce: 4 is \
+                    outside [0, 1]";
+    if reports.len() != 1 || !reports[0].contains(expected) {
+        return Err(format!("reports {reports:?}, expected one containing {expected:?}").into());
+    }
+    if !head || springs != 0 || strands != 0 {
+        return Err(format!("head {head}, springs {springs}, strands {strands}").into());
     }
     Ok(())
 }
