@@ -28,6 +28,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         hair_is_in_depth_and_normal_prepasses,
     ),
     (
+        "outline_is_anti_aliased_with_msaa",
+        outline_is_anti_aliased_with_msaa,
+    ),
+    (
         "outline_mass_inks_the_hair_not_its_strands",
         mass_outline_inks_the_hair_not_its_strands,
     ),
@@ -521,6 +525,96 @@ fn mass_outline_inks_the_hair_not_its_strands() -> Result<(), Failed> {
     }
     if inner.1 < mass.1 + 0.05 || inner.0 < mass.0 - 0.02 {
         return fail("inner lines did not come back with inner_threshold");
+    }
+    Ok(())
+}
+
+/// The outer edge of the top outline in column `x`, in pixels from the top: the background
+/// pixels above it count whole, the ink's partly covered pixels by the share not inked (the ink
+/// is magenta over black, so its blue channel is its coverage). `None` if no full ink is met.
+fn top_ink_edge(frame: &CapturedFrame, x: u32) -> Option<f32> {
+    let mut edge = 0.0;
+    for y in 0..frame.height {
+        let coverage = f32::from(frame.pixel(x, y)[2]) / 255.0;
+        if coverage >= 0.95 {
+            return Some(edge);
+        }
+        edge += 1.0 - coverage;
+    }
+    None
+}
+
+/// Root mean square distance of the points `(x, edge)` from their least-squares line.
+fn line_residual(points: &[(f32, f32)]) -> f32 {
+    let n = points.len() as f32;
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(a, b), (x, y)| {
+        (a + (x - mx) * (y - my), b + (x - mx) * (x - mx))
+    });
+    let slope = sxy / sxx;
+    let sum: f32 = points
+        .iter()
+        .map(|(x, y)| (y - (my + slope * (x - mx))).powi(2))
+        .sum();
+    (sum / n).sqrt()
+}
+
+/// With MSAA the outline's ink covers each pixel by the share of its samples that are inked, so
+/// a slanted edge runs straight instead of in stair steps: on a strand tilted by about 7 degrees,
+/// the top outline's edge (read with sub-pixel coverage) lies closer to a straight line than
+/// without MSAA, and the ink has partly covered pixels.
+fn outline_is_anti_aliased_with_msaa() -> Result<(), Failed> {
+    let mut residuals = Vec::new();
+    for msaa in [Msaa::Off, Msaa::Sample4] {
+        let mut r = scene(Vec3::new(0.0, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+        let ramp = ramps(&r).three_tone;
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.0, -0.12, 0.0),
+            Vec3::new(1.0, 0.12, 0.0),
+            0.3,
+            ToonHairMaterial { ramp, ..default() },
+        );
+        let camera = camera(&mut r)?;
+        r.app
+            .world_mut()
+            .entity_mut(camera)
+            .insert((magenta(|_| {}), msaa));
+        let frame = r.capture()?;
+        save(&frame, &format!("outline_aa_{msaa:?}"))?;
+        let (w, _) = (frame.width, frame.height);
+        let points: Vec<(f32, f32)> = (w / 4..w * 3 / 4)
+            .filter_map(|x| top_ink_edge(&frame, x).map(|e| (x as f32, e)))
+            .collect();
+        let partial = frame.count(|p| p[0] == p[2] && p[1] < 15 && p[2] > 20 && p[2] < 235);
+        let residual = line_residual(&points);
+        eprintln!(
+            "{msaa:?}: {} columns, edge residual {residual:.3} px, {partial} partly inked pixels",
+            points.len()
+        );
+        if points.len() < (w / 2 - 4) as usize {
+            return Err(format!(
+                "{msaa:?}: the top outline was found in {} columns",
+                points.len()
+            )
+            .into());
+        }
+        residuals.push((residual, partial));
+    }
+    let [(hard, hard_partial), (smooth, smooth_partial)] = residuals[..] else {
+        unreachable!()
+    };
+    if hard_partial != 0 {
+        return Err(format!("without MSAA {hard_partial} ink pixels are partly covered").into());
+    }
+    if smooth_partial < 20 || smooth > 0.6 * hard {
+        return Err(format!(
+            "with MSAA the edge is off a straight line by {smooth:.3} px (without: {hard:.3}), \
+             {smooth_partial} partly inked pixels"
+        )
+        .into());
     }
     Ok(())
 }

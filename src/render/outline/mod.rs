@@ -17,6 +17,13 @@
 //! 3. `composite`: the same vertically with [`ImageSpaceOutline::dilation_y`], then the
 //!    [`ImageSpaceOutline::color`] is mixed over the frame.
 //!
+//! **Anti-aliasing** comes from the camera's MSAA (`Msaa::Sample4`, Bevy's default): the prepass
+//! textures are then multisampled, and sample `s` of every pixel is the picture rendered at one
+//! sub-pixel offset. Edges are found and dilated in each of up to four samples on their own (one
+//! channel of the edge mask each), and the ink covers a pixel by the share of its samples that
+//! are inked, so slanted lines run straight instead of in stair steps. With `Msaa::Off` the ink
+//! is hard-edged, whole pixels.
+//!
 //! The pass runs after tone mapping, so the ink is exactly the colour asked for.
 //!
 //! The thesis could not switch its outline back on once off. Here

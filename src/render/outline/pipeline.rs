@@ -138,7 +138,7 @@ impl Specializer<RenderPipeline> for CompositeSpecializer {
 }
 
 /// Format of the edge masks between the passes.
-pub(super) const MASK_FORMAT: TextureFormat = TextureFormat::R8Unorm;
+pub(super) const MASK_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 
 /// The outline's pipelines, made in `RenderStartup`: the dilation pass outright, the detection
 /// and composite passes as variants specialised per view key.
