@@ -15,7 +15,10 @@
 //! Flags:
 //! - `--screenshot FILE`: save the window at frame 150 and exit.
 //! - `--preset FILE|LOOK`: start from a hair preset (saved from the panel's Preset section), or
-//!   one of the shipped looks by name (`thesis`, `clean_anime`, `sketch`; `assets/presets/`).
+//!   one of the shipped looks by name (`thesis`, `clean_anime`, `sketch`, `anime_locks`;
+//!   `assets/presets/`).
+//! - `--hairstyle NAME`: the hair the ninja wears: `spiky` (the default, keyframe-animated),
+//!   `long`, `bangs` or `twin_tails` (simulated with the shoulders, chest and back as colliders).
 //! - `--no-ui`: start with the tuning panel hidden.
 //! - `--hood`, `--wall`, `--board`: start with that prop (also in headless clips).
 //! - `--yaw RADIANS`: headless clips look from this angle around the head (0: the face).
@@ -26,7 +29,7 @@
 use bevy::prelude::*;
 use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use bevy_cartoon_hair::demo::{
-    ClipSettings, NinjaOrbit, NinjaProps, NinjaScenePlugin, record_clip,
+    ClipSettings, NinjaHairstyle, NinjaOrbit, NinjaProps, NinjaScenePlugin, record_clip,
 };
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::ui::tuning_ui_wants_keyboard;
@@ -51,6 +54,13 @@ fn parse_args() -> Result<Args, String> {
         match flag.as_str() {
             "--screenshot" => parsed.screenshot = Some(value()?),
             "--preset" => parsed.preset = Some(value()?),
+            "--hairstyle" => {
+                let v = value()?;
+                parsed.clip.hairstyle = NinjaHairstyle::from_name(&v).ok_or(format!(
+                    "--hairstyle {v:?}: expected one of {}",
+                    NinjaHairstyle::ALL.map(NinjaHairstyle::name).join(", ")
+                ))?;
+            }
             "--headless" => parsed.headless = true,
             "--no-ui" => parsed.no_ui = true,
             "--hood" => parsed.clip.props.hood = true,
@@ -130,6 +140,7 @@ fn main() {
         NinjaScenePlugin {
             target: None,
             preset,
+            hairstyle: args.clip.hairstyle,
         },
     ))
     .insert_resource(HairTuningUi {

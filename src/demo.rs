@@ -46,6 +46,59 @@ pub struct NinjaScenePlugin {
     pub target: Option<Handle<Image>>,
     /// Start the hair from this preset instead of the demo's own tuning.
     pub preset: Option<HairPreset>,
+    /// The hair the ninja wears.
+    pub hairstyle: NinjaHairstyle,
+}
+
+/// The hairstyles the ninja can wear, each a groom in `assets/ninja/` made by a script in
+/// Blender (`tools/blender/author_ninja.py`, `tools/blender/author_hairstyles.py`).
+#[derive(Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Default, Debug, PartialEq)]
+pub enum NinjaHairstyle {
+    /// Short anime spikes, keyframe-animated between three styles (`ninja.hair.xml`).
+    #[default]
+    Spiky,
+    /// Long straight hair falling over the shoulders and down the back (`ninja_long.hair.xml`).
+    Long,
+    /// A bob to the jaw with bangs over the eyes (`ninja_bangs.hair.xml`).
+    Bangs,
+    /// Two long tails tied above the ears (`ninja_twin_tails.hair.xml`).
+    TwinTails,
+}
+
+impl NinjaHairstyle {
+    /// Every hairstyle, in menu order.
+    pub const ALL: [NinjaHairstyle; 4] = [Self::Spiky, Self::Long, Self::Bangs, Self::TwinTails];
+
+    /// Its name on the command line and in file names: `spiky`, `long`, `bangs`, `twin_tails`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Spiky => "spiky",
+            Self::Long => "long",
+            Self::Bangs => "bangs",
+            Self::TwinTails => "twin_tails",
+        }
+    }
+
+    /// The hairstyle called `name` (see [`NinjaHairstyle::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// Its groom, relative to the asset folder.
+    pub fn groom_path(self) -> &'static str {
+        match self {
+            Self::Spiky => "ninja/ninja.hair.xml",
+            Self::Long => "ninja/ninja_long.hair.xml",
+            Self::Bangs => "ninja/ninja_bangs.hair.xml",
+            Self::TwinTails => "ninja/ninja_twin_tails.hair.xml",
+        }
+    }
+
+    /// Its keyframe animation, if it has one.
+    pub fn animation_path(self) -> Option<&'static str> {
+        (self == Self::Spiky).then_some("ninja/ninja.hairanim.xml")
+    }
 }
 
 /// Where the demo camera looks from: an orbit around the head. Change it and the camera follows
@@ -166,9 +219,10 @@ fn spawn_ninja_scene(
     let (graph, node) = AnimationGraph::from_clip(
         assets.load(GltfAssetLabel::Animation(0).from_asset("ninja/ninja.glb")),
     );
+    let style = config.hairstyle;
     let hair = Hair {
-        groom: assets.load("ninja/ninja.hair.xml"),
-        animation: Some(assets.load("ninja/ninja.hairanim.xml")),
+        groom: assets.load(style.groom_path()),
+        animation: style.animation_path().map(|path| assets.load(path)),
         collision: Some(assets.load("ninja/ninja.collision.xml")),
     };
     let mut material = ToonHairMaterial::new(
@@ -313,9 +367,9 @@ fn shade_scalp_as_hair(
     }
 }
 
-/// The ninja's shoulders as a capsule on its `spine` bone, so hair long or blown enough to reach
-/// them rests on them instead of passing into the body (the head's own spheres come from the
-/// collision file).
+/// The ninja's shoulders, chest and back as capsules on its `spine` bone, so long hair rests on
+/// them instead of passing into the body (the head's own spheres come from the collision file).
+/// The same shapes drape the long hairstyles in `tools/blender/author_hairstyles.py`.
 fn add_shoulder_collider(
     ready: On<WorldInstanceReady>,
     mut commands: Commands,
@@ -325,16 +379,21 @@ fn add_shoulder_collider(
     for child in children.iter_descendants(ready.entity) {
         if names.get(child).is_ok_and(|name| name.as_str() == "spine") {
             // The spine bone runs up from the hips (0.9 m) to the neck (1.42 m) along its +Y,
-            // its other axes the character's; the shoulders are at 1.395 m, 0.195 m out
-            // (`tools/blender/author_ninja.py`).
+            // its other axes the character's; the shoulders are at 1.395 m, 0.195 m out, the
+            // chest about 0.2 m wide and 0.115 m deep (`tools/blender/author_ninja.py`).
+            let capsule = |x: f32, height: f32, radius: f32| crate::asset::CollisionCapsule {
+                a: Vec3::new(-x, height - 0.9, 0.0),
+                b: Vec3::new(x, height - 0.9, 0.0),
+                radius,
+            };
             commands.spawn((
-                Name::new("ninja shoulders"),
+                Name::new("ninja shoulders, chest and back"),
                 crate::sim::HairCollider {
-                    capsules: vec![crate::asset::CollisionCapsule {
-                        a: Vec3::new(-0.195, 0.495, 0.0),
-                        b: Vec3::new(0.195, 0.495, 0.0),
-                        radius: 0.06,
-                    }],
+                    capsules: vec![
+                        capsule(0.195, 1.395, 0.06),
+                        capsule(0.09, 1.32, 0.115),
+                        capsule(0.06, 1.20, 0.11),
+                    ],
                     ..default()
                 },
                 Transform::default(),
@@ -498,6 +557,8 @@ pub struct ClipSettings {
     pub show_ui: bool,
     /// Props in the scene (a hood, a wall, a board). Default: none.
     pub props: NinjaProps,
+    /// The hair the ninja wears. Default: [`NinjaHairstyle::Spiky`].
+    pub hairstyle: NinjaHairstyle,
     /// Where the camera looks from. Default: [`NinjaOrbit::default`] (the face, from its left).
     pub orbit: NinjaOrbit,
     /// The asset folder holding `ninja/`, when it is not the default `assets` (relative to
@@ -516,6 +577,7 @@ impl Default for ClipSettings {
             frame_time: 1.0 / 30.0,
             show_ui: false,
             props: NinjaProps::default(),
+            hairstyle: NinjaHairstyle::Spiky,
             orbit: NinjaOrbit::default(),
             asset_folder: None,
         }
@@ -523,11 +585,14 @@ impl Default for ClipSettings {
 }
 
 /// The files the ninja scene loads, relative to the asset folder.
-pub const NINJA_ASSETS: [&str; 4] = [
+pub const NINJA_ASSETS: [&str; 7] = [
     "ninja/ninja.glb",
     "ninja/ninja.hair.xml",
     "ninja/ninja.hairanim.xml",
     "ninja/ninja.collision.xml",
+    "ninja/ninja_long.hair.xml",
+    "ninja/ninja_bangs.hair.xml",
+    "ninja/ninja_twin_tails.hair.xml",
 ];
 
 /// Checks that the ninja scene's files are in the asset folder Bevy will read (`assets/` next to
@@ -687,6 +752,7 @@ pub fn record_clip(settings: &ClipSettings) -> Result<Vec<PathBuf>, ClipError> {
         NinjaScenePlugin {
             target: Some(renderer.target()),
             preset: settings.preset.clone(),
+            hairstyle: settings.hairstyle,
         },
     ));
     #[cfg(feature = "ui")]

@@ -164,7 +164,7 @@ mod tests {
                 radius: 0.016,
                 taper: [-0.4, -0.5, 1.0],
                 reference: FrameReference::from_direction(strand[1] - strand[0]),
-                aspect: 1.0,
+                ..Default::default()
             };
             build_tube(
                 &topology,

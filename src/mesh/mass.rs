@@ -64,6 +64,8 @@ impl HairMassShape {
 pub(crate) struct MassField {
     centre: Vec3A,
     metric: Mat3A,
+    /// The bone's up axis (its `+Y`) in world space: the mass's meridians run down from it.
+    up: Vec3A,
     /// Blend weight toward the field's normal, `[0, 1]`.
     weight: f32,
 }
@@ -93,6 +95,7 @@ impl MassField {
         Some(Self {
             centre: bone.transform_point3a(centre.into()),
             metric,
+            up: r.y_axis.normalize_or_zero(),
             weight,
         })
     }
@@ -156,6 +159,34 @@ impl MassField {
     }
 }
 
+impl MassField {
+    /// Leans each tangent (Bevy's `[x, y, z, w]`, its `xyz` along the strand) toward the
+    /// mass's meridian at its position: the way down the ellipsoid from its top, as a comb runs
+    /// over the whole hair. The angel ring (Kajiya-Kay on the tangent) then runs as one band
+    /// around the mass instead of breaking up along every spike. At the top, where there is
+    /// no meridian, the strand's own direction stays; `w` is kept.
+    pub(crate) fn lean_tangents(&self, positions: &[[f32; 3]], tangents: &mut [[f32; 4]]) {
+        let (m, c, w, up) = (self.metric, self.centre, self.weight, self.up);
+        for (p, t) in positions.iter().zip(tangents) {
+            let normal = (m * (Vec3A::from_array(*p) - c)).normalize_or_zero();
+            // Down the surface: -up less its part along the normal. Its length (the sine of the
+            // angle from the top) fades the lean out near the top.
+            let meridian = normal * normal.dot(up) - up;
+            let own = Vec3A::new(t[0], t[1], t[2]);
+            // Kajiya-Kay does not see the tangent's sign: lean toward the nearer of the two.
+            let meridian = if meridian.dot(own) < 0.0 {
+                -meridian
+            } else {
+                meridian
+            };
+            let blended = (own + (meridian - own * meridian.length()) * w).normalize_or_zero();
+            if blended != Vec3A::ZERO && blended.is_finite() {
+                [t[0], t[1], t[2]] = blended.to_array();
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,6 +227,33 @@ mod tests {
         field(0.5).apply(&positions[..1], &mut half);
         let expected = (Vec3::Z + Vec3::X).normalize();
         assert!(Vec3::from(half[0]).abs_diff_eq(expected, 1e-6), "{half:?}");
+    }
+
+    #[test]
+    fn tangents_lean_down_the_mass_and_keep_their_own_at_the_top() {
+        // On the side (2, 1, 0) the meridian is vertical; at the top (0, 2, 0) there is none.
+        let positions = [[2.0, 1.0, 0.0], [2.0, 1.0, 0.0], [0.0, 2.0, 0.0]];
+        let mut tangents = [
+            [0.0, 0.0, 1.0, -1.0],
+            [0.6, 0.8, 0.0, 1.0],
+            [1.0, 0.0, 0.0, 1.0],
+        ];
+        field(1.0).lean_tangents(&positions, &mut tangents);
+        // A strand running around the head turns to run down it; one pointing up (a spike)
+        // turns to straight up (the same line), and `w` stays.
+        assert_eq!(tangents[0], [0.0, -1.0, 0.0, -1.0]);
+        assert!(
+            Vec3::new(tangents[1][0], tangents[1][1], tangents[1][2]).abs_diff_eq(Vec3::Y, 1e-6)
+        );
+        assert_eq!(tangents[2], [1.0, 0.0, 0.0, 1.0]);
+        // Half way on the side: between its own and the meridian.
+        let mut half = [[0.0, 0.0, 1.0, 1.0]];
+        field(0.5).lean_tangents(&positions[..1], &mut half);
+        let expected = Vec3::new(0.0, -1.0, 1.0).normalize();
+        assert!(
+            Vec3::new(half[0][0], half[0][1], half[0][2]).abs_diff_eq(expected, 1e-6),
+            "{half:?}"
+        );
     }
 
     #[test]

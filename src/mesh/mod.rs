@@ -15,11 +15,13 @@ pub mod culling;
 pub mod highlights;
 pub mod lod;
 mod mass;
+mod section;
 pub mod tube;
 
 pub use culling::{HairCulling, HairCullingStats, HairInView};
 pub use lod::{HairLod, HairLodLevel};
 pub use mass::HairMassShape;
+pub use section::LockSection;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -62,8 +64,15 @@ pub struct HairMeshSettings {
     /// `1` is round; less is an ellipse; about `0.2` is a flat blade, the flat clumps of anime
     /// hair (pair it with a taper that ends at 0 for sharp tips). Each ring's normal is the
     /// ellipse's, and silhouettes come from the geometry, so both stay right for any shape.
+    /// For the polygon [`HairMeshSettings::section`]s, their thickness over their width.
     /// Clamped to `[0.05, 1]`. Default: `1.0`.
     pub section_aspect: f32,
+    /// The cross-section of every strand: the round tube, or a flat, triangular or rhombic
+    /// lock lying on the hair's mass (see [`LockSection`]); [`HairStrandSections`] overrides it
+    /// per strand. A polygon's corners each get a vertex: the shape resolution is rounded up to
+    /// a multiple of its corners. Default: [`LockSection::Round`].
+    #[reflect(default)]
+    pub section: LockSection,
     /// The smooth shape the normals lean toward. Default: [`HairMassShape::Fitted`], an
     /// ellipsoid around the groom's rest shape.
     pub mass_shape: HairMassShape,
@@ -78,8 +87,31 @@ impl Default for HairMeshSettings {
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
             mass_normals: 0.8,
             section_aspect: 1.0,
+            section: LockSection::Round,
             mass_shape: HairMassShape::Fitted,
         }
+    }
+}
+
+/// Per-strand cross-sections of a hair, by strand index in the groom's order, overriding
+/// [`HairMeshSettings::section`]; strands past the end keep the hair's. Anime hair mixes them:
+/// triangular bangs in front, rhombic spikes behind, flat ribbons on the sides.
+///
+/// ```
+/// # use bevy_cartoon_hair::prelude::*;
+/// # use bevy_cartoon_hair::mesh::{HairStrandSections, LockSection};
+/// // The first three strands (the bangs) are triangles; the rest use the hair's section.
+/// let sections = HairStrandSections(vec![LockSection::Triangle; 3]);
+/// # let _ = sections;
+/// ```
+#[derive(Component, Reflect, Clone, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairStrandSections(pub Vec<LockSection>);
+
+impl HairStrandSections {
+    /// The section of strand `index`, `fallback` where none is given.
+    pub fn get(&self, index: usize, fallback: LockSection) -> LockSection {
+        self.0.get(index).copied().unwrap_or(fallback)
     }
 }
 
@@ -128,6 +160,8 @@ pub struct HairMeshPlugin;
 impl Plugin for HairMeshPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<HairMeshSettings>()
+            .register_type::<HairStrandSections>()
+            .register_type::<LockSection>()
             .register_type::<highlights::SpecularQuads>()
             .register_required_components::<Hair, HairMeshSettings>()
             .register_required_components::<Hair, highlights::SpecularQuads>()
@@ -163,6 +197,32 @@ fn settings_topology(s: &HairMeshSettings) -> (usize, usize) {
     )
 }
 
+/// The sides of a ring for `sides` asked: a multiple of the corners of every section in use.
+fn section_sides(
+    sides: usize,
+    s: &HairMeshSettings,
+    per_strand: Option<&HairStrandSections>,
+) -> usize {
+    let mut used = [false; LockSection::ALL.len()];
+    for section in
+        std::iter::once(s.section).chain(per_strand.into_iter().flat_map(|p| p.0.iter().copied()))
+    {
+        if let Some(i) = LockSection::ALL.iter().position(|k| *k == section) {
+            used[i] = true;
+        }
+    }
+    let sections = LockSection::ALL
+        .iter()
+        .zip(used)
+        .filter(|(_, u)| *u)
+        .map(|(k, _)| *k);
+    section::sides_for(sides, sections, tube::MAX_SIDES)
+}
+
+/// Distinct lock ids the hair's prepass can write (the normal target's two alpha bits, less the
+/// value other objects write).
+const LOCK_IDS: usize = 3;
+
 /// Creates a mesh with `strands` copies of the topology (positions and normals zeroed).
 pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
     let per = topology.vertex_count();
@@ -175,8 +235,16 @@ pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
         uvs.extend_from_slice(&topology.uvs);
         // The same `u` half a turn on: where `u` wraps from 1 to 0 this one is continuous, and
         // the shader uses whichever varies less (Tarini 2012), so textures show no seam while
-        // the ring keeps one vertex per side (true adjacency for silhouettes).
-        uvs_b.extend(topology.uvs.iter().map(|[u, v]| [(u + 0.5).fract(), *v]));
+        // the ring keeps one vertex per side (true adjacency for silhouettes). Its whole part
+        // is the strand's lock id, its index modulo 3: the hair's prepass writes it for the
+        // outline's lines between locks.
+        let lock = (s % LOCK_IDS) as f32;
+        uvs_b.extend(
+            topology
+                .uvs
+                .iter()
+                .map(|[u, v]| [lock + (u + 0.5).fract(), *v]),
+        );
     }
     Mesh::new(
         PrimitiveTopology::TriangleList,
@@ -209,7 +277,7 @@ pub fn rebuild_strand_meshes(
         (
             Entity,
             &Hair,
-            &HairMeshSettings,
+            (&HairMeshSettings, Option<&HairStrandSections>),
             &GlobalTransform,
             &HairStrands,
             Option<&mut ComputedHairMesh>,
@@ -235,7 +303,16 @@ pub fn rebuild_strand_meshes(
     let pool = parallel::compute_pool();
     let mut counted = HairCullingStats::default();
     let any_camera = cameras.iter().any(|(c, ..)| c.is_active);
-    for (hair, hair_assets, settings, global, strand_list, mut computed, sim, culling) in &mut hairs
+    for (
+        hair,
+        hair_assets,
+        (settings, per_strand),
+        global,
+        strand_list,
+        mut computed,
+        sim,
+        culling,
+    ) in &mut hairs
     {
         let (culling, mut in_view, lod, mut level) = culling;
         // A character scaled at run time keeps its tubes in proportion.
@@ -264,6 +341,7 @@ pub fn rebuild_strand_meshes(
         level.set_if_neq(next);
         let (rings, sides) = settings_topology(settings);
         let (rings, sides) = lod::lod_topology(rings, sides, level.level);
+        let sides = section_sides(sides, settings, per_strand);
         let count = strand_list.len();
         let rebuild = computed.as_ref().is_none_or(|c| {
             c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
@@ -293,14 +371,7 @@ pub fn rebuild_strand_meshes(
             };
             let rest_frames = grooms
                 .get(&hair_assets.groom)
-                .map(|g| {
-                    g.strands()
-                        .map(|s| {
-                            let f = FrameReference::from_direction(s[1] - s[0]);
-                            (f.direction, f.normal)
-                        })
-                        .collect()
-                })
+                .map(rest_frames)
                 .unwrap_or_default();
             let c = ComputedHairMesh {
                 mesh,
@@ -399,6 +470,9 @@ pub fn rebuild_strand_meshes(
                     normal: rotation * normal,
                 },
                 aspect: settings.section_aspect,
+                section: per_strand.map_or(settings.section, |p| {
+                    p.get(strand as usize, settings.section)
+                }),
             }
         };
         let mass = sim.bone_pose().and_then(|bone| {
@@ -447,6 +521,7 @@ pub fn rebuild_strand_meshes(
                     along_strand(n, t);
                     if let Some(mass) = &mass {
                         mass.apply(p, n);
+                        mass.lean_tangents(p, t);
                     }
                 }
             });
@@ -457,6 +532,30 @@ pub fn rebuild_strand_meshes(
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
     }
     stats.set_if_neq(counted);
+}
+
+/// Each strand's rest root direction and ring normal, in bone space. The normal lies across the
+/// hair's mass (perpendicular to the strand and to the way out of the groom's centre), so a flat
+/// or triangular lock lies on the mass with its thin side outward; where that is undefined it is
+/// taken from a fixed up vector.
+fn rest_frames(groom: &HairGroom) -> Vec<(Vec3, Vec3)> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for p in groom.strands().flatten().filter(|p| p.is_finite()) {
+        (lo, hi) = (lo.min(*p), hi.max(*p));
+    }
+    let centre = (lo + hi) * 0.5;
+    groom
+        .strands()
+        .map(|s| {
+            let f = FrameReference::from_direction(s[1] - s[0]);
+            let across = (s[0] - centre).cross(f.direction);
+            let normal = across
+                .try_normalize()
+                .filter(|_| across.length() > 1e-3 * (hi - lo).max_element())
+                .unwrap_or(f.normal);
+            (f.direction, normal)
+        })
+        .collect()
 }
 
 thread_local! {

@@ -35,6 +35,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 
+use super::section::{LockSection, SectionSide, fill_section};
 use crate::math::orthonormalise;
 
 /// The fewest rings (samples along the strand) a tube has.
@@ -351,8 +352,11 @@ pub struct TubeParams {
     pub reference: FrameReference,
     /// Cross-section: the ring's width along the frame's binormal over its width along the
     /// frame's normal (the strand's rest normal). `1` is a circle, less an ellipse, about `0.2`
-    /// a flat blade. Clamped to `[0.05, 1]`; not finite gives `1`.
+    /// a flat blade; for the polygon sections, their thickness over their width. Clamped to
+    /// `[0.05, 1]`; not finite gives `1`.
     pub aspect: f32,
+    /// The shape of the cross-section; see [`LockSection`].
+    pub section: LockSection,
 }
 
 impl Default for TubeParams {
@@ -363,6 +367,7 @@ impl Default for TubeParams {
             taper: [0.0, -0.9, 1.0],
             reference: FrameReference::default(),
             aspect: 1.0,
+            section: LockSection::Round,
         }
     }
 }
@@ -375,7 +380,7 @@ pub struct TubeScratch {
     tangents: Vec<Vec3>,
     /// Per side: the position's `(cos, sin)` factors, the outward normal's and the around
     /// tangent's, for the cross-section's aspect.
-    section: Vec<[(f32, f32); 3]>,
+    section: Vec<SectionSide>,
 }
 
 /// Writes the tube around the spline through `particles` (root first) into the vertex buffers.
@@ -419,29 +424,8 @@ pub fn build_tube(
         tangents: directions,
         section,
     } = scratch;
-    // The cross-section, an ellipse of half widths 1 (along N) and `aspect` (along B): each
-    // side's position direction, its outward normal (the gradient of the ellipse) and the
-    // direction of increasing u. A circle keeps the exact table.
-    let aspect = if params.aspect.is_finite() {
-        params.aspect.clamp(0.05, 1.0)
-    } else {
-        1.0
-    };
-    section.clear();
-    section.extend(topology.cos_sin.iter().map(|&(cos, sin)| {
-        if aspect >= 1.0 {
-            return [(cos, sin), (cos, sin), (-sin, cos)];
-        }
-        let n = (cos * aspect, sin);
-        let n_len = (n.0 * n.0 + n.1 * n.1).sqrt().recip();
-        let t = (-sin, cos * aspect);
-        let t_len = (t.0 * t.0 + t.1 * t.1).sqrt().recip();
-        [
-            (cos, sin * aspect),
-            (n.0 * n_len, n.1 * n_len),
-            (t.0 * t_len, t.1 * t_len),
-        ]
-    }));
+    // The cross-section: each side's position, outward normal and direction of increasing u.
+    fill_section(params.section, params.aspect, &topology.cos_sin, section);
     let mut radius = if params.radius.is_finite() {
         params.radius.max(0.0)
     } else {
@@ -596,6 +580,7 @@ mod tests {
                 normal: Vec3::Z,
             },
             aspect: 1.0,
+            section: LockSection::Round,
         }
     }
 
@@ -644,6 +629,7 @@ mod tests {
         for aspect in [1.0, 0.5, 0.2] {
             let params = TubeParams {
                 aspect,
+                section: LockSection::Round,
                 ..params_up(r)
             };
             let b = build(&t, &particles, &params);
@@ -677,6 +663,7 @@ mod tests {
         for aspect in [0.0, -1.0, f32::NAN, 5.0] {
             let params = TubeParams {
                 aspect,
+                section: LockSection::Round,
                 ..params_up(r)
             };
             assert_finite_unit_normals(&build(&t, &particles, &params));
@@ -876,6 +863,7 @@ mod tests {
                 normal: Vec3::ZERO,
             },
             aspect: 1.0,
+            section: LockSection::Round,
         };
         for particles in &bad {
             for params in [TubeParams::default(), params] {
@@ -902,6 +890,7 @@ mod tests {
             taper: [0.0, -0.5, 1.0],
             reference: FrameReference::from_direction(Vec3::NEG_Y),
             aspect: 1.0,
+            section: LockSection::Round,
         };
         // A strand that hangs down, curls and bends sideways.
         let base: Vec<Vec3> = (0..10)
@@ -966,6 +955,7 @@ mod tests {
                 normal: Vec3::Z,
             },
             aspect: 1.0,
+            section: LockSection::Round,
         };
         let b = build(&t, &particles, &params);
         for r in 0..t.rings() {

@@ -261,6 +261,10 @@ pub const LOOKS: &[(&str, &str)] = &[
         "sketch",
         include_str!("../../assets/presets/sketch.preset.ron"),
     ),
+    (
+        "anime_locks",
+        include_str!("../../assets/presets/anime_locks.preset.ron"),
+    ),
 ];
 
 /// A registry holding just the preset's types.

@@ -27,8 +27,8 @@ pub use fringe_shadow::{
     FringeShadowUniform,
 };
 pub use outline::{
-    GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, MAX_OUTLINE_DILATION,
-    OutlineSource,
+    GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
+    MAX_OUTLINE_DILATION, OutlineSource,
 };
 pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,

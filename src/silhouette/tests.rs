@@ -30,6 +30,7 @@ fn shaped_tube(rings: usize, sides: usize, particles: &[Vec3], radius: f32, aspe
             normal: Vec3::Z,
         },
         aspect,
+        ..Default::default()
     };
     build_tube(
         &topology,

@@ -123,6 +123,23 @@ pub(super) fn outline_controls(
                             Some(t)
                         }
                     };
+                    let mut locks = c.lock_lines.is_some();
+                    ui.label("Lock lines");
+                    ui.checkbox(&mut locks, "where locks overlap");
+                    ui.end_row();
+                    c.lock_lines = match (locks, c.lock_lines) {
+                        (false, _) => None,
+                        (true, l) => {
+                            let mut l = l.unwrap_or_default();
+                            slider_row(ui, "Lock step", &mut l.threshold, 0.0005..=0.05);
+                            let mut w = l.width_px as f32;
+                            slider_row(ui, "Lock line px", &mut w, 1.0..=4.0);
+                            l.width_px = w.round() as u32;
+                            slider_row(ui, "Fade from (m)", &mut l.fade.x, 0.0..=20.0);
+                            slider_row(ui, "Fade to (m)", &mut l.fade.y, 0.0..=40.0);
+                            Some(l)
+                        }
+                    };
                 }
                 c.dilation_x = x.round() as u32;
                 c.dilation_y = y.round() as u32;

@@ -9,8 +9,8 @@ use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 
 use super::{HairTuningUi, PanelState, TuningPanelLayout, curve_row, drag_row, slider_row};
-use crate::mesh::HairMeshSettings;
 use crate::mesh::highlights::SpecularQuads;
+use crate::mesh::{HairMeshSettings, LockSection};
 use crate::preset::{HairPreset, LOOKS, RampKind, ToonMaterialPreset};
 use crate::render::{
     AngelRingProfile, HairMaterial, HatchingMode, ImageSpaceOutline, RampMode, ToonHairMaterial,
@@ -216,6 +216,15 @@ fn mesh_controls(
         drag_row(ui, "Radius (m)", &mut m.radius, 0.0005);
         m.radius = m.radius.max(0.0);
         slider_row(ui, "Mass normals", &mut m.mass_normals, 0.0..=1.0);
+        ui.label("Section");
+        egui::ComboBox::from_id_salt("lock section")
+            .selected_text(format!("{:?}", m.section))
+            .show_ui(ui, |ui| {
+                for section in LockSection::ALL {
+                    ui.selectable_value(&mut m.section, section, format!("{section:?}"));
+                }
+            });
+        ui.end_row();
         slider_row(ui, "Cross-section", &mut m.section_aspect, 0.05..=1.0);
         // Resolutions are edited as a pending copy, applied by the button (as in the thesis).
         let (mut rings, mut sides) = match panel.pending_mesh {

@@ -221,6 +221,7 @@ fn tuning_panel_at(width: u32, height: u32) -> Result<(), Failed> {
         NinjaScenePlugin {
             target: Some(r.target()),
             preset: None,
+            hairstyle: default(),
         },
     ));
     r.app

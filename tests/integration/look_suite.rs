@@ -1,12 +1,15 @@
-//! The look suite: the ninja in every shipped look (`HairPreset::look`) from the front, the side
-//! and the back, with measured properties of the pixels. The frames are the README's pictures
+//! The look suite: the ninja in every shipped look (`HairPreset::look`) and hairstyle
+//! (`NinjaHairstyle`) from the front, the side and the back, with measured properties of the
+//! pixels. The frames are the README's pictures
 //! (`HAIR_TEST_PNG_DIR`).
 
 use std::time::Duration;
 
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use bevy_cartoon_hair::demo::{NinjaOrbit, NinjaScene, NinjaScenePlugin, ninja_scene_ready};
+use bevy_cartoon_hair::demo::{
+    NinjaHairstyle, NinjaOrbit, NinjaScene, NinjaScenePlugin, ninja_scene_ready,
+};
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::preset::LOOKS;
@@ -129,8 +132,9 @@ fn outlines(r: &mut HeadlessRenderer, on: bool, look: &HairPreset) {
     }
 }
 
-/// Every shipped look, front, side and back, at the same moment (0.67 s into the clip, time
-/// then held): the hair is there (covering 1% of the frame; without hatching, no pixel of it
+/// Every shipped look on the spiky hair, and the long, bangs and twin-tails hairstyles in the
+/// anime_locks look (every look with `HAIR_LOOK_SUITE_ALL=1`), front, side and back, at the
+/// same moment (0.67 s into the clip, time then held): the hair is there (covering 1% of the frame; without hatching, no pixel of it
 /// black, as NaN shading would be), its lit and shadow tones differ (luma p90 - p10 at least
 /// 10; the back of the head, away from the sun, is the least), and, with either outline method
 /// as the look ships it (the image-space outline in clean_anime, object-space strokes of the
@@ -141,8 +145,21 @@ fn outlines(r: &mut HeadlessRenderer, on: bool, look: &HairPreset) {
 /// the inside than the mass's (measured: 42-59%).
 fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
     let mut failures = Vec::new();
-    for (name, _) in LOOKS {
-        let look = HairPreset::look(name).expect("a shipped look")?;
+    // Every look on the spiky hair; the other hairstyles in the anime_locks look, or in every
+    // look with HAIR_LOOK_SUITE_ALL=1 (tools/gallery.sh: the README's gallery).
+    let all = std::env::var_os("HAIR_LOOK_SUITE_ALL").is_some_and(|v| v == "1");
+    let combos = LOOKS
+        .iter()
+        .flat_map(|l| NinjaHairstyle::ALL.map(|s| (l, s)));
+    for ((look_name, _), style) in combos.filter(|((name, _), style)| {
+        all || *style == NinjaHairstyle::Spiky || *name == "anime_locks"
+    }) {
+        let look = HairPreset::look(look_name).expect("a shipped look")?;
+        // The spiky hair keeps the look's own name (the README's pictures).
+        let name = match style {
+            NinjaHairstyle::Spiky => look_name.to_string(),
+            other => format!("{look_name}_{}", other.name()),
+        };
         let mut r = HeadlessRenderer::new(CaptureSettings {
             width: 320,
             height: 240,
@@ -154,6 +171,7 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
             NinjaScenePlugin {
                 target: Some(r.target()),
                 preset: Some(look.clone()),
+                hairstyle: style,
             },
         ));
         r.app

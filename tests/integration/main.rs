@@ -13,12 +13,15 @@ mod chain_render;
 mod character_render;
 mod clip;
 mod fringe_render;
+mod hairstyle_render;
 mod hot_reload;
 mod lighting_render;
+mod lock_render;
 mod look_suite;
 mod mass_render;
 mod outline_render;
 mod render_smoke;
+mod ring_render;
 mod silhouette_render;
 mod toon_render;
 mod vrm_render;
@@ -57,6 +60,9 @@ fn main() {
         .chain(chain_render::RENDER_TESTS)
         .chain(vrm_render::RENDER_TESTS)
         .chain(fringe_render::RENDER_TESTS)
+        .chain(lock_render::RENDER_TESTS)
+        .chain(ring_render::RENDER_TESTS)
+        .chain(hairstyle_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

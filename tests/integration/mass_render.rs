@@ -31,7 +31,7 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
 
 /// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
 /// `mesh`, without strokes.
-fn spawn_still_hair(
+pub(crate) fn spawn_still_hair(
     world: &mut World,
     strands: Vec<Vec<Vec3>>,
     material: ToonHairMaterial,
@@ -209,9 +209,9 @@ fn mass_normals_merge_the_strands_shadows() -> Result<(), Failed> {
 }
 
 /// Cyan: a ring colour no lit orange hair has.
-const RING: Color = Color::srgb(0.0, 1.0, 1.0);
+pub(crate) const RING: Color = Color::srgb(0.0, 1.0, 1.0);
 
-fn is_ring(p: [u8; 4]) -> bool {
+pub(crate) fn is_ring(p: [u8; 4]) -> bool {
     p[0] < 60 && p[1] > 150 && p[2] > 150
 }
 

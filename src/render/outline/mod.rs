@@ -131,6 +131,44 @@ pub struct ImageSpaceOutline {
     /// prepass normals exceeds this is also an edge (about 0.3 inks most strands' creases, 1.0
     /// only sharp folds). `None`: the mass's outline alone. Default: `None`.
     pub inner_threshold: Option<f32>,
+    /// Lines between locks, with [`OutlineSource::Mass`] only: a line where one lock of the
+    /// crate's hair lies over another, so that locks of one tone do not merge into one shape.
+    /// `None`: no such lines. Default: `None`.
+    #[reflect(default)]
+    pub lock_lines: Option<LockLines>,
+}
+
+/// Lines where one lock lies over another ([`ImageSpaceOutline::lock_lines`]).
+///
+/// Each strand of a hair is a lock with an id (its index modulo 3, which the hair's prepass
+/// writes next to its normals). A hair pixel gets a line when, within
+/// [`LockLines::width_px`], hair of another id lies behind it by more than
+/// [`LockLines::threshold`] of its distance: the edge of the lock on top is inked, a lock's own
+/// folds are not (one id), and locks side by side at one depth stay one shape. Three ids are
+/// few: two overlapping strands of the same id (every third in the groom's order) draw no line.
+#[derive(Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Default, Debug, PartialEq, Clone)]
+pub struct LockLines {
+    /// The depth step, relative to the nearer lock's distance, above which a lock lying over
+    /// another gets a line: `0.01` is one centimetre at one metre. Default: `0.004`.
+    pub threshold: f32,
+    /// How far from the lower lock the line reaches onto the upper one, in pixels (the mass
+    /// outline's dilation does not widen it). Clamped to `[1, 4]`. Default: `1`.
+    pub width_px: u32,
+    /// The view distances (metres) over which the lines fade out: full up to `fade.x`, none
+    /// past `fade.y`, so a crowd far away is not a tangle of lines. Perspective cameras only;
+    /// `fade.y <= fade.x` never fades. Default: `(3, 8)`.
+    pub fade: Vec2,
+}
+
+impl Default for LockLines {
+    fn default() -> Self {
+        Self {
+            threshold: 0.004,
+            width_px: 1,
+            fade: Vec2::new(3.0, 8.0),
+        }
+    }
 }
 
 impl Default for ImageSpaceOutline {
@@ -143,6 +181,7 @@ impl Default for ImageSpaceOutline {
             color: Color::BLACK,
             source: OutlineSource::Mass,
             inner_threshold: None,
+            lock_lines: None,
         }
     }
 }
@@ -162,6 +201,14 @@ pub struct GpuImageSpaceOutline {
     /// Normal Sobel magnitude above which [`OutlineSource::Mass`] draws inner lines; a huge
     /// value when there are none.
     pub inner_threshold: f32,
+    /// [`LockLines::threshold`].
+    pub lock_threshold: f32,
+    /// [`LockLines::width_px`], `0` when there are no lines between locks.
+    pub lock_width: u32,
+    /// [`LockLines::fade`].
+    pub lock_fade: Vec2,
+    /// The camera's near plane for the fade, `0` when it is not a perspective camera.
+    pub near: f32,
 }
 
 /// Which detection pipeline a view needs: its [`OutlineSource`], on the render world's view
@@ -182,17 +229,23 @@ impl SyncComponent<RenderApp> for ImageSpaceOutline {
 }
 
 impl ExtractComponent<RenderApp> for ImageSpaceOutline {
-    type QueryData = Read<ImageSpaceOutline>;
+    type QueryData = (Read<ImageSpaceOutline>, Option<Read<Projection>>);
     type QueryFilter = With<Camera3d>;
     type Out = (GpuImageSpaceOutline, OutlineSourceKey);
 
-    fn extract_component(outline: QueryItem<'_, '_, Self::QueryData>) -> Option<Self::Out> {
+    fn extract_component(
+        (outline, projection): QueryItem<'_, '_, Self::QueryData>,
+    ) -> Option<Self::Out> {
         // Disabled: not extracted, so the render world has nothing to run the pass on.
         if !outline.enabled {
             return None;
         }
         let threshold =
             finite_or(outline.threshold, ImageSpaceOutline::default().threshold).max(0.0);
+        // Lines between locks need the mass's hair mask.
+        let lock = outline
+            .lock_lines
+            .filter(|_| outline.source == OutlineSource::Mass);
         Some((
             GpuImageSpaceOutline {
                 color: outline.color.to_linear().to_vec4(),
@@ -203,6 +256,16 @@ impl ExtractComponent<RenderApp> for ImageSpaceOutline {
                     .inner_threshold
                     .filter(|t| t.is_finite())
                     .map_or(NO_INNER_LINES, |t| t.max(0.0)),
+                lock_threshold: lock.map_or(0.0, |l| finite_or(l.threshold, 0.004).max(0.0)),
+                lock_width: lock.map_or(0, |l| l.width_px.clamp(1, 4)),
+                lock_fade: lock
+                    .map(|l| l.fade)
+                    .filter(|f| f.is_finite())
+                    .unwrap_or(Vec2::ZERO),
+                near: match projection {
+                    Some(Projection::Perspective(p)) if p.near.is_finite() => p.near.max(0.0),
+                    _ => 0.0,
+                },
             },
             OutlineSourceKey(outline.source),
         ))
@@ -218,6 +281,7 @@ impl Plugin for ImageSpaceOutlinePlugin {
     fn build(&self, app: &mut App) {
         bevy::asset::embedded_asset!(app, "outline.wesl");
         app.register_type::<ImageSpaceOutline>()
+            .register_type::<LockLines>()
             .add_plugins((
                 ExtractComponentPlugin::<ImageSpaceOutline>::default(),
                 UniformComponentPlugin::<GpuImageSpaceOutline>::default(),

@@ -1,0 +1,298 @@
+//! Render tests of the lock cross-sections (`LockSection`, `HairStrandSections`): the shapes
+//! the mesh is built with, per hair and per strand, and how they lie on the hair's mass.
+
+use bevy::prelude::*;
+use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairStrandSections, LockSection};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::LockLines;
+use libtest_mimic::Failed;
+
+use crate::mass_render::spawn_still_hair;
+use crate::toon_render::{BACKGROUND, ramps, save, scene};
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "locks_take_their_section_per_hair_and_per_strand",
+        locks_take_their_section_per_hair_and_per_strand,
+    ),
+    (
+        "lock_lines_ink_a_lock_over_another_not_a_fold",
+        lock_lines_ink_a_lock_over_another_not_a_fold,
+    ),
+];
+
+/// Magenta: neither the orange hair nor the black background.
+const INK: Color = Color::srgb(1.0, 0.0, 1.0);
+
+fn ink_count(frame: &CapturedFrame) -> usize {
+    frame.count(|p| p[0] > 200 && p[1] < 60 && p[2] > 200)
+}
+
+/// One still hair of `strands` in the two-tone ramp, drawn with `mesh`, no strokes.
+fn spawn_locks(
+    r: &mut HeadlessRenderer,
+    strands: Vec<Vec<Vec3>>,
+    mesh: HairMeshSettings,
+) -> Entity {
+    let ramp = ramps(r).two_tone;
+    spawn_still_hair(
+        r.app.world_mut(),
+        strands,
+        ToonHairMaterial { ramp, ..default() },
+        mesh,
+    )
+}
+
+/// Ink pixels of `strands` seen from 3 m with a magenta mass outline (no dilation), with each
+/// of `lines` as its lock lines; the frames are saved as `name_{i}`.
+fn lock_ink(
+    name: &str,
+    strands: Vec<Vec<Vec3>>,
+    lines: &[Option<LockLines>],
+) -> Result<Vec<usize>, Failed> {
+    let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
+    spawn_locks(
+        &mut r,
+        strands,
+        HairMeshSettings {
+            radius: 0.06,
+            taper: QuadraticCurve::constant(1.0),
+            hair_resolution: 32,
+            shape_resolution: 12,
+            mass_normals: 0.0,
+            ..default()
+        },
+    );
+    let world = r.app.world_mut();
+    let camera = world
+        .query_filtered::<Entity, With<Camera3d>>()
+        .single(world)?;
+    let mut counts = Vec::new();
+    for (i, lock_lines) in lines.iter().enumerate() {
+        r.app
+            .world_mut()
+            .entity_mut(camera)
+            .insert(ImageSpaceOutline {
+                color: INK,
+                dilation_x: 0,
+                dilation_y: 0,
+                lock_lines: *lock_lines,
+                ..default()
+            });
+        let frame = r.capture()?;
+        save(&frame, &format!("{name}_{i}"))?;
+        counts.push(ink_count(&frame));
+    }
+    Ok(counts)
+}
+
+/// `n + 1` points from `a` to `b`.
+fn line(a: Vec3, b: Vec3, n: usize) -> Vec<Vec3> {
+    (0..=n).map(|i| a.lerp(b, i as f32 / n as f32)).collect()
+}
+
+/// Two locks (strands 0 and 1, two lock ids) crossing, one 0.3 m in front of the other: with
+/// lock lines the front lock's edges are inked where the other shows behind them, on top of the
+/// mass outline. One strand folded back behind itself (one id) gets none. Lines fade out with
+/// the view distance: faded out by 2 m, a lock 3 m away has none.
+fn lock_lines_ink_a_lock_over_another_not_a_fold() -> Result<(), Failed> {
+    let on = Some(LockLines::default());
+    let faded = Some(LockLines {
+        fade: Vec2::new(1.0, 2.0),
+        ..default()
+    });
+    let crossing = vec![
+        line(Vec3::new(-0.8, 0.0, 0.3), Vec3::new(0.8, 0.0, 0.3), 8),
+        line(Vec3::new(0.0, -0.8, 0.0), Vec3::new(0.0, 0.8, 0.0), 8),
+    ];
+    let crossed = lock_ink("lock_lines_crossing", crossing, &[None, on, faded])?;
+    // One strand curling once around (15 degrees a segment), coming 0.3 m nearer the camera on
+    // the way, so that its end passes in front of its start.
+    let fold: Vec<Vec3> = (0..=30)
+        .map(|i| {
+            let t = i as f32 / 24.0 * std::f32::consts::TAU;
+            Vec3::new(-0.4 * t.sin(), -0.4 * t.cos() + 0.01 * t, 0.3 * t / 7.9)
+        })
+        .collect();
+    let folded = lock_ink("lock_lines_fold", vec![fold], &[None, on])?;
+    eprintln!(
+        "crossing locks: {} ink px without lock lines, {} with, {} faded; a fold: {} without, {} with",
+        crossed[0], crossed[1], crossed[2], folded[0], folded[1]
+    );
+    // The front lock's two edges across the other's width (0.12 m at 3 m: about 10 px each).
+    if crossed[1] < crossed[0] + 12 {
+        return Err(format!(
+            "lock lines added {} ink px where two locks cross",
+            crossed[1] as i64 - crossed[0] as i64
+        )
+        .into());
+    }
+    if crossed[2] != crossed[0] {
+        return Err(format!(
+            "faded out, lock lines still drew {} px",
+            crossed[2] as i64 - crossed[0] as i64
+        )
+        .into());
+    }
+    if folded[1] != folded[0] {
+        return Err(format!(
+            "a lock folded over itself got {} px of lock lines",
+            folded[1] as i64 - folded[0] as i64
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The ring of `sides` vertices half way along strand `strand` of the hair's mesh.
+fn middle_ring(positions: &[[f32; 3]], computed: &ComputedHairMesh, strand: usize) -> Vec<Vec3> {
+    let per = computed.vertices_per_strand();
+    let sides = computed.topology.sides();
+    let ring = computed.topology.rings() / 2;
+    let start = strand * per + ring * sides;
+    positions[start..start + sides]
+        .iter()
+        .map(|p| Vec3::from_array(*p))
+        .collect()
+}
+
+/// Corners of a closed polygon: vertices where the outline turns by more than 10 degrees.
+fn corners(ring: &[Vec3]) -> usize {
+    let n = ring.len();
+    (0..n)
+        .filter(|&i| {
+            let a = (ring[i] - ring[(i + n - 1) % n]).normalize();
+            let b = (ring[(i + 1) % n] - ring[i]).normalize();
+            a.dot(b) < 10f32.to_radians().cos()
+        })
+        .count()
+}
+
+/// Two vertical strands side by side in one hair, roots at `x = -0.5` and `+0.5`: the hair is a
+/// flat ribbon (thickness 0.3 of its width), the first strand a triangle by
+/// `HairStrandSections`. The locks lie on the mass, so their thin side faces out of the groom's
+/// centre (along X) and their width runs along Z; the shape resolution of 8 becomes 12 so both
+/// the triangle's and the ribbon's corners get vertices. Seen from the front (down Z), both are
+/// narrow; the picture is saved.
+fn locks_take_their_section_per_hair_and_per_strand() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
+    let strands: Vec<Vec<Vec3>> = [-0.5f32, 0.5]
+        .iter()
+        .map(|&x| {
+            (0..6)
+                .map(|i| Vec3::new(x, -0.5 + i as f32 * 0.2, 0.0))
+                .collect()
+        })
+        .collect();
+    let radius = 0.1;
+    let hair = spawn_locks(
+        &mut r,
+        strands,
+        HairMeshSettings {
+            radius,
+            taper: QuadraticCurve::constant(1.0),
+            shape_resolution: 8,
+            section: LockSection::Ribbon,
+            section_aspect: 0.3,
+            mass_normals: 0.0,
+            ..default()
+        },
+    );
+    r.app
+        .world_mut()
+        .entity_mut(hair)
+        .insert(HairStrandSections(vec![LockSection::Triangle]));
+    let frame = r.capture()?;
+    save(&frame, "locks_front")?;
+    let world = r.app.world();
+    let computed = world
+        .get::<ComputedHairMesh>(hair)
+        .ok_or("the hair has no mesh")?
+        .clone();
+    let mesh = world
+        .resource::<Assets<Mesh>>()
+        .get(&computed.mesh)
+        .ok_or("the hair's mesh is missing")?;
+    let positions = mesh
+        .attribute(Mesh::ATTRIBUTE_POSITION)
+        .and_then(|a| a.as_float3())
+        .ok_or("the hair's mesh has no positions")?;
+    let sides = computed.topology.sides();
+    eprintln!("{sides} sides a ring");
+    if sides != 12 {
+        return Err(format!(
+            "shape resolution 8 with triangles and ribbons gave {sides} sides, not 12"
+        )
+        .into());
+    }
+    let triangle = middle_ring(positions, &computed, 0);
+    let ribbon = middle_ring(positions, &computed, 1);
+    let extent = |ring: &[Vec3], axis: Vec3| {
+        let d: Vec<f32> = ring.iter().map(|p| p.dot(axis)).collect();
+        d.iter().copied().fold(f32::MIN, f32::max) - d.iter().copied().fold(f32::MAX, f32::min)
+    };
+    let (thin, wide) = (extent(&ribbon, Vec3::X), extent(&ribbon, Vec3::Z));
+    let centre = |ring: &[Vec3]| ring.iter().sum::<Vec3>() / ring.len() as f32;
+    eprintln!(
+        "ribbon: {} corners, {thin:.4} thick (X) x {wide:.4} wide (Z); triangle: {} corners, \
+         ridge {:.4} out, base {:.4} in",
+        corners(&ribbon),
+        corners(&triangle),
+        triangle
+            .iter()
+            .map(|p| -(p.x - -0.5))
+            .fold(f32::MIN, f32::max),
+        triangle.iter().map(|p| p.x - -0.5).fold(f32::MIN, f32::max),
+    );
+    if corners(&ribbon) != 4
+        || (wide - 2.0 * radius).abs() > 1e-3
+        || (thin - 0.6 * radius).abs() > 1e-3
+    {
+        return Err(format!(
+            "the ribbon is {} corners, {thin} thick along X and {wide} wide along Z \
+             (expected 4, {} and {})",
+            corners(&ribbon),
+            0.6 * radius,
+            2.0 * radius
+        )
+        .into());
+    }
+    // The left strand's way out of the groom's centre is -X: the ridge points there, the base
+    // lies toward the centre.
+    let ridge = triangle.iter().map(|p| -0.5 - p.x).fold(f32::MIN, f32::max);
+    let base = triangle.iter().map(|p| p.x + 0.5).fold(f32::MIN, f32::max);
+    if corners(&triangle) != 3
+        || (ridge - 0.3 * radius).abs() > 1e-3
+        || (base - 0.15 * radius).abs() > 1e-3
+    {
+        return Err(format!(
+            "the triangle has {} corners, its ridge {ridge} out and base {base} in",
+            corners(&triangle)
+        )
+        .into());
+    }
+    if (centre(&ribbon).xz() - Vec2::new(0.5, 0.0)).length() > 1e-3 {
+        return Err(format!("the ribbon's ring is centred at {}", centre(&ribbon)).into());
+    }
+    // Seen from the front both locks show their thin side: a few pixels wide, not the tube's
+    // diameter.
+    let row = frame.height / 2;
+    let runs: Vec<u32> = [0..frame.width / 2, frame.width / 2..frame.width]
+        .into_iter()
+        .map(|xs| xs.filter(|&x| frame.pixel(x, row) != BACKGROUND).count() as u32)
+        .collect();
+    let diameter_px = {
+        // The camera's vertical field of view is Bevy's default, 45 degrees, at distance 3.
+        let focal = frame.height as f32 * 0.5 / (std::f32::consts::FRAC_PI_8).tan();
+        2.0 * radius * focal / 3.0
+    };
+    eprintln!("widths on screen {runs:?} px; a round tube would be {diameter_px:.1} px");
+    if runs.iter().any(|&w| w == 0 || w as f32 > 0.6 * diameter_px) {
+        return Err(format!(
+            "the locks are {runs:?} px wide seen edge on; a tube is {diameter_px:.1}"
+        )
+        .into());
+    }
+    Ok(())
+}
