@@ -12,6 +12,7 @@ frames="$(mktemp -d)"
 trap 'rm -rf "$frames"' EXIT
 
 # The look suite writes look_<look>[_<hairstyle>]_<view>.png.
+mkdir -p "$frames/looks"
 CI=true HAIR_LOOK_SUITE_ALL=1 HAIR_TEST_PNG_DIR="$frames/looks" "${CARGO[@]}" test "${CARGO_BUILD_FLAGS[@]}" \
   --all-features --test integration -- look_suite
 
