@@ -33,6 +33,8 @@
     reason = "criterion's macros define undocumented functions"
 )]
 
+mod common;
+
 use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
@@ -43,34 +45,8 @@ use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionPlane, CollisionSphere
 use bevy_cartoon_hair::asset::{HairAssetPlugin, HairGroom, parse_groom};
 use bevy_cartoon_hair::sim::{Hair, HairCollider, HairSimSettings, HairSimulationPlugin};
 use bevy_rapier3d::prelude::*;
+use common::{Head, bench_camera, minimal_plugins, strands};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-
-/// `strands` strands of `particles` particles on a head of radius 0.1, spread over its top.
-fn strands(strands: usize, particles: usize) -> Vec<Vec<Vec3>> {
-    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-    (0..strands)
-        .map(|i| {
-            let y = 1.0 - (i as f32 + 0.5) / strands as f32;
-            let r = (1.0 - y * y).sqrt();
-            let a = golden * i as f32;
-            let n = Vec3::new(r * a.cos(), y, r * a.sin());
-            let side = n.any_orthonormal_vector();
-            (0..particles)
-                .map(|k| {
-                    let t = k as f32 / (particles - 1) as f32;
-                    n * (0.102 + 0.15 * t) + side * (0.03 * t * t)
-                })
-                .collect()
-        })
-        .collect()
-}
-
-/// Minimal plugins with every core in the compute pool: Bevy's default on a 2-core machine keeps
-/// one thread each for IO and async work and leaves compute (where systems and `par_iter` run)
-/// a single thread. Both apps below get the same setting.
-fn minimal_plugins() -> bevy::app::PluginGroupBuilder {
-    MinimalPlugins.set(bevy_cartoon_hair::compute_on_every_core())
-}
 
 fn hair_app(n: usize, particles: usize) -> App {
     let mut app = App::new();
@@ -690,47 +666,6 @@ fn bench_solver(c: &mut Criterion) {
     group.finish();
 }
 
-/// A camera at `eye` looking at `target`, 1280x720, its projection and frustum set by hand (the
-/// bench app has no camera or render plugins to do it).
-fn bench_camera(world: &mut World, eye: Vec3, target: Vec3) {
-    use bevy::camera::primitives::Frustum;
-    use bevy::camera::{CameraProjection, RenderTargetInfo};
-    let transform = Transform::from_translation(eye).looking_at(target, Vec3::Y);
-    let projection = PerspectiveProjection {
-        aspect_ratio: 16.0 / 9.0,
-        ..default()
-    };
-    let clip_from_view = projection.get_clip_from_view();
-    let global = GlobalTransform::from(transform);
-    let projection = Projection::Perspective(projection);
-    let frustum: Frustum = projection.compute_frustum(&global);
-    let mut camera = Camera::default();
-    camera.computed.clip_from_view = clip_from_view;
-    camera.computed.target_info = Some(RenderTargetInfo {
-        physical_size: UVec2::new(1280, 720),
-        scale_factor: 1.0,
-    });
-    world.spawn((
-        Camera3d::default(),
-        camera,
-        projection,
-        transform,
-        global,
-        frustum,
-    ));
-}
-
-/// One head of hair for [`frame_app`]: where its bone is, its strands and particles, its tube
-/// rings and sides.
-#[derive(Clone, Copy)]
-struct Head {
-    at: Vec3,
-    strands: usize,
-    particles: usize,
-    rings: u32,
-    sides: u32,
-}
-
 /// The app of the `frame` benches: every CPU stage of the hair, a camera at the origin looking
 /// down -Z, and `heads` (none: the app's own cost).
 /// Every CPU stage of the hair, stage timings, 60 Hz frames, and a camera at the origin looking
@@ -825,34 +760,7 @@ fn print_stages(name: &str, app: &App) {
 }
 
 fn bench_frame(c: &mut Criterion) {
-    let w1 = [Head {
-        at: Vec3::new(0.0, -0.1, -1.0),
-        strands: 100,
-        particles: 6,
-        rings: 8,
-        sides: 8,
-    }];
-    // 16 heads from 2 m to 24.5 m away; the odd ones behind the camera.
-    let w6: Vec<Head> = (0..16)
-        .map(|i| {
-            let d = 2.0 + 1.5 * i as f32;
-            let side = if i % 2 == 0 { -1.0 } else { 1.0 };
-            Head {
-                at: Vec3::new(0.3 * (i % 4) as f32 - 0.45, -0.2, side * d),
-                strands: 160,
-                particles: 7,
-                rings: 16,
-                sides: 8,
-            }
-        })
-        .collect();
-    let w2 = [Head {
-        at: Vec3::new(0.0, -0.1, -1.0),
-        strands: 10_000,
-        particles: 16,
-        rings: 16,
-        sides: 8,
-    }];
+    let (w1, w6, w2) = (common::w1(), common::w6(), common::w2());
     let mut group = c.benchmark_group("frame");
     let mut app = frame_app(&[], true);
     group.bench_function("no_hair", |b| b.iter(|| app.update()));

@@ -43,6 +43,7 @@ pub fn compute_on_every_core() -> bevy::app::TaskPoolPlugin {
 /// | `render::ToonHairMaterialPlugin` | the toon material and its default ramps (feature `render`) |
 /// | `render::HairShaderLibraryPlugin` | registers the shared WGSL modules (feature `render`) |
 /// | `render::ImageSpaceOutlinePlugin` | image-space silhouette edges on cameras (feature `render`) |
+/// | `render::GpuTubesPlugin` | strand tubes built on the GPU where the device allows (feature `render`) |
 ///
 /// The egui tuning panel (`ui::HairTuningUiPlugin`, feature `ui`) is not in the group: a shipped
 /// game does not carry a debug panel. Add it yourself during development.
@@ -60,7 +61,8 @@ impl PluginGroup for CartoonHairPlugins {
         let group = group
             .add(render::HairShaderLibraryPlugin)
             .add(render::ToonHairMaterialPlugin)
-            .add(render::ImageSpaceOutlinePlugin);
+            .add(render::ImageSpaceOutlinePlugin)
+            .add(render::GpuTubesPlugin);
         group
     }
 }

@@ -160,6 +160,17 @@ impl MassField {
 }
 
 impl MassField {
+    /// The field's centre, metric, the bone's up axis and the weight, for the GPU's copy of it.
+    #[cfg(feature = "render")]
+    pub(crate) fn parts(&self) -> (Vec3, Mat3, Vec3, f32) {
+        (
+            self.centre.into(),
+            Mat3::from(self.metric),
+            self.up.into(),
+            self.weight,
+        )
+    }
+
     /// Leans each tangent (Bevy's `[x, y, z, w]`, its `xyz` along the strand) toward the
     /// mass's meridian at its position: the way down the ellipsoid from its top, as a comb runs
     /// over the whole hair. The angel ring (Kajiya-Kay on the tangent) then runs as one band

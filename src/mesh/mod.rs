@@ -21,7 +21,11 @@ pub mod tube;
 pub use culling::{HairCulling, HairCullingStats, HairInView};
 pub use lod::{HairLod, HairLodLevel};
 pub use mass::HairMassShape;
+#[cfg(feature = "render")]
+pub(crate) use mass::MassField;
 pub use section::LockSection;
+#[cfg(feature = "render")]
+pub(crate) use section::fill_section;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -115,6 +119,13 @@ impl HairStrandSections {
     }
 }
 
+/// On a hair whose tube vertices another stage builds (the GPU: `render::HairMeshBuilder`): the
+/// mesh stage keeps its topology, bounds, culling and level of detail, and leaves its vertices
+/// alone.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairMeshBuiltOnGpu;
+
 /// The mesh entity of a hair (world space, so it is not a child of the bone).
 #[derive(Component, Reflect, Debug, Clone, Copy, PartialEq, Eq)]
 #[reflect(Component, Debug, PartialEq)]
@@ -161,6 +172,7 @@ impl Plugin for HairMeshPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<HairMeshSettings>()
             .register_type::<HairStrandSections>()
+            .register_type::<HairMeshBuiltOnGpu>()
             .register_type::<LockSection>()
             .register_type::<highlights::SpecularQuads>()
             .register_required_components::<Hair, HairMeshSettings>()
@@ -277,7 +289,11 @@ pub fn rebuild_strand_meshes(
         (
             Entity,
             &Hair,
-            (&HairMeshSettings, Option<&HairStrandSections>),
+            (
+                &HairMeshSettings,
+                Option<&HairStrandSections>,
+                Has<HairMeshBuiltOnGpu>,
+            ),
             &GlobalTransform,
             &HairStrands,
             Option<&mut ComputedHairMesh>,
@@ -306,7 +322,7 @@ pub fn rebuild_strand_meshes(
     for (
         hair,
         hair_assets,
-        (settings, per_strand),
+        (settings, per_strand, on_gpu),
         global,
         strand_list,
         mut computed,
@@ -448,6 +464,10 @@ pub fn rebuild_strand_meshes(
         }
         if !seen {
             counted.culled += 1;
+            continue;
+        }
+        // The GPU builds its vertices from this frame's particles (`render::gpu_tubes`).
+        if on_gpu {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {

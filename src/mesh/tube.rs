@@ -245,6 +245,12 @@ impl TubeTopology {
         }
     }
 
+    /// `(cos, sin)` of each side's angle around the ring.
+    #[cfg(feature = "render")]
+    pub(crate) fn cos_sin(&self) -> &[(f32, f32)] {
+        &self.cos_sin
+    }
+
     /// Samples along the strand (after clamping).
     pub fn rings(&self) -> usize {
         self.rings

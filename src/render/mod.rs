@@ -13,6 +13,7 @@ use crate::schedule::HairSystems;
 use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
+mod gpu_tubes;
 mod outline;
 mod ramps;
 #[cfg(test)]
@@ -25,6 +26,9 @@ mod user_mesh;
 pub use fringe_shadow::{
     FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
     FringeShadowUniform,
+};
+pub use gpu_tubes::{
+    GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
 };
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
@@ -54,8 +58,11 @@ pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
     ("fringe_shadow.wesl", include_str!("fringe_shadow.wesl")),
 ];
 
-/// The entry-point shaders of the crate's post-process passes, as `(name, source)`.
-pub const PASS_SHADERS: &[(&str, &str)] = &[("outline.wesl", include_str!("outline/outline.wesl"))];
+/// The entry-point shaders of the crate's post-process and compute passes, as `(name, source)`.
+pub const PASS_SHADERS: &[(&str, &str)] = &[
+    ("outline.wesl", include_str!("outline/outline.wesl")),
+    ("gpu_tubes.wesl", include_str!("gpu_tubes.wesl")),
+];
 
 /// Registers the crate's WESL library modules so materials can `import` them. Part of
 /// [`CartoonHairPlugins`](crate::CartoonHairPlugins).

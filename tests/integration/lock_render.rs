@@ -5,7 +5,7 @@ use bevy::prelude::*;
 use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairStrandSections, LockSection};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::LockLines;
+use bevy_cartoon_hair::render::{HairMeshBuilder, LockLines};
 use libtest_mimic::Failed;
 
 use crate::mass_render::spawn_still_hair;
@@ -177,6 +177,8 @@ fn corners(ring: &[Vec3]) -> usize {
 /// narrow; the picture is saved.
 fn locks_take_their_section_per_hair_and_per_strand() -> Result<(), Failed> {
     let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
+    // The CPU's tubes, read back here (gpu_tubes_render compares the GPU's with them).
+    r.app.insert_resource(HairMeshBuilder::Cpu);
     let strands: Vec<Vec<Vec3>> = [-0.5f32, 0.5]
         .iter()
         .map(|&x| {

@@ -19,7 +19,7 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
 /// 240 straight spikes on the upper half of a head of radius 0.5 at the origin (a golden-angle
 /// spiral from 5 to 85 degrees off the top), each 0.25 long, leaning up from the scalp's
 /// normal and twisted sideways by turns, as the ninja's hair is.
-fn spikes() -> Vec<Vec<Vec3>> {
+pub(crate) fn spikes() -> Vec<Vec<Vec3>> {
     (0..240)
         .map(|i| {
             let around = i as f32 * 2.399_963;

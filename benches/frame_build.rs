@@ -1,0 +1,209 @@
+//! Criterion benches of what a frame of hair costs the CPU when its tubes are built on the CPU
+//! and when they are built on the GPU (`render::HairMeshBuilder`), including what Bevy does with
+//! the result on the CPU before it reaches the GPU. Run: `cargo bench --bench frame_build`.
+//!
+//! For each workload (W1, the thesis default; W6, a crowd of 16 heads with culling and level of
+//! detail; W2, 10,000 x 16 strands; `benches/common`), in one run:
+//!
+//! - `*/cpu_strokes`: today's frame with object-space strokes and specular quads (they read the
+//!   CPU's tubes, so such a hair is always built on the CPU);
+//! - `*/cpu`: the tubes on the CPU, no strokes (the clean and locks looks);
+//! - `*/gpu`: the same look with the tubes built on the GPU.
+//!
+//! Each iteration is `app.update()` and then what Bevy's extraction and preparation do on the
+//! CPU with it: for a CPU-built hair mesh, changed every frame, a copy of the mesh into the
+//! render world and its vertices interleaved and its indices copied into the bytes written to
+//! the GPU; for a GPU-built hair, a copy of its `GpuTubeInput` and its particles, strands and
+//! sections written into the bytes sent. The bytes sent a frame are printed. There is no GPU
+//! here: the compute pass itself is not timed.
+#![expect(
+    missing_docs,
+    reason = "criterion's macros define undocumented functions"
+)]
+
+mod common;
+
+use std::time::Duration;
+
+use bevy::asset::AssetPlugin;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use bevy_cartoon_hair::HairSchedulePlugin;
+use bevy_cartoon_hair::asset::{HairAssetPlugin, HairGroom};
+use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
+use bevy_cartoon_hair::mesh::{
+    HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin, HairMeshSettings,
+};
+use bevy_cartoon_hair::render::{
+    GpuTubeInput, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
+};
+use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
+use bevy_cartoon_hair::sim::{Hair, HairSimSettings, HairSimulationPlugin};
+use common::{Head, bench_camera, minimal_plugins, strands};
+use criterion::{Criterion, criterion_group, criterion_main};
+
+/// How a workload's hair is drawn.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Build {
+    CpuStrokes,
+    Cpu,
+    Gpu,
+}
+
+fn app(heads: &[Head], build: Build) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        minimal_plugins(),
+        TransformPlugin,
+        AssetPlugin::default(),
+        HairAssetPlugin,
+        HairSchedulePlugin,
+        HairSimulationPlugin,
+        HairMeshPlugin,
+        HairSilhouettePlugin,
+        GpuTubesPlugin,
+    ))
+    .init_asset::<Mesh>()
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
+        1.0 / 60.0,
+    )))
+    .insert_resource(if build == Build::Gpu {
+        HairMeshBuilder::Gpu
+    } else {
+        HairMeshBuilder::Cpu
+    })
+    // No render device here: say the GPU path is there, as on any desktop adapter.
+    .insert_resource(HairGpuMeshSupport {
+        supported: true,
+        reason: None,
+    });
+    bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    let strokes = build == Build::CpuStrokes;
+    for head in heads {
+        let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
+        let world = app.world_mut();
+        let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+        let bone = world.spawn(Transform::from_translation(head.at)).id();
+        world.spawn((
+            Hair { groom, ..default() },
+            HairSimSettings::default(),
+            HairMeshSettings {
+                hair_resolution: head.rings,
+                shape_resolution: head.sides,
+                ..default()
+            },
+            SilhouetteSettings {
+                enabled: strokes,
+                ..default()
+            },
+            SpecularQuads {
+                enabled: strokes,
+                ..default()
+            },
+            HairCulling::default(),
+            HairLod::default(),
+            ChildOf(bone),
+        ));
+    }
+    for _ in 0..5 {
+        app.update();
+    }
+    app
+}
+
+/// What extraction and preparation do on the CPU with this frame's hair meshes: the bytes that
+/// go to the GPU, written into `staging`; returns their count.
+fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
+    staging.clear();
+    // GPU-built hairs: their inputs.
+    let mut inputs = world.query::<&GpuTubeInput>();
+    for input in inputs.iter(world) {
+        let copy = input.clone();
+        for v in copy.particles.iter().chain(&copy.sections) {
+            staging.extend(v.to_array().iter().flat_map(|f| f.to_le_bytes()));
+        }
+        for s in &copy.strands {
+            for v in [s.reference_direction, s.reference_normal] {
+                staging.extend(v.to_array().iter().flat_map(|f| f.to_le_bytes()));
+            }
+            for u in [s.first, s.count, s.section, s.pad] {
+                staging.extend(u.to_le_bytes());
+            }
+        }
+        staging.extend([0u8; 176]);
+    }
+    // CPU-built hairs in view: their meshes changed this frame and are sent whole.
+    let mut hairs = world.query::<(
+        &HairInView,
+        &bevy_cartoon_hair::mesh::ComputedHairMesh,
+        Has<bevy_cartoon_hair::mesh::HairMeshBuiltOnGpu>,
+    )>();
+    let meshes: Vec<_> = hairs
+        .iter(world)
+        .filter(|(seen, _, gpu)| seen.0 && !gpu)
+        .map(|(_, c, _)| c.mesh.clone())
+        .collect();
+    let assets = world.resource::<Assets<Mesh>>();
+    for handle in meshes {
+        if let Some(mesh) = assets.get(&handle) {
+            let copy = mesh.clone();
+            staging.extend(copy.create_packed_vertex_buffer_data());
+            staging.extend(copy.get_index_buffer_bytes().unwrap_or_default());
+        }
+    }
+    // Strokes and highlights are meshes of their own, rebuilt every frame.
+    let mut strips = world.query_filtered::<&Mesh3d, Without<HairMeshOf>>();
+    let strip_meshes: Vec<_> = strips.iter(world).map(|m| m.0.clone()).collect();
+    let assets = world.resource::<Assets<Mesh>>();
+    for handle in strip_meshes {
+        if let Some(mesh) = assets.get(&handle) {
+            let copy = mesh.clone();
+            staging.extend(copy.create_packed_vertex_buffer_data());
+            staging.extend(copy.get_index_buffer_bytes().unwrap_or_default());
+        }
+    }
+    staging.len()
+}
+
+fn bench_frame_build(c: &mut Criterion) {
+    let mut group = c.benchmark_group("frame_build");
+    for (name, heads, samples) in [
+        ("W1_thesis_100x6", common::w1(), 50),
+        ("W6_crowd_16x160x7", common::w6(), 30),
+        ("W2_10000x16", common::w2(), 10),
+    ] {
+        group.sample_size(samples);
+        for (build, label) in [
+            (Build::CpuStrokes, "cpu_strokes"),
+            (Build::Cpu, "cpu"),
+            (Build::Gpu, "gpu"),
+        ] {
+            let mut app = app(&heads, build);
+            let mut staging = Vec::new();
+            let bytes = extract_and_prepare(app.world_mut(), &mut staging);
+            let gpu_hairs = app
+                .world_mut()
+                .query::<&GpuTubeInput>()
+                .iter(app.world())
+                .count();
+            println!(
+                "{name}/{label}: {:.2} MB sent to the GPU a frame, {gpu_hairs} hairs built on the GPU",
+                bytes as f64 / 1e6
+            );
+            group.bench_function(format!("{name}/{label}"), |b| {
+                b.iter(|| {
+                    app.update();
+                    extract_and_prepare(app.world_mut(), &mut staging)
+                });
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
+    targets = bench_frame_build
+}
+criterion_main!(benches);

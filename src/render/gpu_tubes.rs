@@ -1,0 +1,551 @@
+//! Strand tubes built on the GPU: the hair's particles go to the GPU each frame, and a compute
+//! pass (`gpu_tubes.wesl`) sweeps the tubes straight into the hair mesh's own vertex buffer.
+//!
+//! The hair mesh stays an ordinary Bevy `Mesh` with its UVs and indices, so the main pass, the
+//! prepasses, the shadow passes, the image-space outline and the fringe shadow draw it as
+//! before; only its positions, normals and tangents come from the compute pass instead of the
+//! CPU. Its vertex data is uploaded once, when the mesh is created (the CPU never changes it
+//! afterwards, so Bevy never uploads it again); each frame the GPU gets the particles (16 bytes
+//! each), one 48-byte record per strand and a small uniform. The mesh allocator's vertex slabs
+//! are made usable as storage buffers (`MeshAllocatorSettings::extra_buffer_usages`) so that the
+//! pass can write them, as Bevy's `compute_mesh` example does.
+//!
+//! A hair is built on the GPU when [`HairMeshBuilder::Gpu`] is chosen (the default), the render
+//! device can ([`HairGpuMeshSupport`]), and nothing on the CPU reads its tube mesh: object-space
+//! strokes ([`SilhouetteSettings`]) and specular quads ([`SpecularQuads`]) are built from the
+//! CPU's tubes, so a hair that has either enabled stays on the CPU. [`HairMeshBuilder::Cpu`]
+//! builds every hair on the CPU, the reference.
+
+use bevy::asset::load_embedded_asset;
+use bevy::core_pipeline::schedule::camera_driver;
+use bevy::ecs::query::QueryItem;
+use bevy::ecs::system::lifetimeless::Read;
+use bevy::prelude::*;
+use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
+use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
+};
+use bevy::render::render_resource::{
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BufferUsages,
+    CachedComputePipelineId, ComputePassDescriptor, ComputePipelineDescriptor, PipelineCache,
+    ShaderStages, ShaderType, StorageBuffer, UniformBuffer,
+};
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::sync_component::SyncComponent;
+use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
+
+use crate::mesh::highlights::SpecularQuads;
+use crate::mesh::{
+    ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
+    LockSection, MassField, fill_section,
+};
+use crate::schedule::HairSystems;
+use crate::silhouette::SilhouetteSettings;
+use crate::sim::{BoneChainHair, ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+
+/// Where strand tube meshes are built. A resource; it may change at any time.
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Resource, Default, Debug, PartialEq)]
+pub enum HairMeshBuilder {
+    /// On the GPU where the render device can ([`HairGpuMeshSupport`]) and no CPU stage reads
+    /// the hair's tubes (strokes, specular quads); on the CPU otherwise.
+    #[default]
+    Gpu,
+    /// Always on the CPU (the reference; every frame's vertices are uploaded).
+    Cpu,
+}
+
+/// Whether this render device can build tubes on the GPU: compute shaders, five storage buffers
+/// in a compute stage, vertex buffers usable as storage. Set when the render plugin finishes.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
+pub struct HairGpuMeshSupport {
+    /// Tubes may be built on the GPU.
+    pub supported: bool,
+    /// Why not, when they may not.
+    pub reason: Option<String>,
+}
+
+/// The uniform of one hair's compute pass (`gpu_tubes.wesl`'s `Params`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, ShaderType)]
+pub struct GpuTubeParams {
+    /// The mesh's first vertex in the slab, in 4-byte words (set in the render world).
+    pub vertex_base: u32,
+    /// Words per vertex.
+    pub stride: u32,
+    /// Word offsets in a vertex of the position, the normal and the tangent.
+    pub position_offset: u32,
+    /// See [`GpuTubeParams::position_offset`].
+    pub normal_offset: u32,
+    /// See [`GpuTubeParams::position_offset`].
+    pub tangent_offset: u32,
+    /// Rings per strand.
+    pub rings: u32,
+    /// Sides per ring.
+    pub sides: u32,
+    /// Strands in the mesh.
+    pub strands: u32,
+    /// Radius, then the taper's `a`, `b`, `c`.
+    pub shape: Vec4,
+    /// The mass field's centre and weight (`0`: no mass normals).
+    pub mass_centre: Vec4,
+    /// The mass field's metric, by columns.
+    pub metric_x: Vec4,
+    /// See [`GpuTubeParams::metric_x`].
+    pub metric_y: Vec4,
+    /// See [`GpuTubeParams::metric_x`].
+    pub metric_z: Vec4,
+    /// The bone's up axis, for the angel ring's tangents.
+    pub up: Vec4,
+}
+
+/// One strand of the compute pass.
+#[derive(Clone, Copy, Debug, Default, PartialEq, ShaderType)]
+pub struct GpuStrand {
+    /// The root frame's reference direction, turned with the bone.
+    pub reference_direction: Vec4,
+    /// The root frame's reference normal, turned with the bone.
+    pub reference_normal: Vec4,
+    /// Its first particle in the particle buffer.
+    pub first: u32,
+    /// Its particle count.
+    pub count: u32,
+    /// Its cross-section's first side in the section table.
+    pub section: u32,
+    /// Padding.
+    pub pad: u32,
+}
+
+/// What the GPU needs this frame to build a hair's tubes, on the hair's mesh entity. Written in
+/// the main world after the CPU's mesh stage; absent while the hair is on the CPU or out of view
+/// (its mesh then keeps the last vertices built).
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct GpuTubeInput {
+    /// The hair mesh.
+    pub mesh: AssetId<Mesh>,
+    /// The pass's uniform (its `vertex_base` is filled in the render world).
+    pub params: GpuTubeParams,
+    /// The strands, in the mesh's order.
+    pub strands: Vec<GpuStrand>,
+    /// Every strand's particles, world space.
+    pub particles: Vec<Vec4>,
+    /// The cross-sections in use, `sides` sides each, two vec4 a side (position and normal,
+    /// then the around direction, in the ring's frame).
+    pub sections: Vec<Vec4>,
+}
+
+impl SyncComponent<RenderApp> for GpuTubeInput {
+    type Target = (GpuTubeInput, GpuTubeBuffers);
+}
+
+impl ExtractComponent<RenderApp> for GpuTubeInput {
+    type QueryData = Read<GpuTubeInput>;
+    type QueryFilter = ();
+    type Out = GpuTubeInput;
+
+    fn extract_component(input: QueryItem<'_, '_, Self::QueryData>) -> Option<Self::Out> {
+        Some(input.clone())
+    }
+}
+
+/// A hair mesh's buffers and bind group in the render world.
+#[derive(Component, Default)]
+pub struct GpuTubeBuffers {
+    params: UniformBuffer<GpuTubeParams>,
+    strands: StorageBuffer<Vec<GpuStrand>>,
+    particles: StorageBuffer<Vec<Vec4>>,
+    sections: StorageBuffer<Vec<Vec4>>,
+    /// This frame's bind group and strand count; `None` when the mesh is not allocated yet.
+    ready: Option<(BindGroup, u32)>,
+}
+
+/// Builds strand tubes on the GPU. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins)
+/// (feature `render`).
+#[derive(Default)]
+pub struct GpuTubesPlugin;
+
+impl Plugin for GpuTubesPlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "gpu_tubes.wesl");
+        app.init_resource::<HairMeshBuilder>()
+            .init_resource::<HairGpuMeshSupport>()
+            .register_type::<HairMeshBuilder>()
+            .add_plugins(ExtractComponentPlugin::<GpuTubeInput>::default())
+            .add_systems(
+                PostUpdate,
+                (
+                    choose_mesh_builder.before(HairSystems::BuildMesh),
+                    gather_gpu_tube_inputs.after(crate::mesh::rebuild_strand_meshes),
+                ),
+            );
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        render_app
+            .add_systems(RenderStartup, init_gpu_tube_pipeline)
+            .add_systems(
+                Render,
+                prepare_gpu_tubes.in_set(RenderSystems::PrepareBindGroups),
+            )
+            .add_systems(RenderGraph, build_gpu_tubes.before(camera_driver));
+    }
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        // The pass writes the mesh allocator's vertex slabs.
+        render_app
+            .world_mut()
+            .resource_mut::<MeshAllocatorSettings>()
+            .extra_buffer_usages |= BufferUsages::STORAGE;
+        let support = match render_app.world().get_resource::<RenderDevice>() {
+            Some(device) => gpu_support(device),
+            None => HairGpuMeshSupport {
+                supported: false,
+                reason: Some("no render device".into()),
+            },
+        };
+        if let Some(reason) = &support.reason {
+            info!("hair tubes are built on the CPU: {reason}");
+        }
+        app.insert_resource(support);
+    }
+}
+
+/// What the render device allows.
+fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
+    let limits = device.limits();
+    let reason = if limits.max_storage_buffers_per_shader_stage < 5 {
+        Some(format!(
+            "the device allows {} storage buffers in a shader stage, the pass needs 5",
+            limits.max_storage_buffers_per_shader_stage
+        ))
+    } else if limits.max_compute_workgroup_size_x < 64 {
+        // WebGL has no compute at all; every other backend Bevy runs on has.
+        Some("the device has no compute shaders of 64 invocations".to_string())
+    } else {
+        None
+    };
+    HairGpuMeshSupport {
+        supported: reason.is_none(),
+        reason,
+    }
+}
+
+/// Marks the hairs built on the GPU this frame (the CPU mesh stage skips their vertices).
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+fn choose_mesh_builder(
+    mut commands: Commands,
+    builder: Res<HairMeshBuilder>,
+    support: Res<HairGpuMeshSupport>,
+    hairs: Query<
+        (
+            Entity,
+            Option<&SilhouetteSettings>,
+            Option<&SpecularQuads>,
+            Has<HairMeshBuiltOnGpu>,
+        ),
+        (With<Hair>, Without<BoneChainHair>),
+    >,
+) {
+    for (hair, strokes, quads, on_gpu) in &hairs {
+        let cpu_reads = strokes.is_some_and(|s| s.enabled) || quads.is_some_and(|q| q.enabled);
+        let gpu = *builder == HairMeshBuilder::Gpu && support.supported && !cpu_reads;
+        if gpu != on_gpu {
+            if gpu {
+                commands.entity(hair).insert(HairMeshBuiltOnGpu);
+            } else {
+                commands.entity(hair).remove::<HairMeshBuiltOnGpu>();
+            }
+        }
+    }
+}
+
+/// Word offsets of the position, normal and tangent in `mesh`'s interleaved vertex, and the
+/// words per vertex; `None` if one is missing.
+fn vertex_offsets(mesh: &Mesh) -> Option<(u32, u32, u32, u32)> {
+    let (mut offset, mut found) = (0u64, [None; 3]);
+    for (attribute, _) in mesh.attributes() {
+        let slot = [
+            Mesh::ATTRIBUTE_POSITION.id,
+            Mesh::ATTRIBUTE_NORMAL.id,
+            Mesh::ATTRIBUTE_TANGENT.id,
+        ]
+        .iter()
+        .position(|id| *id == attribute.id);
+        if let Some(slot) = slot {
+            found[slot] = Some((offset / 4) as u32);
+        }
+        offset += attribute.format.size();
+    }
+    Some((found[0]?, found[1]?, found[2]?, (offset / 4) as u32))
+}
+
+/// Writes each GPU-built hair's [`GpuTubeInput`] from this frame's particles.
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+fn gather_gpu_tube_inputs(
+    mut commands: Commands,
+    hairs: Query<
+        (
+            &HairMeshSettings,
+            Option<&HairStrandSections>,
+            &HairStrands,
+            &ComputedHairMesh,
+            &ComputedHair,
+            &HairInView,
+            &GlobalTransform,
+            Has<HairMeshBuiltOnGpu>,
+        ),
+        With<Hair>,
+    >,
+    strands: Query<(&Strand, &StrandParticles)>,
+    meshes: Res<Assets<Mesh>>,
+    mut inputs: Query<&mut GpuTubeInput>,
+    mut order: Local<Vec<(u32, Entity)>>,
+) {
+    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu) in &hairs {
+        let offsets = meshes.get(&computed.mesh).and_then(vertex_offsets);
+        let (Some((position, normal, tangent, stride)), true, true) = (offsets, on_gpu, in_view.0)
+        else {
+            if inputs.contains(computed.entity) {
+                commands.entity(computed.entity).remove::<GpuTubeInput>();
+            }
+            continue;
+        };
+        order.clear();
+        order.extend(
+            list.iter()
+                .filter_map(|e| strands.get(e).ok().map(|(s, _)| (s.index, e))),
+        );
+        if order.len() != computed.strands {
+            continue;
+        }
+        order.sort_unstable_by_key(|(i, _)| *i);
+        let (rings, sides) = (computed.topology.rings(), computed.topology.sides());
+        let mut input = GpuTubeInput {
+            mesh: computed.mesh.id(),
+            ..default()
+        };
+        if let Ok(mut last) = inputs.get_mut(computed.entity) {
+            // Reuse last frame's allocations.
+            input.strands = std::mem::take(&mut last.strands);
+            input.particles = std::mem::take(&mut last.particles);
+            input.sections = std::mem::take(&mut last.sections);
+        }
+        input.strands.clear();
+        input.particles.clear();
+        input.sections.clear();
+        // The cross-section tables in use, one per kind, `sides` sides each.
+        let section_of = |index: u32| {
+            per_strand.map_or(settings.section, |p| {
+                p.get(index as usize, settings.section)
+            })
+        };
+        let mut kinds: Vec<LockSection> = Vec::new();
+        let mut table = Vec::new();
+        let rotation = global.rotation();
+        for &(index, entity) in &*order {
+            let Ok((_, particles)) = strands.get(entity) else {
+                continue;
+            };
+            let kind = section_of(index);
+            let slot = match kinds.iter().position(|k| *k == kind) {
+                Some(slot) => slot,
+                None => {
+                    kinds.push(kind);
+                    fill_section(
+                        kind,
+                        settings.section_aspect,
+                        computed.topology.cos_sin(),
+                        &mut table,
+                    );
+                    input.sections.extend(table.iter().flat_map(|[p, n, a]| {
+                        [Vec4::new(p.0, p.1, n.0, n.1), Vec4::new(a.0, a.1, 0.0, 0.0)]
+                    }));
+                    kinds.len() - 1
+                }
+            };
+            let (direction, rest_normal) = computed
+                .rest_frames
+                .get(index as usize)
+                .copied()
+                .unwrap_or((Vec3::NEG_Y, Vec3::Z));
+            input.strands.push(GpuStrand {
+                reference_direction: (rotation * direction).extend(0.0),
+                reference_normal: (rotation * rest_normal).extend(0.0),
+                first: input.particles.len() as u32,
+                count: particles.positions.len() as u32,
+                section: (slot * sides) as u32,
+                pad: 0,
+            });
+            input
+                .particles
+                .extend(particles.positions.iter().map(|p| p.extend(1.0)));
+        }
+        let mass = sim.bone_pose().and_then(|bone| {
+            let ellipsoid = settings
+                .mass_shape
+                .ellipsoid(sim.rest_bounds(), sim.bone_scale())?;
+            MassField::new(&bone, ellipsoid, settings.mass_normals)
+        });
+        let (centre, metric, up, weight) =
+            mass.map_or((Vec3::ZERO, Mat3::IDENTITY, Vec3::Y, 0.0), |m| m.parts());
+        let taper = settings.taper;
+        input.params = GpuTubeParams {
+            vertex_base: 0,
+            stride,
+            position_offset: position,
+            normal_offset: normal,
+            tangent_offset: tangent,
+            rings: rings as u32,
+            sides: sides as u32,
+            strands: input.strands.len() as u32,
+            shape: Vec4::new(settings.radius * sim.size(), taper.a, taper.b, taper.c),
+            mass_centre: centre.extend(weight),
+            metric_x: metric.x_axis.extend(0.0),
+            metric_y: metric.y_axis.extend(0.0),
+            metric_z: metric.z_axis.extend(0.0),
+            up: up.extend(0.0),
+        };
+        match inputs.get_mut(computed.entity) {
+            Ok(mut last) => *last = input,
+            Err(_) => {
+                commands.entity(computed.entity).try_insert(input);
+            }
+        }
+    }
+}
+
+/// The compute pipeline, made in `RenderStartup`.
+#[derive(Resource)]
+struct GpuTubePipeline {
+    layout: BindGroupLayoutDescriptor,
+    pipeline: CachedComputePipelineId,
+}
+
+fn init_gpu_tube_pipeline(
+    mut commands: Commands,
+    asset_server: Res<AssetServer>,
+    pipeline_cache: Res<PipelineCache>,
+) {
+    let layout = BindGroupLayoutDescriptor::new(
+        "hair_gpu_tubes_layout",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer::<GpuTubeParams>(false),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
+    );
+    let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some("hair_gpu_tubes".into()),
+        layout: vec![layout.clone()],
+        shader: load_embedded_asset!(asset_server.as_ref(), "gpu_tubes.wesl"),
+        entry_point: Some("build".into()),
+        ..default()
+    });
+    commands.insert_resource(GpuTubePipeline { layout, pipeline });
+}
+
+/// Uploads each hair's particles and makes its bind group over its mesh's vertex slab.
+fn prepare_gpu_tubes(
+    mut commands: Commands,
+    mut inputs: Query<(Entity, &mut GpuTubeInput, Option<&mut GpuTubeBuffers>)>,
+    mesh_allocator: Res<MeshAllocator>,
+    pipeline: Res<GpuTubePipeline>,
+    pipeline_cache: Res<PipelineCache>,
+    device: Res<RenderDevice>,
+    queue: Res<RenderQueue>,
+) {
+    for (entity, mut input, buffers) in &mut inputs {
+        // A new hair mesh gets its buffers now and is built from the next frame on.
+        let Some(mut buffers) = buffers else {
+            commands.entity(entity).insert(GpuTubeBuffers::default());
+            continue;
+        };
+        let buffers = &mut *buffers;
+        buffers.ready = None;
+        let params = input.params;
+        let per_strand = params.rings * params.sides + 2;
+        let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
+            continue;
+        };
+        if slice.range.len() < (per_strand * params.strands) as usize || params.strands == 0 {
+            continue;
+        }
+        buffers.params.set(GpuTubeParams {
+            vertex_base: slice.range.start * params.stride,
+            ..params
+        });
+        buffers.params.write_buffer(&device, &queue);
+        // The buffers are never empty (a binding of zero bytes is invalid).
+        let take = |v: &mut Vec<Vec4>| {
+            let mut out = std::mem::take(v);
+            if out.is_empty() {
+                out.push(Vec4::ZERO);
+            }
+            out
+        };
+        buffers.particles.set(take(&mut input.particles));
+        buffers.sections.set(take(&mut input.sections));
+        buffers.strands.set(std::mem::take(&mut input.strands));
+        for b in [&mut buffers.particles, &mut buffers.sections] {
+            b.add_usages(BufferUsages::STORAGE);
+            b.write_buffer(&device, &queue);
+        }
+        buffers.strands.add_usages(BufferUsages::STORAGE);
+        buffers.strands.write_buffer(&device, &queue);
+        let (Some(p), Some(s), Some(x), Some(c)) = (
+            buffers.params.binding(),
+            buffers.strands.binding(),
+            buffers.particles.binding(),
+            buffers.sections.binding(),
+        ) else {
+            continue;
+        };
+        let bind_group = device.create_bind_group(
+            "hair_gpu_tubes",
+            &pipeline_cache.get_bind_group_layout(&pipeline.layout),
+            &BindGroupEntries::sequential((p, s, x, c, slice.buffer.as_entire_binding())),
+        );
+        buffers.ready = Some((bind_group, params.strands));
+    }
+}
+
+/// Runs the compute pass of every hair ready this frame, before any camera draws.
+fn build_gpu_tubes(
+    mut render_context: RenderContext,
+    hairs: Query<&GpuTubeBuffers>,
+    pipeline: Res<GpuTubePipeline>,
+    pipeline_cache: Res<PipelineCache>,
+) {
+    let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.pipeline) else {
+        return;
+    };
+    let mut ready = hairs.iter().filter_map(|b| b.ready.as_ref()).peekable();
+    if ready.peek().is_none() {
+        return;
+    }
+    let mut pass = render_context
+        .command_encoder()
+        .begin_compute_pass(&ComputePassDescriptor {
+            label: Some("hair_gpu_tubes"),
+            ..default()
+        });
+    pass.set_pipeline(compute);
+    for (bind_group, strands) in ready {
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
+    }
+}
