@@ -10,7 +10,8 @@
 //! - `*/cpu`: the tubes on the CPU, no strokes (the clean and locks looks);
 //! - `*/gpu`: the same look with the tubes built on the GPU.
 //!
-//! Each iteration is `app.update()` and then what Bevy's extraction and preparation do on the
+//! `no_hair` is the same app without hair: the hair's share of a frame is the rest. Each
+//! iteration is `app.update()` and then what Bevy's extraction and preparation do on the
 //! CPU with it: for a CPU-built hair mesh, changed every frame, a copy of the mesh into the
 //! render world and its vertices interleaved and its indices copied into the bytes written to
 //! the GPU; for a GPU-built hair, a copy of its `GpuTubeInput` and its particles, strands and
@@ -167,6 +168,9 @@ fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
 
 fn bench_frame_build(c: &mut Criterion) {
     let mut group = c.benchmark_group("frame_build");
+    // The same app without hair: what every frame costs anyway (the hair's share is the rest).
+    let mut empty = app(&[], Build::Gpu);
+    group.bench_function("no_hair", |b| b.iter(|| empty.update()));
     for (name, heads, samples) in [
         ("W1_thesis_100x6", common::w1(), 50),
         ("W6_crowd_16x160x7", common::w6(), 30),
