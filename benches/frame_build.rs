@@ -30,17 +30,15 @@ use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy_cartoon_hair::HairSchedulePlugin;
-use bevy_cartoon_hair::asset::{HairAssetPlugin, HairGroom};
+use bevy_cartoon_hair::asset::HairAssetPlugin;
 use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
-use bevy_cartoon_hair::mesh::{
-    HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin, HairMeshSettings,
-};
+use bevy_cartoon_hair::mesh::{HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin};
 use bevy_cartoon_hair::render::{
     GpuTubeInput, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
 };
 use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
-use bevy_cartoon_hair::sim::{Hair, HairSimSettings, HairSimulationPlugin};
-use common::{Head, bench_camera, minimal_plugins, strands};
+use bevy_cartoon_hair::sim::HairSimulationPlugin;
+use common::{Head, bench_camera, minimal_plugins};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 /// How a workload's hair is drawn.
@@ -81,18 +79,9 @@ fn app(heads: &[Head], build: Build) -> App {
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
     let strokes = build == Build::CpuStrokes;
     for head in heads {
-        let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
         let world = app.world_mut();
-        let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
-        let bone = world.spawn(Transform::from_translation(head.at)).id();
-        world.spawn((
-            Hair { groom, ..default() },
-            HairSimSettings::default(),
-            HairMeshSettings {
-                hair_resolution: head.rings,
-                shape_resolution: head.sides,
-                ..default()
-            },
+        let hair = common::spawn_head(world, head);
+        world.entity_mut(hair).insert((
             SilhouetteSettings {
                 enabled: strokes,
                 ..default()
@@ -103,7 +92,6 @@ fn app(heads: &[Head], build: Build) -> App {
             },
             HairCulling::default(),
             HairLod::default(),
-            ChildOf(bone),
         ));
     }
     for _ in 0..5 {

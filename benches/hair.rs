@@ -695,23 +695,14 @@ fn stages_app() -> App {
 }
 
 fn frame_app(heads: &[Head], culling: bool) -> App {
+    use bevy_cartoon_hair::mesh::HairCulling;
     use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
-    use bevy_cartoon_hair::mesh::{HairCulling, HairMeshSettings};
     use bevy_cartoon_hair::silhouette::SilhouetteSettings;
     let mut app = stages_app();
     for head in heads {
-        let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
         let world = app.world_mut();
-        let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
-        let bone = world.spawn(Transform::from_translation(head.at)).id();
-        world.spawn((
-            Hair { groom, ..default() },
-            HairSimSettings::default(),
-            HairMeshSettings {
-                hair_resolution: head.rings,
-                shape_resolution: head.sides,
-                ..default()
-            },
+        let hair = common::spawn_head(world, head);
+        world.entity_mut(hair).insert((
             SilhouetteSettings::default(),
             SpecularQuads {
                 enabled: true,
@@ -725,7 +716,6 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
                 enabled: culling,
                 ..default()
             },
-            ChildOf(bone),
         ));
     }
     for _ in 0..5 {

@@ -110,3 +110,26 @@ pub fn w2() -> Vec<Head> {
         sides: 8,
     }]
 }
+
+/// Spawns `head`'s hair (its strands, default simulation, its tube resolution) on a bone of its
+/// own; returns the hair entity, for the caller's other settings.
+pub fn spawn_head(world: &mut World, head: &Head) -> Entity {
+    use bevy_cartoon_hair::asset::HairGroom;
+    use bevy_cartoon_hair::mesh::HairMeshSettings;
+    use bevy_cartoon_hair::sim::{Hair, HairSimSettings};
+    let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
+    let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
+    let bone = world.spawn(Transform::from_translation(head.at)).id();
+    world
+        .spawn((
+            Hair { groom, ..default() },
+            HairSimSettings::default(),
+            HairMeshSettings {
+                hair_resolution: head.rings,
+                shape_resolution: head.sides,
+                ..default()
+            },
+            ChildOf(bone),
+        ))
+        .id()
+}

@@ -215,17 +215,16 @@ pub(crate) fn is_ring(p: [u8; 4]) -> bool {
     p[0] < 60 && p[1] > 150 && p[2] > 150
 }
 
-/// A bob: 72 strands from around the crown of a head (radius 0.5 at the origin) down its sides
-/// to below the equator, 2 cm off the scalp, in one hair.
-fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
-    let ramp = ramps(r).three_tone;
-    let strands: Vec<Vec<Vec3>> = (0..72)
+/// 72 strands around a head of radius 0.5 at the origin, 2 cm off the scalp, each falling from
+/// `from` degrees off the pole to `to` degrees, `particles` particles each.
+pub(crate) fn falling_strands(from: f32, to: f32, particles: usize) -> Vec<Vec<Vec3>> {
+    (0..72)
         .map(|i| {
             let around = std::f32::consts::TAU * i as f32 / 72.0;
-            (0..8)
+            (0..particles)
                 .map(|k| {
-                    // From 15 degrees off the pole to 20 degrees below the equator.
-                    let polar = (15.0 + 95.0 * k as f32 / 7.0).to_radians();
+                    let polar =
+                        (from + (to - from) * k as f32 / (particles - 1) as f32).to_radians();
                     Vec3::new(
                         polar.sin() * around.sin(),
                         polar.cos(),
@@ -234,7 +233,15 @@ fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
                 })
                 .collect()
         })
-        .collect();
+        .collect()
+}
+
+/// A bob: 72 strands from around the crown of a head (radius 0.5 at the origin) down its sides
+/// to below the equator, 2 cm off the scalp, in one hair.
+fn spawn_bob(r: &mut HeadlessRenderer, profile: AngelRingProfile) {
+    let ramp = ramps(r).three_tone;
+    // From 15 degrees off the pole to 20 degrees below the equator.
+    let strands = falling_strands(15.0, 110.0, 8);
     let shading = ToonShading {
         lighting: ToonLighting::FirstDirectional,
         angel_ring: 1.0,

@@ -8,7 +8,7 @@ use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{AngelRingProfile, ToonLighting};
 use libtest_mimic::Failed;
 
-use crate::mass_render::{RING, is_ring, spawn_still_hair};
+use crate::mass_render::{RING, falling_strands, is_ring, spawn_still_hair};
 use crate::toon_render::{BACKGROUND, ramps, save, scene};
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
@@ -65,21 +65,7 @@ fn ring_band(frame: &CapturedFrame) -> (f32, f32) {
 /// Long hair: 72 strands from near the crown down the sides of the head to 40 degrees below
 /// its equator, 2 cm off the scalp, as straight hair falls.
 fn long_hair() -> Vec<Vec<Vec3>> {
-    (0..72)
-        .map(|i| {
-            let around = std::f32::consts::TAU * i as f32 / 72.0;
-            (0..10)
-                .map(|k| {
-                    let polar = (10.0 + 120.0 * k as f32 / 9.0).to_radians();
-                    Vec3::new(
-                        polar.sin() * around.sin(),
-                        polar.cos(),
-                        polar.sin() * around.cos(),
-                    ) * 0.52
-                })
-                .collect()
-        })
-        .collect()
+    falling_strands(10.0, 130.0, 10)
 }
 
 /// Spiky and long hair lit from the front, the ring's even profile: with the default mass
