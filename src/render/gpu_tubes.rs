@@ -194,11 +194,6 @@ impl Plugin for GpuTubesPlugin {
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
             return;
         };
-        // The pass writes the mesh allocator's vertex slabs.
-        render_app
-            .world_mut()
-            .resource_mut::<MeshAllocatorSettings>()
-            .extra_buffer_usages |= BufferUsages::STORAGE;
         let support = match render_app.world().get_resource::<RenderDevice>() {
             Some(device) => gpu_support(device),
             None => HairGpuMeshSupport {
@@ -206,6 +201,14 @@ impl Plugin for GpuTubesPlugin {
                 reason: Some("no render device".into()),
             },
         };
+        // The pass writes the mesh allocator's vertex slabs; a device without storage buffers
+        // (WebGL 2) would refuse such buffers, so they are asked for only where the pass runs.
+        if support.supported {
+            render_app
+                .world_mut()
+                .resource_mut::<MeshAllocatorSettings>()
+                .extra_buffer_usages |= BufferUsages::STORAGE;
+        }
         if let Some(reason) = &support.reason {
             info!("hair tubes are built on the CPU: {reason}");
         }
