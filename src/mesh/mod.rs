@@ -21,11 +21,10 @@ pub mod tube;
 pub use culling::{HairCulling, HairCullingStats, HairInView};
 pub use lod::{HairLod, HairLodLevel};
 pub use mass::HairMassShape;
-#[cfg(feature = "render")]
 pub(crate) use mass::MassField;
 pub use section::LockSection;
 #[cfg(feature = "render")]
-pub(crate) use section::fill_section;
+pub(crate) use section::{SectionSide, fill_section};
 
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -162,6 +161,20 @@ impl ComputedHairMesh {
     pub fn vertices_per_strand(&self) -> usize {
         self.topology.vertex_count()
     }
+
+    /// The reference strand `strand`'s ring frames start from: its rest frame turned by the
+    /// bone's `rotation`.
+    pub(crate) fn frame_reference(&self, strand: u32, rotation: Quat) -> FrameReference {
+        let (direction, normal) = self
+            .rest_frames
+            .get(strand as usize)
+            .copied()
+            .unwrap_or((Vec3::NEG_Y, Vec3::Z));
+        FrameReference {
+            direction: rotation * direction,
+            normal: rotation * normal,
+        }
+    }
 }
 
 /// Builds and updates strand meshes. Part of [`CartoonHairPlugins`](crate::CartoonHairPlugins).
@@ -215,20 +228,19 @@ fn section_sides(
     s: &HairMeshSettings,
     per_strand: Option<&HairStrandSections>,
 ) -> usize {
-    let mut used = [false; LockSection::ALL.len()];
-    for section in
-        std::iter::once(s.section).chain(per_strand.into_iter().flat_map(|p| p.0.iter().copied()))
-    {
-        if let Some(i) = LockSection::ALL.iter().position(|k| *k == section) {
-            used[i] = true;
-        }
-    }
-    let sections = LockSection::ALL
-        .iter()
-        .zip(used)
-        .filter(|(_, u)| *u)
-        .map(|(k, _)| *k);
+    let sections =
+        std::iter::once(s.section).chain(per_strand.into_iter().flat_map(|p| p.0.iter().copied()));
     section::sides_for(sides, sections, tube::MAX_SIDES)
+}
+
+/// The field the hair's normals and tangents lean toward this frame, `None` without mass
+/// normals or a usable bone pose. Shared by the CPU's tubes and the GPU's.
+pub(crate) fn mass_field(settings: &HairMeshSettings, sim: &ComputedHair) -> Option<MassField> {
+    let bone = sim.bone_pose()?;
+    let ellipsoid = settings
+        .mass_shape
+        .ellipsoid(sim.rest_bounds(), sim.bone_scale())?;
+    MassField::new(&bone, ellipsoid, settings.mass_normals)
 }
 
 /// Distinct lock ids the hair's prepass can write (the normal target's two alpha bits, less the
@@ -476,31 +488,16 @@ pub fn rebuild_strand_meshes(
         // Rings start from the strand's rest frame turned with the bone, so tubes neither twist
         // as the head turns nor flip as strands swing.
         let rotation = global.rotation();
-        let frames = &computed.rest_frames;
-        let params_for = |strand: u32| {
-            let (direction, normal) = frames
-                .get(strand as usize)
-                .copied()
-                .unwrap_or((Vec3::NEG_Y, Vec3::Z));
-            TubeParams {
-                radius,
-                taper: [settings.taper.a, settings.taper.b, settings.taper.c],
-                reference: FrameReference {
-                    direction: rotation * direction,
-                    normal: rotation * normal,
-                },
-                aspect: settings.section_aspect,
-                section: per_strand.map_or(settings.section, |p| {
-                    p.get(strand as usize, settings.section)
-                }),
-            }
+        let params_for = |strand: u32| TubeParams {
+            radius,
+            taper: [settings.taper.a, settings.taper.b, settings.taper.c],
+            reference: computed.frame_reference(strand, rotation),
+            aspect: settings.section_aspect,
+            section: per_strand.map_or(settings.section, |p| {
+                p.get(strand as usize, settings.section)
+            }),
         };
-        let mass = sim.bone_pose().and_then(|bone| {
-            let ellipsoid = settings
-                .mass_shape
-                .ellipsoid(sim.rest_bounds(), sim.bone_scale())?;
-            mass::MassField::new(&bone, ellipsoid, settings.mass_normals)
-        });
+        let mass = mass_field(settings, sim);
         let per = computed.vertices_per_strand();
         if mesh.count_vertices() != per * scratch.len() {
             continue;

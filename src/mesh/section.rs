@@ -96,8 +96,11 @@ pub(crate) fn fill_section(
         }));
         return;
     }
-    let corners: Vec<(f32, f32)> = polygon.iter().map(|&(n, b)| (n, b * aspect)).collect();
-    let k = corners.len();
+    let k = polygon.len();
+    let mut corners = [(0.0, 0.0); 4];
+    for (c, &(n, b)) in corners.iter_mut().zip(polygon) {
+        *c = (n, b * aspect);
+    }
     // Edge j runs from corner j to corner j + 1; its outward normal is its direction turned
     // clockwise (the polygon is counter-clockwise).
     let edge = |j: usize| {
@@ -187,7 +190,7 @@ mod tests {
             assert_eq!(out.len(), sides);
             for (corner, &(n, b)) in section.unit_polygon().iter().enumerate() {
                 let side = corner * sides / section.corners();
-                let (p, _, _) = (out[side][0], 0, 0);
+                let p = out[side][0];
                 assert!(
                     (p.0 - n).abs() < 1e-6 && (p.1 - b * 0.4).abs() < 1e-6,
                     "{section:?}"

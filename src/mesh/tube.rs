@@ -387,6 +387,8 @@ pub struct TubeScratch {
     /// Per side: the position's `(cos, sin)` factors, the outward normal's and the around
     /// tangent's, for the cross-section's aspect.
     section: Vec<SectionSide>,
+    /// What `section` was filled for: the kind, the aspect's bits and the side count.
+    section_for: Option<(LockSection, u32, usize)>,
 }
 
 /// Writes the tube around the spline through `particles` (root first) into the vertex buffers.
@@ -429,9 +431,15 @@ pub fn build_tube(
         samples,
         tangents: directions,
         section,
+        section_for,
     } = scratch;
     // The cross-section: each side's position, outward normal and direction of increasing u.
-    fill_section(params.section, params.aspect, &topology.cos_sin, section);
+    // The same for every strand of a hair: filled again only when the key changes.
+    let key = (params.section, params.aspect.to_bits(), sides);
+    if *section_for != Some(key) {
+        fill_section(params.section, params.aspect, &topology.cos_sin, section);
+        *section_for = Some(key);
+    }
     let mut radius = if params.radius.is_finite() {
         params.radius.max(0.0)
     } else {

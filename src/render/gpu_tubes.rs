@@ -38,7 +38,7 @@ use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 use crate::mesh::highlights::SpecularQuads;
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
-    LockSection, MassField, fill_section,
+    LockSection, SectionSide, fill_section, mass_field,
 };
 use crate::schedule::HairSystems;
 use crate::silhouette::SilhouetteSettings;
@@ -312,7 +312,9 @@ fn gather_gpu_tube_inputs(
     meshes: Res<Assets<Mesh>>,
     mut inputs: Query<&mut GpuTubeInput>,
     mut order: Local<Vec<(u32, Entity)>>,
+    mut tables: Local<(Vec<LockSection>, Vec<SectionSide>)>,
 ) {
+    let (kinds, table) = &mut *tables;
     for (settings, per_strand, list, computed, sim, in_view, global, on_gpu) in &hairs {
         let offsets = meshes.get(&computed.mesh).and_then(vertex_offsets);
         let (Some((position, normal, tangent, stride)), true, true) = (offsets, on_gpu, in_view.0)
@@ -351,8 +353,7 @@ fn gather_gpu_tube_inputs(
                 p.get(index as usize, settings.section)
             })
         };
-        let mut kinds: Vec<LockSection> = Vec::new();
-        let mut table = Vec::new();
+        kinds.clear();
         let rotation = global.rotation();
         for &(index, entity) in &*order {
             let Ok((_, particles)) = strands.get(entity) else {
@@ -367,7 +368,7 @@ fn gather_gpu_tube_inputs(
                         kind,
                         settings.section_aspect,
                         computed.topology.cos_sin(),
-                        &mut table,
+                        table,
                     );
                     input.sections.extend(table.iter().flat_map(|[p, n, a]| {
                         [Vec4::new(p.0, p.1, n.0, n.1), Vec4::new(a.0, a.1, 0.0, 0.0)]
@@ -375,14 +376,10 @@ fn gather_gpu_tube_inputs(
                     kinds.len() - 1
                 }
             };
-            let (direction, rest_normal) = computed
-                .rest_frames
-                .get(index as usize)
-                .copied()
-                .unwrap_or((Vec3::NEG_Y, Vec3::Z));
+            let reference = computed.frame_reference(index, rotation);
             input.strands.push(GpuStrand {
-                reference_direction: (rotation * direction).extend(0.0),
-                reference_normal: (rotation * rest_normal).extend(0.0),
+                reference_direction: reference.direction.extend(0.0),
+                reference_normal: reference.normal.extend(0.0),
                 first: input.particles.len() as u32,
                 count: particles.positions.len() as u32,
                 section: (slot * sides) as u32,
@@ -392,14 +389,8 @@ fn gather_gpu_tube_inputs(
                 .particles
                 .extend(particles.positions.iter().map(|p| p.extend(1.0)));
         }
-        let mass = sim.bone_pose().and_then(|bone| {
-            let ellipsoid = settings
-                .mass_shape
-                .ellipsoid(sim.rest_bounds(), sim.bone_scale())?;
-            MassField::new(&bone, ellipsoid, settings.mass_normals)
-        });
-        let (centre, metric, up, weight) =
-            mass.map_or((Vec3::ZERO, Mat3::IDENTITY, Vec3::Y, 0.0), |m| m.parts());
+        let (centre, metric, up, weight) = mass_field(settings, sim)
+            .map_or((Vec3::ZERO, Mat3::IDENTITY, Vec3::Y, 0.0), |m| m.parts());
         let taper = settings.taper;
         input.params = GpuTubeParams {
             vertex_base: 0,
@@ -492,22 +483,12 @@ fn prepare_gpu_tubes(
             ..params
         });
         buffers.params.write_buffer(&device, &queue);
-        // The buffers are never empty (a binding of zero bytes is invalid).
-        let take = |v: &mut Vec<Vec4>| {
-            let mut out = std::mem::take(v);
-            if out.is_empty() {
-                out.push(Vec4::ZERO);
-            }
-            out
-        };
-        buffers.particles.set(take(&mut input.particles));
-        buffers.sections.set(take(&mut input.sections));
+        // Never empty: there is a strand, so a particle and a section.
+        buffers.particles.set(std::mem::take(&mut input.particles));
+        buffers.sections.set(std::mem::take(&mut input.sections));
         buffers.strands.set(std::mem::take(&mut input.strands));
-        for b in [&mut buffers.particles, &mut buffers.sections] {
-            b.add_usages(BufferUsages::STORAGE);
-            b.write_buffer(&device, &queue);
-        }
-        buffers.strands.add_usages(BufferUsages::STORAGE);
+        buffers.particles.write_buffer(&device, &queue);
+        buffers.sections.write_buffer(&device, &queue);
         buffers.strands.write_buffer(&device, &queue);
         let (Some(p), Some(s), Some(x), Some(c)) = (
             buffers.params.binding(),
