@@ -10,11 +10,12 @@
 //! are made usable as storage buffers (`MeshAllocatorSettings::extra_buffer_usages`) so that the
 //! pass can write them, as Bevy's `compute_mesh` example does.
 //!
-//! A hair is built on the GPU when [`HairMeshBuilder::Gpu`] is chosen (the default), the render
-//! device can ([`HairGpuMeshSupport`]), and nothing on the CPU reads its tube mesh: object-space
-//! strokes ([`SilhouetteSettings`]) and specular quads ([`SpecularQuads`]) are built from the
-//! CPU's tubes, so a hair that has either enabled stays on the CPU. [`HairMeshBuilder::Cpu`]
-//! builds every hair on the CPU, the reference.
+//! The pass also leaves each ring's frame in a buffer of its own, from which the object-space
+//! strokes of every camera are built on the GPU right after ([`gpu_strokes`](super::gpu_strokes)).
+//!
+//! A hair is built on the GPU when [`HairMeshBuilder::Gpu`] is chosen (the default) and the
+//! render device can ([`HairGpuMeshSupport`]); [`HairMeshBuilder::Cpu`] builds every hair, and
+//! its strokes, on the CPU: the reference.
 
 use bevy::asset::load_embedded_asset;
 use bevy::core_pipeline::schedule::camera_driver;
@@ -27,37 +28,42 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, BufferUsages,
-    CachedComputePipelineId, ComputePassDescriptor, ComputePipelineDescriptor, PipelineCache,
-    ShaderStages, ShaderType, StorageBuffer, UniformBuffer,
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, Buffer,
+    BufferDescriptor, BufferUsages, CachedComputePipelineId, ComputePassDescriptor,
+    ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType, StorageBuffer,
+    UniformBuffer,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
 use bevy::render::sync_component::SyncComponent;
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 
-use crate::mesh::highlights::SpecularQuads;
+use super::gpu_strokes::{
+    GpuStrokeBuffers, GpuStrokeInput, GpuStrokePipeline, HairGpuBuffers, init_gpu_stroke_pipeline,
+    stroke_input,
+};
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
     LockSection, SectionSide, fill_section, mass_field,
 };
 use crate::schedule::HairSystems;
-use crate::silhouette::SilhouetteSettings;
+use crate::silhouette::GpuStrokeJobs;
 use crate::sim::{BoneChainHair, ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 
 /// Where strand tube meshes are built. A resource; it may change at any time.
 #[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[reflect(Resource, Default, Debug, PartialEq)]
 pub enum HairMeshBuilder {
-    /// On the GPU where the render device can ([`HairGpuMeshSupport`]) and no CPU stage reads
-    /// the hair's tubes (strokes, specular quads); on the CPU otherwise.
+    /// On the GPU where the render device can ([`HairGpuMeshSupport`]), object-space strokes
+    /// included; on the CPU otherwise.
     #[default]
     Gpu,
     /// Always on the CPU (the reference; every frame's vertices are uploaded).
     Cpu,
 }
 
-/// Whether this render device can build tubes on the GPU: compute shaders, five storage buffers
-/// in a compute stage, vertex buffers usable as storage. Set when the render plugin finishes.
+/// Whether this render device can build tubes and strokes on the GPU: compute shaders, five
+/// storage buffers in a compute stage, vertex buffers usable as storage. Set when the render
+/// plugin finishes.
 #[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
 pub struct HairGpuMeshSupport {
     /// Tubes may be built on the GPU.
@@ -132,6 +138,8 @@ pub struct GpuTubeInput {
     /// The cross-sections in use, `sides` sides each, two vec4 a side (position and normal,
     /// then the around direction, in the ring's frame).
     pub sections: Vec<Vec4>,
+    /// The strokes to build from the tubes, one a camera.
+    pub strokes: Vec<GpuStrokeInput>,
 }
 
 impl SyncComponent<RenderApp> for GpuTubeInput {
@@ -155,6 +163,9 @@ pub struct GpuTubeBuffers {
     strands: StorageBuffer<Vec<GpuStrand>>,
     particles: StorageBuffer<Vec<Vec4>>,
     sections: StorageBuffer<Vec<Vec4>>,
+    /// The ring frames the pass writes for the stroke passes (GPU only).
+    frames: Option<Buffer>,
+    strokes: GpuStrokeBuffers,
     /// This frame's bind group and strand count; `None` when the mesh is not allocated yet.
     ready: Option<(BindGroup, u32)>,
 }
@@ -167,6 +178,7 @@ pub struct GpuTubesPlugin;
 impl Plugin for GpuTubesPlugin {
     fn build(&self, app: &mut App) {
         bevy::asset::embedded_asset!(app, "gpu_tubes.wesl");
+        bevy::asset::embedded_asset!(app, "gpu_strokes.wesl");
         app.init_resource::<HairMeshBuilder>()
             .init_resource::<HairGpuMeshSupport>()
             .register_type::<HairMeshBuilder>()
@@ -175,14 +187,19 @@ impl Plugin for GpuTubesPlugin {
                 PostUpdate,
                 (
                     choose_mesh_builder.before(HairSystems::BuildMesh),
-                    gather_gpu_tube_inputs.after(crate::mesh::rebuild_strand_meshes),
+                    gather_gpu_tube_inputs
+                        .after(HairSystems::Silhouettes)
+                        .before(HairSystems::Materials),
                 ),
             );
         let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
             return;
         };
         render_app
-            .add_systems(RenderStartup, init_gpu_tube_pipeline)
+            .add_systems(
+                RenderStartup,
+                (init_gpu_tube_pipeline, init_gpu_stroke_pipeline),
+            )
             .add_systems(
                 Render,
                 prepare_gpu_tubes.in_set(RenderSystems::PrepareBindGroups),
@@ -221,7 +238,7 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     let limits = device.limits();
     let reason = if limits.max_storage_buffers_per_shader_stage < 5 {
         Some(format!(
-            "the device allows {} storage buffers in a shader stage, the pass needs 5",
+            "the device allows {} storage buffers in a shader stage, the passes need 5",
             limits.max_storage_buffers_per_shader_stage
         ))
     } else if limits.max_compute_workgroup_size_x < 64 {
@@ -245,19 +262,10 @@ fn choose_mesh_builder(
     mut commands: Commands,
     builder: Res<HairMeshBuilder>,
     support: Res<HairGpuMeshSupport>,
-    hairs: Query<
-        (
-            Entity,
-            Option<&SilhouetteSettings>,
-            Option<&SpecularQuads>,
-            Has<HairMeshBuiltOnGpu>,
-        ),
-        (With<Hair>, Without<BoneChainHair>),
-    >,
+    hairs: Query<(Entity, Has<HairMeshBuiltOnGpu>), (With<Hair>, Without<BoneChainHair>)>,
 ) {
-    for (hair, strokes, quads, on_gpu) in &hairs {
-        let cpu_reads = strokes.is_some_and(|s| s.enabled) || quads.is_some_and(|q| q.enabled);
-        let gpu = *builder == HairMeshBuilder::Gpu && support.supported && !cpu_reads;
+    for (hair, on_gpu) in &hairs {
+        let gpu = *builder == HairMeshBuilder::Gpu && support.supported;
         if gpu != on_gpu {
             if gpu {
                 commands.entity(hair).insert(HairMeshBuiltOnGpu);
@@ -268,24 +276,20 @@ fn choose_mesh_builder(
     }
 }
 
-/// Word offsets of the position, normal and tangent in `mesh`'s interleaved vertex, and the
-/// words per vertex; `None` if one is missing.
-fn vertex_offsets(mesh: &Mesh) -> Option<(u32, u32, u32, u32)> {
+/// Word offsets of three attributes in `mesh`'s interleaved vertex, then the words per vertex;
+/// `None` if one is missing.
+pub(super) fn vertex_offsets(
+    mesh: &Mesh,
+    attributes: [bevy::mesh::MeshVertexAttributeId; 3],
+) -> Option<[u32; 4]> {
     let (mut offset, mut found) = (0u64, [None; 3]);
     for (attribute, _) in mesh.attributes() {
-        let slot = [
-            Mesh::ATTRIBUTE_POSITION.id,
-            Mesh::ATTRIBUTE_NORMAL.id,
-            Mesh::ATTRIBUTE_TANGENT.id,
-        ]
-        .iter()
-        .position(|id| *id == attribute.id);
-        if let Some(slot) = slot {
+        if let Some(slot) = attributes.iter().position(|id| *id == attribute.id) {
             found[slot] = Some((offset / 4) as u32);
         }
         offset += attribute.format.size();
     }
-    Some((found[0]?, found[1]?, found[2]?, (offset / 4) as u32))
+    Some([found[0]?, found[1]?, found[2]?, (offset / 4) as u32])
 }
 
 /// Writes each GPU-built hair's [`GpuTubeInput`] from this frame's particles.
@@ -305,6 +309,7 @@ fn gather_gpu_tube_inputs(
             &HairInView,
             &GlobalTransform,
             Has<HairMeshBuiltOnGpu>,
+            Option<&GpuStrokeJobs>,
         ),
         With<Hair>,
     >,
@@ -315,9 +320,18 @@ fn gather_gpu_tube_inputs(
     mut tables: Local<(Vec<LockSection>, Vec<SectionSide>)>,
 ) {
     let (kinds, table) = &mut *tables;
-    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu) in &hairs {
-        let offsets = meshes.get(&computed.mesh).and_then(vertex_offsets);
-        let (Some((position, normal, tangent, stride)), true, true) = (offsets, on_gpu, in_view.0)
+    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, jobs) in &hairs {
+        let offsets = meshes.get(&computed.mesh).and_then(|mesh| {
+            vertex_offsets(
+                mesh,
+                [
+                    Mesh::ATTRIBUTE_POSITION.id,
+                    Mesh::ATTRIBUTE_NORMAL.id,
+                    Mesh::ATTRIBUTE_TANGENT.id,
+                ],
+            )
+        });
+        let (Some([position, normal, tangent, stride]), true, true) = (offsets, on_gpu, in_view.0)
         else {
             if inputs.contains(computed.entity) {
                 commands.entity(computed.entity).remove::<GpuTubeInput>();
@@ -343,7 +357,14 @@ fn gather_gpu_tube_inputs(
             input.strands = std::mem::take(&mut last.strands);
             input.particles = std::mem::take(&mut last.particles);
             input.sections = std::mem::take(&mut last.sections);
+            input.strokes = std::mem::take(&mut last.strokes);
         }
+        input.strokes.clear();
+        input.strokes.extend(
+            jobs.iter()
+                .flat_map(|j| &j.0)
+                .filter_map(|job| stroke_input(job, &meshes, rings, sides, computed.strands)),
+        );
         input.strands.clear();
         input.particles.clear();
         input.sections.clear();
@@ -439,6 +460,7 @@ fn init_gpu_tube_pipeline(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
     );
@@ -452,12 +474,18 @@ fn init_gpu_tube_pipeline(
     commands.insert_resource(GpuTubePipeline { layout, pipeline });
 }
 
-/// Uploads each hair's particles and makes its bind group over its mesh's vertex slab.
+/// Uploads each hair's particles and makes its bind group over its mesh's vertex slab, then its
+/// stroke passes' bind groups.
+#[expect(
+    clippy::too_many_arguments,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 fn prepare_gpu_tubes(
     mut commands: Commands,
     mut inputs: Query<(Entity, &mut GpuTubeInput, Option<&mut GpuTubeBuffers>)>,
     mesh_allocator: Res<MeshAllocator>,
     pipeline: Res<GpuTubePipeline>,
+    stroke_pipeline: Res<GpuStrokePipeline>,
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
@@ -470,6 +498,7 @@ fn prepare_gpu_tubes(
         };
         let buffers = &mut *buffers;
         buffers.ready = None;
+        buffers.strokes.ready.clear();
         let params = input.params;
         let per_strand = params.rings * params.sides + 2;
         let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
@@ -490,28 +519,63 @@ fn prepare_gpu_tubes(
         buffers.particles.write_buffer(&device, &queue);
         buffers.sections.write_buffer(&device, &queue);
         buffers.strands.write_buffer(&device, &queue);
-        let (Some(p), Some(s), Some(x), Some(c)) = (
+        // Three vec4 a ring.
+        let frame_bytes = u64::from(params.strands * params.rings) * 48;
+        if buffers.frames.as_ref().map(|b| b.size()) != Some(frame_bytes) {
+            buffers.frames = Some(device.create_buffer(&BufferDescriptor {
+                label: Some("hair_gpu_tube_frames"),
+                size: frame_bytes,
+                usage: BufferUsages::STORAGE,
+                mapped_at_creation: false,
+            }));
+        }
+        let (Some(p), Some(s), Some(x), Some(c), Some(frames)) = (
             buffers.params.binding(),
             buffers.strands.binding(),
             buffers.particles.binding(),
             buffers.sections.binding(),
+            buffers.frames.as_ref(),
         ) else {
             continue;
         };
         let bind_group = device.create_bind_group(
             "hair_gpu_tubes",
             &pipeline_cache.get_bind_group_layout(&pipeline.layout),
-            &BindGroupEntries::sequential((p, s, x, c, slice.buffer.as_entire_binding())),
+            &BindGroupEntries::sequential((
+                p,
+                s,
+                x,
+                c,
+                slice.buffer.as_entire_binding(),
+                frames.as_entire_binding(),
+            )),
         );
         buffers.ready = Some((bind_group, params.strands));
+        let (Some(strands), Some(sections)) = (buffers.strands.buffer(), buffers.sections.buffer())
+        else {
+            continue;
+        };
+        buffers.strokes.prepare(
+            &input.strokes,
+            HairGpuBuffers {
+                strands,
+                sections,
+                frames,
+            },
+            (&device, &queue, &mesh_allocator),
+            &stroke_pipeline,
+            &pipeline_cache,
+        );
     }
 }
 
-/// Runs the compute pass of every hair ready this frame, before any camera draws.
+/// Runs the tube pass of every hair ready this frame, then their stroke passes, before any
+/// camera draws.
 fn build_gpu_tubes(
     mut render_context: RenderContext,
     hairs: Query<&GpuTubeBuffers>,
     pipeline: Res<GpuTubePipeline>,
+    stroke_pipeline: Res<GpuStrokePipeline>,
     pipeline_cache: Res<PipelineCache>,
 ) {
     let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.pipeline) else {
@@ -528,6 +592,23 @@ fn build_gpu_tubes(
             ..default()
         });
     pass.set_pipeline(compute);
+    for (bind_group, strands) in ready {
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
+    }
+    // The strokes read the frames the tube passes wrote (wgpu orders the dispatches).
+    let Some(strokes) = pipeline_cache.get_compute_pipeline(stroke_pipeline.pipeline) else {
+        return;
+    };
+    let mut ready = hairs
+        .iter()
+        .filter(|b| b.ready.is_some())
+        .flat_map(|b| &b.strokes.ready)
+        .peekable();
+    if ready.peek().is_none() {
+        return;
+    }
+    pass.set_pipeline(strokes);
     for (bind_group, strands) in ready {
         pass.set_bind_group(0, bind_group, &[]);
         pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);

@@ -329,28 +329,34 @@ fn every_toon_material_variant_composes_and_validates() {
 }
 
 #[test]
-fn the_gpu_tube_pass_composes_and_validates() {
+fn the_gpu_tube_and_stroke_passes_compose_and_validate() {
     use super::PASS_SHADERS;
-    let (name, source) = PASS_SHADERS
-        .iter()
-        .find(|(n, _)| *n == "gpu_tubes.wesl")
-        .expect("gpu_tubes.wesl is listed");
-    let module = compose_and_validate(name, source, &[]).unwrap_or_else(|e| panic!("{e}"));
-    let entry = module
-        .entry_points
-        .iter()
-        .find(|e| e.name == "build")
-        .expect("the build entry point");
-    assert_eq!(entry.stage, naga::ShaderStage::Compute);
-    assert_eq!(entry.workgroup_size, [64, 1, 1]);
-    // Its bindings are the ones gpu_tubes.rs lays out: a uniform, three read-only storage
-    // buffers and the vertex slab.
-    let bindings: Vec<u32> = module
-        .global_variables
-        .iter()
-        .filter_map(|(_, g)| g.binding.as_ref().map(|b| b.binding))
-        .collect();
-    assert_eq!(bindings, [0, 1, 2, 3, 4]);
+    // Each pass's bindings are the ones gpu_tubes.rs and gpu_strokes.rs lay out: the tube pass
+    // a uniform, three read-only storage buffers, the vertex slab and the ring frames it
+    // writes; the stroke pass a uniform, the strands, sections and frames, and the stroke slab.
+    for (file, bindings) in [
+        ("gpu_tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
+        ("gpu_strokes.wesl", &[0, 1, 2, 3, 4][..]),
+    ] {
+        let (name, source) = PASS_SHADERS
+            .iter()
+            .find(|(n, _)| *n == file)
+            .unwrap_or_else(|| panic!("{file} is listed"));
+        let module = compose_and_validate(name, source, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let entry = module
+            .entry_points
+            .iter()
+            .find(|e| e.name == "build")
+            .expect("the build entry point");
+        assert_eq!(entry.stage, naga::ShaderStage::Compute);
+        assert_eq!(entry.workgroup_size, [64, 1, 1]);
+        let found: Vec<u32> = module
+            .global_variables
+            .iter()
+            .filter_map(|(_, g)| g.binding.as_ref().map(|b| b.binding))
+            .collect();
+        assert_eq!(found, bindings, "{file}");
+    }
 }
 
 #[test]

@@ -21,12 +21,14 @@
 
 pub mod adjacency;
 pub mod chain;
+pub mod gpu_jobs;
 pub mod strip;
 pub mod strokes;
 #[cfg(test)]
 mod tests;
 pub mod tube_edges;
 
+pub use gpu_jobs::{GpuStrokeJob, GpuStrokeJobs};
 pub use strokes::{
     ComputedSilhouettes, HairStrokes, HairStrokesOf, SilhouetteCamera, SilhouetteSettings,
     StrokePrepass, StrokeScope, extract_silhouettes, sync_stroke_prepasses,

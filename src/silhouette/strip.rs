@@ -145,6 +145,17 @@ impl StrokeCamera {
         self.half_viewport * 2.0
     }
 
+    /// Clip from world (the view-projection matrix).
+    pub fn view_proj(&self) -> Mat4 {
+        self.view_proj
+    }
+
+    /// The world-space (homogeneous) offsets of one pixel along screen x and y, per unit clip
+    /// `w`: zero for a singular camera.
+    pub fn unproject(&self) -> (Vec4, Vec4) {
+        (self.unproject_x, self.unproject_y)
+    }
+
     /// `p` in pixels from the viewport centre (`y` up) and its clip `w`.
     pub fn project(&self, p: Vec3) -> (Vec2, f32) {
         let clip = self.view_proj * p.extend(1.0);

@@ -22,12 +22,15 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::adjacency::SilhouetteScratch;
 use super::chain::{SilhouetteChains, chain_edges};
+use super::gpu_jobs::{GpuStrokeJob, GpuStrokeJobs, gpu_stroke_mesh};
 use super::strip::{StrokeCamera, StrokeParams, StrokeVertices, build_chain_strip};
 use super::tube_edges::{TubeEdgeScratch, TubeEdges};
 use crate::curve::QuadraticCurve;
 use crate::math::finite_or;
 use crate::mesh::culling::seen_by_any;
-use crate::mesh::{ComputedHairMesh, HairInView, HairMeshSettings, StripBuffers};
+use crate::mesh::{
+    ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, StripBuffers,
+};
 use crate::sim::Hair;
 
 /// Object-space outline strokes of a hair (thesis 4.3.7). A component on the [`Hair`] entity,
@@ -191,6 +194,9 @@ pub struct StrokeView {
     pub entities: Vec<Entity>,
     /// The render layer the entities are on (`None`: the default layers, with one camera).
     pub layer: Option<usize>,
+    /// The strands, rings and sides of the GPU's stroke mesh the first mesh holds, while the
+    /// GPU builds these strokes (see [`gpu_jobs`](super::gpu_jobs)).
+    pub gpu_layout: Option<(usize, usize, usize)>,
 }
 
 /// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread
@@ -238,7 +244,8 @@ impl StrokeWorker {
     }
 }
 
-/// Finds each strand's silhouette edges for the camera, chains them, and rebuilds the stroke mesh.
+/// Finds each strand's silhouette edges for the camera, chains them, and rebuilds the stroke mesh;
+/// for a hair whose tubes the GPU builds, hands the GPU its strokes instead ([`GpuStrokeJobs`]).
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -254,6 +261,8 @@ pub fn extract_silhouettes(
             &ComputedHairMesh,
             Option<&mut ComputedSilhouettes>,
             &HairInView,
+            Has<HairMeshBuiltOnGpu>,
+            Option<&mut GpuStrokeJobs>,
         ),
         With<Hair>,
     >,
@@ -309,7 +318,23 @@ pub fn extract_silhouettes(
         }
     }
     let pool = crate::parallel::compute_pool();
-    for (hair, settings, mesh_settings, hair_mesh, computed, in_view) in &mut hairs {
+    for (hair, settings, mesh_settings, hair_mesh, computed, in_view, on_gpu, gpu_jobs) in
+        &mut hairs
+    {
+        let mut jobs = match gpu_jobs {
+            Some(jobs) => Some(jobs),
+            None => {
+                if on_gpu {
+                    commands.entity(hair).try_insert(GpuStrokeJobs::default());
+                }
+                None
+            }
+        };
+        if let Some(jobs) = jobs.as_mut()
+            && !jobs.0.is_empty()
+        {
+            jobs.0.clear();
+        }
         let topology = &hair_mesh.topology;
         let tube = TubeEdges::new(topology);
         let mut computed = match computed {
@@ -378,21 +403,28 @@ pub fn extract_silhouettes(
                 camera.clip_from_view(),
                 Vec2::new(viewport.x as f32, viewport.y as f32),
             );
-            let Some(positions) = meshes
-                .get(&hair_mesh.mesh)
-                .and_then(|m| m.attribute(Mesh::ATTRIBUTE_POSITION))
-                .and_then(|a| a.as_float3())
-            else {
-                continue;
+            // The GPU builds the strokes of GPU-built tubes into one mesh a camera; the CPU
+            // builds the others from the tube mesh, in blocks.
+            let blocks = if on_gpu {
+                1
+            } else {
+                let Some(positions) = meshes
+                    .get(&hair_mesh.mesh)
+                    .and_then(|m| m.attribute(Mesh::ATTRIBUTE_POSITION))
+                    .and_then(|a| a.as_float3())
+                else {
+                    continue;
+                };
+                computed.chains += builder.build(
+                    pool,
+                    positions,
+                    &computed.tube,
+                    &computed.along,
+                    &stroke_camera,
+                    &params,
+                );
+                builder.blocks()
             };
-            computed.chains += builder.build(
-                pool,
-                positions,
-                &computed.tube,
-                &computed.along,
-                &stroke_camera,
-                &params,
-            );
             let computed = &mut *computed;
             let index = match computed
                 .views
@@ -406,13 +438,14 @@ pub fn extract_silhouettes(
                         meshes: Vec::new(),
                         entities: Vec::new(),
                         layer: None,
+                        gpu_layout: None,
                     });
                     computed.views.len() - 1
                 }
             };
             let view = &mut computed.views[index];
             // One stroke entity per block.
-            while view.meshes.len() < builder.blocks() {
+            while view.meshes.len() < blocks {
                 let mesh = meshes.add(StripBuffers::empty_mesh(true));
                 let mut entity = commands.spawn((
                     Name::new("hair strokes"),
@@ -438,6 +471,31 @@ pub fn extract_silhouettes(
                     };
                 }
             }
+            if on_gpu {
+                let layout = (hair_mesh.strands, topology.rings(), topology.sides());
+                if view.gpu_layout != Some(layout) {
+                    // Once: the first mesh takes the GPU's topology, the others are emptied.
+                    view.gpu_layout = Some(layout);
+                    for (w, handle) in view.meshes.iter().enumerate() {
+                        if let Some(mut mesh) = meshes.get_mut(handle) {
+                            *mesh = if w == 0 {
+                                gpu_stroke_mesh(layout.0, layout.1, layout.2)
+                            } else {
+                                StripBuffers::empty_mesh(true)
+                            };
+                        }
+                    }
+                }
+                if let Some(jobs) = jobs.as_mut() {
+                    jobs.0.push(GpuStrokeJob {
+                        mesh: view.meshes[0].id(),
+                        camera: stroke_camera,
+                        params,
+                    });
+                }
+                continue;
+            }
+            view.gpu_layout = None;
             for (w, handle) in view.meshes.iter().enumerate() {
                 if let Some(mut mesh) = meshes.get_mut(handle) {
                     builder.swap_into_mesh(w, &mut mesh);

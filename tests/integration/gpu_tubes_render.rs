@@ -12,12 +12,19 @@ use libtest_mimic::Failed;
 
 use crate::mass_render::spawn_still_hair;
 use crate::ring_render::spikes;
+use crate::silhouette_render::{is_ink, scene as silhouette_scene, spawn as spawn_stroked};
 use crate::toon_render::{BACKGROUND, ramps, save, scene};
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "gpu_built_tubes_draw_what_the_cpu_builds",
-    gpu_built_tubes_draw_what_the_cpu_builds,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "gpu_built_tubes_draw_what_the_cpu_builds",
+        gpu_built_tubes_draw_what_the_cpu_builds,
+    ),
+    (
+        "gpu_built_strokes_ink_where_the_cpus_do",
+        gpu_built_strokes_ink_where_the_cpus_do,
+    ),
+];
 
 /// Pixels whose colour differs by more than `tolerance` in a channel.
 fn differing(a: &CapturedFrame, b: &CapturedFrame, tolerance: u8) -> usize {
@@ -145,4 +152,112 @@ fn gpu_built_tubes_draw_what_the_cpu_builds() -> Result<(), Failed> {
         return Err(format!("turned, {diff_back} px differ between GPU and CPU tubes").into());
     }
     Ok(())
+}
+
+/// Of the pixels where `a` has ink, the share with ink of `b` within `reach` pixels.
+fn ink_covered(a: &CapturedFrame, b: &CapturedFrame, reach: i32) -> (usize, f32) {
+    let (w, h) = (a.width as i32, a.height as i32);
+    let (mut ink, mut covered) = (0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            if !is_ink(a.pixel(x as u32, y as u32)) {
+                continue;
+            }
+            ink += 1;
+            let near = (-reach..=reach).any(|dy| {
+                (-reach..=reach).any(|dx| {
+                    let (px, py) = (x + dx, y + dy);
+                    px >= 0 && py >= 0 && px < w && py < h && is_ink(b.pixel(px as u32, py as u32))
+                })
+            });
+            covered += usize::from(near);
+        }
+    }
+    (ink, covered as f32 / ink.max(1) as f32)
+}
+
+/// The same frame's strokes from the CPU (silhouette edges of the tube mesh, chained) and from
+/// the GPU (each ring's two contour points, swept into strips): a strand that folds back behind
+/// itself, every strand's outline and then the mass's, and a hair of 240 spiky strands. The GPU
+/// hands the strokes to the GPU (`GpuStrokeJobs`), and each picture's ink lies within 2 px of
+/// the other's: the two differ where the CPU outlines the root's cap (the GPU's strips stop at
+/// the last ring) and by up to a pixel along the sides (a contour interpolated between two
+/// ring sides against the mesh edge nearest to it).
+fn gpu_built_strokes_ink_where_the_cpus_do() -> Result<(), Failed> {
+    use bevy_cartoon_hair::silhouette::GpuStrokeJobs;
+    let mut r = silhouette_scene()?;
+    let mut points: Vec<Vec3> = (0..5)
+        .map(|i| Vec3::new(-1.0 + 0.45 * i as f32, 0.08, 0.3))
+        .collect();
+    points.push(Vec3::new(1.2, 0.0, 0.0));
+    points.extend((0..5).map(|i| Vec3::new(0.8 - 0.45 * i as f32, -0.08, -0.3)));
+    let hair = spawn_stroked(&mut r, points, 0.22);
+    let compare = |r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
+                   name: &str,
+                   hair: Entity|
+     -> Result<(), Failed> {
+        r.app.insert_resource(HairMeshBuilder::Cpu);
+        let cpu = r.capture()?;
+        save(&cpu, &format!("gpu_strokes_{name}_cpu"))?;
+        r.app.insert_resource(HairMeshBuilder::Gpu);
+        let gpu = r.capture()?;
+        save(&gpu, &format!("gpu_strokes_{name}_gpu"))?;
+        let jobs = r
+            .app
+            .world()
+            .get::<GpuStrokeJobs>(hair)
+            .map_or(0, |j| j.0.len());
+        if !r.app.world().entity(hair).contains::<HairMeshBuiltOnGpu>() || jobs != 1 {
+            return Err(format!("{name}: the GPU was given {jobs} stroke jobs, not 1").into());
+        }
+        let (cpu_ink, cpu_covered) = ink_covered(&cpu, &gpu, 2);
+        let (gpu_ink, gpu_covered) = ink_covered(&gpu, &cpu, 2);
+        eprintln!(
+            "{name}: CPU {cpu_ink} ink px ({:.1}% near GPU ink), GPU {gpu_ink} ({:.1}% near CPU \
+             ink)",
+            100.0 * cpu_covered,
+            100.0 * gpu_covered
+        );
+        if cpu_ink < 300
+            || !(0.8..1.25).contains(&(gpu_ink as f32 / cpu_ink as f32))
+            || cpu_covered < 0.9
+            || gpu_covered < 0.9
+        {
+            return Err(format!(
+                "{name}: CPU {cpu_ink} ink px, {cpu_covered:.3} near the GPU's; GPU {gpu_ink}, \
+                 {gpu_covered:.3} near the CPU's"
+            )
+            .into());
+        }
+        Ok(())
+    };
+    compare(&mut r, "fold_strands", hair)?;
+    r.app
+        .world_mut()
+        .get_mut::<SilhouetteSettings>(hair)
+        .ok_or("the hair is gone")?
+        .scope = StrokeScope::Mass;
+    compare(&mut r, "fold_mass", hair)?;
+    r.app.world_mut().despawn(hair);
+    // Spiky hair with the default strokes (the mass's outline), rhombic locks to a point.
+    let spiky = spawn_still_hair(
+        r.app.world_mut(),
+        spikes(),
+        ToonHairMaterial::default(),
+        HairMeshSettings {
+            radius: 0.03,
+            taper: QuadraticCurve::new(-1.5, 0.5, 1.0),
+            section: LockSection::Rhombus,
+            section_aspect: 0.5,
+            ..default()
+        },
+    );
+    r.app
+        .world_mut()
+        .entity_mut(spiky)
+        .insert(SilhouetteSettings {
+            color: Color::BLACK,
+            ..default()
+        });
+    compare(&mut r, "spiky_mass", spiky)
 }

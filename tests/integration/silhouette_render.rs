@@ -26,7 +26,7 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     ),
 ];
 
-fn scene() -> Result<HeadlessRenderer, Failed> {
+pub(crate) fn scene() -> Result<HeadlessRenderer, Failed> {
     let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
     r.app.add_plugins(CartoonHairPlugins);
     let target = r.target();
@@ -52,7 +52,7 @@ fn scene() -> Result<HeadlessRenderer, Failed> {
     Ok(r)
 }
 
-fn spawn(r: &mut HeadlessRenderer, points: Vec<Vec3>, radius: f32) -> Entity {
+pub(crate) fn spawn(r: &mut HeadlessRenderer, points: Vec<Vec3>, radius: f32) -> Entity {
     let world = r.app.world_mut();
     let groom = world
         .resource_mut::<Assets<HairGroom>>()
@@ -105,7 +105,7 @@ fn ink_runs(frame: &CapturedFrame, x: u32) -> usize {
 
 /// Darker than anything else in these scenes: the darkest hair band has a channel above 170 and
 /// the background is pure blue.
-fn is_ink(p: [u8; 4]) -> bool {
+pub(crate) fn is_ink(p: [u8; 4]) -> bool {
     p[0].max(p[1]).max(p[2]) < 110
 }
 
