@@ -5,18 +5,21 @@
 //! For each workload (W1, the thesis default; W6, a crowd of 16 heads with culling and level of
 //! detail; W2, 10,000 x 16 strands; `benches/common`), in one run:
 //!
-//! - `*/cpu_strokes`: today's frame with object-space strokes and specular quads (they read the
-//!   CPU's tubes, so such a hair is always built on the CPU);
-//! - `*/cpu`: the tubes on the CPU, no strokes (the clean and locks looks);
+//! - `*/cpu_strokes`: tubes, object-space strokes and specular quads built on the CPU (the
+//!   reference, and the fallback where the GPU cannot);
+//! - `*/gpu_strokes`: the same look built on the GPU (the default);
+//! - `*/cpu`: the tubes on the CPU, no strokes or quads (the clean and locks looks);
 //! - `*/gpu`: the same look with the tubes built on the GPU.
 //!
 //! `no_hair` is the same app without hair: the hair's share of a frame is the rest. Each
 //! iteration is `app.update()` and then what Bevy's extraction and preparation do on the
 //! CPU with it: for a CPU-built hair mesh, changed every frame, a copy of the mesh into the
 //! render world and its vertices interleaved and its indices copied into the bytes written to
-//! the GPU; for a GPU-built hair, a copy of its `GpuTubeInput` and its particles, strands and
-//! sections written into the bytes sent. The bytes sent a frame are printed. There is no GPU
-//! here: the compute pass itself is not timed.
+//! the GPU, and the same for its stroke and highlight meshes; for a GPU-built hair, a copy of
+//! its `GpuTubeInput` and its particles, strands, sections and the uniforms of its tube,
+//! stroke and highlight passes written into the bytes sent (its stroke and highlight meshes do
+//! not change on the CPU, so Bevy sends nothing for them). The bytes sent a frame are printed.
+//! There is no GPU here: the compute passes themselves are not timed.
 #![expect(
     missing_docs,
     reason = "criterion's macros define undocumented functions"
@@ -28,15 +31,17 @@ use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
+use bevy::render::render_resource::ShaderType;
 use bevy::time::TimeUpdateStrategy;
 use bevy_cartoon_hair::HairSchedulePlugin;
 use bevy_cartoon_hair::asset::HairAssetPlugin;
-use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
+use bevy_cartoon_hair::mesh::highlights::{HairHighlightsOf, SpecularQuads};
 use bevy_cartoon_hair::mesh::{HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin};
 use bevy_cartoon_hair::render::{
-    GpuTubeInput, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
+    GpuHighlightParams, GpuStrokeParams, GpuTubeInput, GpuTubeParams, GpuTubesPlugin,
+    HairGpuMeshSupport, HairMeshBuilder,
 };
-use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, SilhouetteSettings};
+use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, HairStrokesOf, SilhouetteSettings};
 use bevy_cartoon_hair::sim::HairSimulationPlugin;
 use common::{Head, bench_camera, minimal_plugins};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -45,6 +50,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Build {
     CpuStrokes,
+    GpuStrokes,
     Cpu,
     Gpu,
 }
@@ -66,7 +72,7 @@ fn app(heads: &[Head], build: Build) -> App {
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
         1.0 / 60.0,
     )))
-    .insert_resource(if build == Build::Gpu {
+    .insert_resource(if matches!(build, Build::Gpu | Build::GpuStrokes) {
         HairMeshBuilder::Gpu
     } else {
         HairMeshBuilder::Cpu
@@ -77,7 +83,7 @@ fn app(heads: &[Head], build: Build) -> App {
         reason: None,
     });
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
-    let strokes = build == Build::CpuStrokes;
+    let strokes = matches!(build, Build::CpuStrokes | Build::GpuStrokes);
     for head in heads {
         let world = app.world_mut();
         let hair = common::spawn_head(world, head);
@@ -119,7 +125,11 @@ fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
                 staging.extend(u.to_le_bytes());
             }
         }
-        staging.extend([0u8; 176]);
+        // The passes' uniforms.
+        let uniforms = GpuTubeParams::min_size().get()
+            + copy.strokes.len() as u64 * GpuStrokeParams::min_size().get()
+            + u64::from(copy.highlights.is_some()) * GpuHighlightParams::min_size().get();
+        staging.extend(std::iter::repeat_n(0u8, uniforms as usize));
     }
     // CPU-built hairs in view: their meshes changed this frame and are sent whole.
     let mut hairs = world.query::<(
@@ -140,9 +150,27 @@ fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
             staging.extend(copy.get_index_buffer_bytes().unwrap_or_default());
         }
     }
-    // Strokes and highlights are meshes of their own, rebuilt every frame.
-    let mut strips = world.query_filtered::<&Mesh3d, Without<HairMeshOf>>();
-    let strip_meshes: Vec<_> = strips.iter(world).map(|m| m.0.clone()).collect();
+    // Strokes and highlights are meshes of their own, rebuilt every frame on the CPU.
+    let mut strips = world.query_filtered::<(
+        &Mesh3d,
+        Option<&HairStrokesOf>,
+        Option<&HairHighlightsOf>,
+    ), Without<HairMeshOf>>();
+    let owners: Vec<_> = strips
+        .iter(world)
+        .map(|(m, s, h)| (m.0.clone(), s.map(|s| s.0).or(h.map(|h| h.0))))
+        .collect();
+    let strip_meshes: Vec<_> = owners
+        .into_iter()
+        .filter(|(_, owner)| {
+            !owner.is_some_and(|o| {
+                world
+                    .get::<bevy_cartoon_hair::mesh::HairMeshBuiltOnGpu>(o)
+                    .is_some()
+            })
+        })
+        .map(|(m, _)| m)
+        .collect();
     let assets = world.resource::<Assets<Mesh>>();
     for handle in strip_meshes {
         if let Some(mesh) = assets.get(&handle) {
@@ -167,6 +195,7 @@ fn bench_frame_build(c: &mut Criterion) {
         group.sample_size(samples);
         for (build, label) in [
             (Build::CpuStrokes, "cpu_strokes"),
+            (Build::GpuStrokes, "gpu_strokes"),
             (Build::Cpu, "cpu"),
             (Build::Gpu, "gpu"),
         ] {

@@ -16,8 +16,10 @@
 //!   (`silhouettes/plugin_2_threads_*`) and the general closed-mesh path beside the tube one.
 //! - `tam/*`: generating the thesis's default tonal art map (6 tones, 512 px, 3 mips, 78 strokes,
 //!   10 candidates).
-//! - `frame/*`: the whole `app.update()` with every CPU stage of the hair on (simulation, tube
-//!   mesh, object-space strokes for a 1280x720 camera, specular quads), each beside the same app
+//! - `frame/*`: the whole `app.update()` with every stage of the hair on (simulation, tube
+//!   mesh, object-space strokes for a 1280x720 camera, specular quads), the tubes, strokes and
+//!   quads built where the plugin builds them by default (on the GPU: the CPU gathers the
+//!   passes' inputs; `frame_build` has the CPU path beside it), each beside the same app
 //!   without hair (`*_no_hair`): W1, the thesis default (100 x 6, 8 rings x 8 sides); W6, a
 //!   crowd of 16 heads of 160 x 7 at 2 to 24.5 m, half of them behind the camera, with culling
 //!   and level of detail and with both off; W2, 10,000 x 16 on one hair. There is no render app here (no GPU on the
@@ -699,6 +701,12 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
     use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
     use bevy_cartoon_hair::silhouette::SilhouetteSettings;
     let mut app = stages_app();
+    // No render device here: say the GPU path is there, as on any desktop adapter.
+    app.add_plugins(bevy_cartoon_hair::render::GpuTubesPlugin)
+        .insert_resource(bevy_cartoon_hair::render::HairGpuMeshSupport {
+            supported: true,
+            reason: None,
+        });
     for head in heads {
         let world = app.world_mut();
         let hair = common::spawn_head(world, head);

@@ -6,12 +6,21 @@
 //! strip. The thesis placed these strips on the strand's axis, where the strand itself hid them;
 //! here they sit on the tube's surface at `N*` and are pulled a little toward the camera, so they
 //! show on the hair where its highlight is.
+//!
+//! For a hair whose tubes the GPU builds ([`HairMeshBuiltOnGpu`](super::HairMeshBuiltOnGpu)),
+//! the strips are built on the GPU too: [`build_specular_quads`] gives the hair a mesh of fixed
+//! topology ([`gpu_highlight_mesh`]) and a [`GpuHighlightJob`], and the render plugin's pass
+//! samples each strand at its rings (the tube's own spline samples, so [`SpecularQuads::samples`]
+//! is not used there) with the same test and placement.
 
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::prelude::*;
 
+use bevy::asset::RenderAssetUsages;
+use bevy::mesh::{Indices, PrimitiveTopology};
+
 use super::tube::sample_spline;
-use super::{ComputedHairMesh, HairMeshSettings, StripBuffers};
+use super::{ComputedHairMesh, HairMeshBuiltOnGpu, HairMeshSettings, StripBuffers};
 use crate::sim::{Hair, HairStrands, Strand, StrandParticles};
 
 /// Specular sampling quads of a hair. Off by default; inserted with defaults when missing.
@@ -54,6 +63,46 @@ pub struct HairHighlightsOf(pub Entity);
 #[reflect(Component, Debug, Default)]
 #[relationship_target(relationship = HairHighlightsOf, linked_spawn)]
 pub struct HairHighlights(Vec<Entity>);
+
+/// The highlight strips of a hair to build on the GPU this frame (see the module docs); on the
+/// [`Hair`] entity, `None` inside while the CPU builds them or none are shown.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct GpuHighlightJob(pub Option<GpuHighlights>);
+
+/// What the GPU needs to build a hair's highlight strips.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuHighlights {
+    /// The mesh the GPU fills ([`gpu_highlight_mesh`]).
+    pub mesh: AssetId<Mesh>,
+    /// The eye.
+    pub eye: Vec3,
+    /// The direction toward the light.
+    pub to_light: Vec3,
+    /// The settings.
+    pub settings: SpecularQuads,
+}
+
+/// Vertices of a GPU-built highlight mesh: a quad per ring segment of every strand.
+pub fn gpu_highlight_vertex_count(strands: usize, rings: usize) -> usize {
+    strands * rings.saturating_sub(1) * 4
+}
+
+/// A highlight mesh the GPU fills ([`gpu_highlight_vertex_count`]): positions, +Z normals and
+/// UVs (zero until the GPU writes them) and the fixed triangles of every quad.
+pub fn gpu_highlight_mesh(strands: usize, rings: usize) -> Mesh {
+    let vertices = gpu_highlight_vertex_count(strands, rings);
+    let indices: Vec<u32> = (0..vertices as u32 / 4)
+        .flat_map(|q| [0, 1, 2, 1, 3, 2].map(|i| q * 4 + i))
+        .collect();
+    Mesh::new(
+        PrimitiveTopology::TriangleList,
+        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
+    )
+    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; vertices])
+    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 0.0, 1.0]; vertices])
+    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, vec![[0.0f32; 2]; vertices])
+    .with_inserted_indices(Indices::U32(indices))
+}
 
 /// Runs of consecutive indices whose value exceeds `threshold` (at least two samples each).
 pub fn highlight_runs(values: &[f32], threshold: f32, out: &mut Vec<(usize, usize)>) {
@@ -180,7 +229,7 @@ impl HighlightBuilder {
 pub fn build_specular_quads(
     mut commands: Commands,
     mut meshes: ResMut<Assets<Mesh>>,
-    hairs: Query<
+    mut hairs: Query<
         (
             Entity,
             &SpecularQuads,
@@ -189,9 +238,12 @@ pub fn build_specular_quads(
             Option<&HairHighlights>,
             &super::HairInView,
             &super::HairLodLevel,
+            &ComputedHairMesh,
+            Option<&mut GpuHighlightJob>,
         ),
         (With<Hair>, With<ComputedHairMesh>),
     >,
+    on_gpu: Query<(), With<HairMeshBuiltOnGpu>>,
     strands: Query<(&Strand, &StrandParticles)>,
     highlight_meshes: Query<&Mesh3d, With<HairHighlightsOf>>,
     mut visibility: Query<&mut Visibility, With<HairHighlightsOf>>,
@@ -208,7 +260,24 @@ pub fn build_specular_quads(
         .next()
         .map(|t| t.back().as_vec3())
         .unwrap_or(Vec3::Y);
-    for (hair, settings, mesh_settings, strand_list, highlights, in_view, lod) in &hairs {
+    for (hair, settings, mesh_settings, strand_list, highlights, in_view, lod, computed, job) in
+        &mut hairs
+    {
+        let gpu = on_gpu.contains(hair);
+        let mut job = match job {
+            Some(job) => Some(job),
+            None => {
+                if gpu {
+                    commands.entity(hair).try_insert(GpuHighlightJob::default());
+                }
+                None
+            }
+        };
+        if let Some(job) = job.as_mut()
+            && job.0.is_some()
+        {
+            job.0 = None;
+        }
         let existing = highlights.and_then(|h| h.iter().next());
         // Hair no camera sees gets no quads (see `culling`), nor hair at level of detail 2 or
         // coarser (see `lod`).
@@ -225,7 +294,7 @@ pub fn build_specular_quads(
         let (Some(eye), true) = (eye, shown) else {
             continue;
         };
-        let handle = match existing.and_then(|e| highlight_meshes.get(e).ok()) {
+        let handle: Handle<Mesh> = match existing.and_then(|e| highlight_meshes.get(e).ok()) {
             Some(m) => m.0.clone(),
             None => {
                 if existing.is_none() {
@@ -241,6 +310,25 @@ pub fn build_specular_quads(
                 continue;
             }
         };
+        if gpu {
+            // The GPU's mesh has a quad per ring segment; made once for each topology.
+            let rings = computed.topology.rings();
+            let count = gpu_highlight_vertex_count(computed.strands, rings);
+            if meshes.get(&handle).map(Mesh::count_vertices) != Some(count)
+                && let Some(mut mesh) = meshes.get_mut(&handle)
+            {
+                *mesh = gpu_highlight_mesh(computed.strands, rings);
+            }
+            if let Some(job) = job.as_mut() {
+                job.0 = Some(GpuHighlights {
+                    mesh: handle.id(),
+                    eye,
+                    to_light,
+                    settings: settings.clone(),
+                });
+            }
+            continue;
+        }
         builder.clear();
         // Level 1 of detail samples each strand half as often.
         let settings = &SpecularQuads {

@@ -37,10 +37,15 @@ use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQue
 use bevy::render::sync_component::SyncComponent;
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 
+use super::gpu_highlights::{
+    GpuHighlightBuffers, GpuHighlightInput, GpuHighlightPipeline, highlight_input,
+    init_gpu_highlight_pipeline,
+};
 use super::gpu_strokes::{
     GpuStrokeBuffers, GpuStrokeInput, GpuStrokePipeline, HairGpuBuffers, init_gpu_stroke_pipeline,
     stroke_input,
 };
+use crate::mesh::highlights::GpuHighlightJob;
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
     LockSection, SectionSide, fill_section, mass_field,
@@ -140,6 +145,8 @@ pub struct GpuTubeInput {
     pub sections: Vec<Vec4>,
     /// The strokes to build from the tubes, one a camera.
     pub strokes: Vec<GpuStrokeInput>,
+    /// The specular quads to build from the tubes.
+    pub highlights: Option<GpuHighlightInput>,
 }
 
 impl SyncComponent<RenderApp> for GpuTubeInput {
@@ -166,6 +173,7 @@ pub struct GpuTubeBuffers {
     /// The ring frames the pass writes for the stroke passes (GPU only).
     frames: Option<Buffer>,
     strokes: GpuStrokeBuffers,
+    highlights: GpuHighlightBuffers,
     /// This frame's bind group and strand count; `None` when the mesh is not allocated yet.
     ready: Option<(BindGroup, u32)>,
 }
@@ -179,6 +187,7 @@ impl Plugin for GpuTubesPlugin {
     fn build(&self, app: &mut App) {
         bevy::asset::embedded_asset!(app, "gpu_tubes.wesl");
         bevy::asset::embedded_asset!(app, "gpu_strokes.wesl");
+        bevy::asset::embedded_asset!(app, "gpu_highlights.wesl");
         app.init_resource::<HairMeshBuilder>()
             .init_resource::<HairGpuMeshSupport>()
             .register_type::<HairMeshBuilder>()
@@ -198,7 +207,11 @@ impl Plugin for GpuTubesPlugin {
         render_app
             .add_systems(
                 RenderStartup,
-                (init_gpu_tube_pipeline, init_gpu_stroke_pipeline),
+                (
+                    init_gpu_tube_pipeline,
+                    init_gpu_stroke_pipeline,
+                    init_gpu_highlight_pipeline,
+                ),
             )
             .add_systems(
                 Render,
@@ -309,7 +322,7 @@ fn gather_gpu_tube_inputs(
             &HairInView,
             &GlobalTransform,
             Has<HairMeshBuiltOnGpu>,
-            Option<&GpuStrokeJobs>,
+            (Option<&GpuStrokeJobs>, Option<&GpuHighlightJob>),
         ),
         With<Hair>,
     >,
@@ -320,7 +333,9 @@ fn gather_gpu_tube_inputs(
     mut tables: Local<(Vec<LockSection>, Vec<SectionSide>)>,
 ) {
     let (kinds, table) = &mut *tables;
-    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, jobs) in &hairs {
+    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, (jobs, quads)) in
+        &hairs
+    {
         let offsets = meshes.get(&computed.mesh).and_then(|mesh| {
             vertex_offsets(
                 mesh,
@@ -365,6 +380,9 @@ fn gather_gpu_tube_inputs(
                 .flat_map(|j| &j.0)
                 .filter_map(|job| stroke_input(job, &meshes, rings, sides, computed.strands)),
         );
+        input.highlights = quads
+            .and_then(|q| q.0.as_ref())
+            .and_then(|job| highlight_input(job, &meshes, rings, computed.strands));
         input.strands.clear();
         input.particles.clear();
         input.sections.clear();
@@ -476,20 +494,20 @@ fn init_gpu_tube_pipeline(
 
 /// Uploads each hair's particles and makes its bind group over its mesh's vertex slab, then its
 /// stroke passes' bind groups.
-#[expect(
-    clippy::too_many_arguments,
-    reason = "a Bevy system: its parameters are its queries"
-)]
 fn prepare_gpu_tubes(
     mut commands: Commands,
     mut inputs: Query<(Entity, &mut GpuTubeInput, Option<&mut GpuTubeBuffers>)>,
     mesh_allocator: Res<MeshAllocator>,
-    pipeline: Res<GpuTubePipeline>,
-    stroke_pipeline: Res<GpuStrokePipeline>,
+    pipelines: (
+        Res<GpuTubePipeline>,
+        Res<GpuStrokePipeline>,
+        Res<GpuHighlightPipeline>,
+    ),
     pipeline_cache: Res<PipelineCache>,
     device: Res<RenderDevice>,
     queue: Res<RenderQueue>,
 ) {
+    let (pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
     for (entity, mut input, buffers) in &mut inputs {
         // A new hair mesh gets its buffers now and is built from the next frame on.
         let Some(mut buffers) = buffers else {
@@ -499,6 +517,7 @@ fn prepare_gpu_tubes(
         let buffers = &mut *buffers;
         buffers.ready = None;
         buffers.strokes.ready.clear();
+        buffers.highlights.ready = None;
         let params = input.params;
         let per_strand = params.rings * params.sides + 2;
         let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
@@ -566,16 +585,24 @@ fn prepare_gpu_tubes(
             &stroke_pipeline,
             &pipeline_cache,
         );
+        buffers.highlights.prepare(
+            input.highlights.as_ref(),
+            frames,
+            (&device, &queue, &mesh_allocator),
+            &highlight_pipeline,
+            &pipeline_cache,
+        );
     }
 }
 
-/// Runs the tube pass of every hair ready this frame, then their stroke passes, before any
-/// camera draws.
+/// Runs the tube pass of every hair ready this frame, then their stroke and highlight passes,
+/// before any camera draws.
 fn build_gpu_tubes(
     mut render_context: RenderContext,
     hairs: Query<&GpuTubeBuffers>,
     pipeline: Res<GpuTubePipeline>,
     stroke_pipeline: Res<GpuStrokePipeline>,
+    highlight_pipeline: Res<GpuHighlightPipeline>,
     pipeline_cache: Res<PipelineCache>,
 ) {
     let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.pipeline) else {
@@ -596,21 +623,27 @@ fn build_gpu_tubes(
         pass.set_bind_group(0, bind_group, &[]);
         pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
     }
-    // The strokes read the frames the tube passes wrote (wgpu orders the dispatches).
-    let Some(strokes) = pipeline_cache.get_compute_pipeline(stroke_pipeline.pipeline) else {
-        return;
-    };
-    let mut ready = hairs
-        .iter()
-        .filter(|b| b.ready.is_some())
-        .flat_map(|b| &b.strokes.ready)
-        .peekable();
-    if ready.peek().is_none() {
-        return;
-    }
-    pass.set_pipeline(strokes);
-    for (bind_group, strands) in ready {
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
+    // Strokes and highlights read the frames the tube passes wrote (wgpu orders the
+    // dispatches).
+    let built = || hairs.iter().filter(|b| b.ready.is_some());
+    let strokes: Vec<_> = built().flat_map(|b| &b.strokes.ready).collect();
+    let highlights: Vec<_> = built()
+        .filter_map(|b| b.highlights.ready.as_ref())
+        .collect();
+    for (id, groups) in [
+        (stroke_pipeline.pipeline, strokes),
+        (highlight_pipeline.pipeline, highlights),
+    ] {
+        let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {
+            continue;
+        };
+        if groups.is_empty() {
+            continue;
+        }
+        pass.set_pipeline(compute);
+        for (bind_group, strands) in groups {
+            pass.set_bind_group(0, bind_group, &[]);
+            pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
+        }
     }
 }

@@ -13,6 +13,7 @@ use crate::schedule::HairSystems;
 use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
+mod gpu_highlights;
 mod gpu_strokes;
 mod gpu_tubes;
 mod outline;
@@ -28,6 +29,7 @@ pub use fringe_shadow::{
     FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
     FringeShadowUniform,
 };
+pub use gpu_highlights::{GpuHighlightInput, GpuHighlightParams};
 pub use gpu_strokes::{GpuStrokeInput, GpuStrokeParams};
 pub use gpu_tubes::{
     GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
@@ -65,6 +67,7 @@ pub const PASS_SHADERS: &[(&str, &str)] = &[
     ("outline.wesl", include_str!("outline/outline.wesl")),
     ("gpu_tubes.wesl", include_str!("gpu_tubes.wesl")),
     ("gpu_strokes.wesl", include_str!("gpu_strokes.wesl")),
+    ("gpu_highlights.wesl", include_str!("gpu_highlights.wesl")),
 ];
 
 /// Registers the crate's WESL library modules so materials can `import` them. Part of

@@ -329,14 +329,16 @@ fn every_toon_material_variant_composes_and_validates() {
 }
 
 #[test]
-fn the_gpu_tube_and_stroke_passes_compose_and_validate() {
+fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
     use super::PASS_SHADERS;
     // Each pass's bindings are the ones gpu_tubes.rs and gpu_strokes.rs lay out: the tube pass
     // a uniform, three read-only storage buffers, the vertex slab and the ring frames it
-    // writes; the stroke pass a uniform, the strands, sections and frames, and the stroke slab.
+    // writes; the stroke pass a uniform, the strands, sections and frames, and the stroke slab;
+    // the highlight pass a uniform, the frames and the highlight slab.
     for (file, bindings) in [
         ("gpu_tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
         ("gpu_strokes.wesl", &[0, 1, 2, 3, 4][..]),
+        ("gpu_highlights.wesl", &[0, 1, 2][..]),
     ] {
         let (name, source) = PASS_SHADERS
             .iter()

@@ -24,6 +24,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "gpu_built_strokes_ink_where_the_cpus_do",
         gpu_built_strokes_ink_where_the_cpus_do,
     ),
+    (
+        "gpu_built_highlights_shine_where_the_cpus_do",
+        gpu_built_highlights_shine_where_the_cpus_do,
+    ),
 ];
 
 /// Pixels whose colour differs by more than `tolerance` in a channel.
@@ -156,6 +160,17 @@ fn gpu_built_tubes_draw_what_the_cpu_builds() -> Result<(), Failed> {
 
 /// Of the pixels where `a` has ink, the share with ink of `b` within `reach` pixels.
 fn ink_covered(a: &CapturedFrame, b: &CapturedFrame, reach: i32) -> (usize, f32) {
+    covered(a, b, reach, is_ink)
+}
+
+/// Of the pixels of `a` that are `wanted`, the share with a wanted pixel of `b` within `reach`
+/// pixels.
+fn covered(
+    a: &CapturedFrame,
+    b: &CapturedFrame,
+    reach: i32,
+    is_ink: fn([u8; 4]) -> bool,
+) -> (usize, f32) {
     let (w, h) = (a.width as i32, a.height as i32);
     let (mut ink, mut covered) = (0, 0);
     for y in 0..h {
@@ -260,4 +275,66 @@ fn gpu_built_strokes_ink_where_the_cpus_do() -> Result<(), Failed> {
             ..default()
         });
     compare(&mut r, "spiky_mass", spiky)
+}
+
+/// Specular quads of a hair of 240 spiky strands, lit from above and in front, from the CPU
+/// (24 samples a strand) and from the GPU (a sample a ring, from the tube pass's frames): the
+/// highlight covers as many pixels within a factor of 1.5, and each picture's highlight pixels
+/// lie within 3 px of the other's (the samples fall at other places along the strands).
+fn gpu_built_highlights_shine_where_the_cpus_do() -> Result<(), Failed> {
+    use bevy_cartoon_hair::mesh::highlights::GpuHighlightJob;
+    let mut r = scene(Vec3::new(0.0, 1.0, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    let hair = spawn_still_hair(
+        r.app.world_mut(),
+        spikes(),
+        ToonHairMaterial::new(
+            ToonShading {
+                base_color: Color::srgb(0.4, 0.1, 0.1),
+                ..default()
+            },
+            ramp,
+        ),
+        HairMeshSettings {
+            radius: 0.06,
+            ..default()
+        },
+    );
+    r.app.world_mut().entity_mut(hair).insert(SpecularQuads {
+        enabled: true,
+        threshold: 0.3,
+        width: 1.0,
+        ..default()
+    });
+    let white = |p: [u8; 4]| p[..3].iter().all(|c| *c > 200);
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    let cpu = r.capture()?;
+    save(&cpu, "gpu_highlights_cpu")?;
+    r.app.insert_resource(HairMeshBuilder::Gpu);
+    let gpu = r.capture()?;
+    save(&gpu, "gpu_highlights_gpu")?;
+    let on_gpu = r
+        .app
+        .world()
+        .get::<GpuHighlightJob>(hair)
+        .is_some_and(|j| j.0.is_some());
+    if !on_gpu {
+        return Err("the GPU was given no highlight job".into());
+    }
+    let (cpu_px, cpu_near) = covered(&cpu, &gpu, 3, white);
+    let (gpu_px, gpu_near) = covered(&gpu, &cpu, 3, white);
+    eprintln!(
+        "highlights: CPU {cpu_px} px ({:.1}% near the GPU's), GPU {gpu_px} px ({:.1}% near the \
+         CPU's)",
+        100.0 * cpu_near,
+        100.0 * gpu_near
+    );
+    let ratio = gpu_px as f32 / cpu_px.max(1) as f32;
+    if cpu_px < 150 || !(0.67..1.5).contains(&ratio) || cpu_near < 0.8 || gpu_near < 0.8 {
+        return Err(format!(
+            "highlights: CPU {cpu_px} px ({cpu_near:.3} near), GPU {gpu_px} ({gpu_near:.3})"
+        )
+        .into());
+    }
+    Ok(())
 }

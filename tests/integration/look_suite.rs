@@ -11,9 +11,10 @@ use bevy_cartoon_hair::demo::{
     NinjaHairstyle, NinjaOrbit, NinjaScene, NinjaScenePlugin, ninja_scene_ready,
 };
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::mesh::HairMeshBuiltOnGpu;
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::preset::LOOKS;
-use bevy_cartoon_hair::render::HatchingMode;
+use bevy_cartoon_hair::render::{HairGpuMeshSupport, HairMeshBuilder, HatchingMode};
 use bevy_cartoon_hair::sim::ComputedHair;
 use libtest_mimic::Failed;
 
@@ -143,8 +144,13 @@ fn outlines(r: &mut HeadlessRenderer, on: bool, look: &HairPreset) {
 /// thesis's strokes; 83-99% and 0.0% for sketch's thinner, faded ones). The thesis look is
 /// also drawn with strokes of every strand ([`StrokeScope::Strands`]), which must ink more of
 /// the inside than the mass's (measured: 42-59%).
+///
+/// The hair, its strokes and quads are built where the plugin builds them by default (on the
+/// GPU where the adapter can, which is checked), or all on the CPU with `HAIR_MESH_BUILDER=cpu`
+/// (to compare the two).
 fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
     let mut failures = Vec::new();
+    let cpu = std::env::var_os("HAIR_MESH_BUILDER").is_some_and(|v| v == "cpu");
     // Every look on the spiky hair; the other hairstyles in the anime_locks look, or in every
     // look with HAIR_LOOK_SUITE_ALL=1 (tools/gallery.sh: the README's gallery).
     let all = std::env::var_os("HAIR_LOOK_SUITE_ALL").is_some_and(|v| v == "1");
@@ -176,6 +182,9 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
         ));
         r.app
             .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+        if cpu {
+            r.app.insert_resource(HairMeshBuilder::Cpu);
+        }
         r.warm_up(ninja_scene_ready)?;
         let world = r.app.world_mut();
         let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
@@ -191,6 +200,15 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
         }
         r.app
             .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+        let world = r.app.world_mut();
+        let supported = world.resource::<HairGpuMeshSupport>().supported;
+        let mut built = world.query::<(&Hair, Has<HairMeshBuiltOnGpu>)>();
+        let on_cpu = built.iter(world).filter(|(_, gpu)| !gpu).count();
+        if supported && !cpu && on_cpu > 0 {
+            failures.push(format!(
+                "{name}: {on_cpu} hairs built on the CPU by default"
+            ));
+        }
         let handle = r.app.world().resource::<NinjaScene>().hair_material.clone();
         for (view, yaw) in VIEWS {
             let world = r.app.world_mut();
