@@ -14,6 +14,10 @@
 //! rows; the results become bit masks per ring band, and each class of edge is the exclusive or
 //! of two masks. Tests check it against the general path edge for edge.
 //!
+//! [`gpu_jobs`]: for a hair whose tubes the GPU builds, the strokes are built on the GPU (the
+//! render plugin's stroke pass, from the tube pass's ring frames); this stage hands it one job
+//! a camera and a stroke mesh of fixed topology.
+//!
 //! [`strokes`] is the ECS side: [`SilhouetteSettings`] per hair, the [`extract_silhouettes`]
 //! system (blocks of strands shared out to threads, each block's strokes moved into a mesh of
 //! its own without a copy), and the stroke mesh entities (drawn by the render plugin with a textured, unlit,
