@@ -7,7 +7,7 @@
 //! here they sit on the tube's surface at `N*` and are pulled a little toward the camera, so they
 //! show on the hair where its highlight is.
 //!
-//! For a hair whose tubes the GPU builds ([`HairMeshBuiltOnGpu`](super::HairMeshBuiltOnGpu)),
+//! For a hair whose tubes the GPU builds ([`HairMeshBuiltOnGpu`]),
 //! the strips are built on the GPU too: [`build_specular_quads`] gives the hair a mesh of fixed
 //! topology ([`gpu_highlight_mesh`]) and a [`GpuHighlightJob`], and the render plugin's pass
 //! samples each strand at its rings (the tube's own spline samples, so [`SpecularQuads::samples`]
