@@ -16,9 +16,6 @@
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::prelude::*;
 
-use bevy::asset::RenderAssetUsages;
-use bevy::mesh::{Indices, PrimitiveTopology};
-
 use super::tube::sample_spline;
 use super::{ComputedHairMesh, HairMeshBuiltOnGpu, HairMeshSettings, StripBuffers};
 use crate::sim::{Hair, HairStrands, Strand, StrandParticles};
@@ -90,18 +87,7 @@ pub fn gpu_highlight_vertex_count(strands: usize, rings: usize) -> usize {
 /// A highlight mesh the GPU fills ([`gpu_highlight_vertex_count`]): positions, +Z normals and
 /// UVs (zero until the GPU writes them) and the fixed triangles of every quad.
 pub fn gpu_highlight_mesh(strands: usize, rings: usize) -> Mesh {
-    let vertices = gpu_highlight_vertex_count(strands, rings);
-    let indices: Vec<u32> = (0..vertices as u32 / 4)
-        .flat_map(|q| [0, 1, 2, 1, 3, 2].map(|i| q * 4 + i))
-        .collect();
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
-    )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 0.0, 1.0]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, vec![[0.0f32; 2]; vertices])
-    .with_inserted_indices(Indices::U32(indices))
+    StripBuffers::gpu_quads(gpu_highlight_vertex_count(strands, rings) / 4, false)
 }
 
 /// Runs of consecutive indices whose value exceeds `threshold` (at least two samples each).

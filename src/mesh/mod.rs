@@ -688,6 +688,30 @@ impl StripBuffers {
         }
     }
 
+    /// A mesh of `quads` separate quads that a compute pass fills (the GPU's strokes and
+    /// highlights): positions, +Z normals, UVs and, when `with_colors`, colours, all zero until
+    /// the GPU writes them, and each quad's two triangles (vertices `4q..4q + 4`: both ends'
+    /// left and right).
+    pub fn gpu_quads(quads: usize, with_colors: bool) -> Mesh {
+        let vertices = quads * 4;
+        let indices: Vec<u32> = (0..quads as u32)
+            .flat_map(|q| [0, 1, 2, 1, 3, 2].map(|i| q * 4 + i))
+            .collect();
+        let mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; vertices])
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 0.0, 1.0]; vertices])
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, vec![[0.0f32; 2]; vertices])
+        .with_inserted_indices(Indices::U32(indices));
+        if with_colors {
+            mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, vec![[0.0f32; 4]; vertices])
+        } else {
+            mesh
+        }
+    }
+
     /// Takes the buffers out of `mesh`, emptied (except the normals, which are constant).
     pub(crate) fn take(mesh: &mut Mesh) -> Self {
         let mut b = Self {

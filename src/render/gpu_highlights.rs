@@ -11,11 +11,12 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, Buffer,
-    CachedComputePipelineId, ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType,
-    UniformBuffer,
+    BindGroup, BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages,
+    ShaderType, UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
+
+use super::gpu_tubes::ComputePass;
 
 use crate::math::finite_or;
 use crate::mesh::highlights::{GpuHighlights, gpu_highlight_vertex_count};
@@ -99,11 +100,7 @@ pub fn highlight_input(
 
 /// The highlight pass's pipeline, made in `RenderStartup`.
 #[derive(Resource)]
-pub struct GpuHighlightPipeline {
-    layout: BindGroupLayoutDescriptor,
-    /// The pipeline.
-    pub pipeline: CachedComputePipelineId,
-}
+pub struct GpuHighlightPipeline(pub(super) ComputePass);
 
 /// Queues the highlight pass's pipeline.
 pub fn init_gpu_highlight_pipeline(
@@ -111,8 +108,9 @@ pub fn init_gpu_highlight_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let layout = BindGroupLayoutDescriptor::new(
-        "hair_gpu_highlights_layout",
+    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue(
+        &pipeline_cache,
+        "hair_gpu_highlights",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
@@ -121,15 +119,8 @@ pub fn init_gpu_highlight_pipeline(
                 storage_buffer_sized(false, None),
             ),
         ),
-    );
-    let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("hair_gpu_highlights".into()),
-        layout: vec![layout.clone()],
-        shader: load_embedded_asset!(asset_server.as_ref(), "gpu_highlights.wesl"),
-        entry_point: Some("build".into()),
-        ..default()
-    });
-    commands.insert_resource(GpuHighlightPipeline { layout, pipeline });
+        load_embedded_asset!(asset_server.as_ref(), "gpu_highlights.wesl"),
+    )));
 }
 
 /// A hair's highlight pass in the render world.
@@ -173,7 +164,7 @@ impl GpuHighlightBuffers {
         };
         let bind_group = device.create_bind_group(
             "hair_gpu_highlights",
-            &pipeline_cache.get_bind_group_layout(&pipeline.layout),
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
             &BindGroupEntries::sequential((
                 binding,
                 frames.as_entire_binding(),

@@ -13,11 +13,12 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, Buffer,
-    CachedComputePipelineId, ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType,
-    UniformBuffer,
+    BindGroup, BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages,
+    ShaderType, UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
+
+use super::gpu_tubes::ComputePass;
 
 use crate::silhouette::GpuStrokeJob;
 use crate::silhouette::adjacency::Viewer;
@@ -141,11 +142,7 @@ pub fn stroke_input(
 
 /// The stroke pass's pipeline, made in `RenderStartup`.
 #[derive(Resource)]
-pub struct GpuStrokePipeline {
-    layout: BindGroupLayoutDescriptor,
-    /// The pipeline.
-    pub pipeline: CachedComputePipelineId,
-}
+pub struct GpuStrokePipeline(pub(super) ComputePass);
 
 /// Queues the stroke pass's pipeline.
 pub fn init_gpu_stroke_pipeline(
@@ -153,8 +150,9 @@ pub fn init_gpu_stroke_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let layout = BindGroupLayoutDescriptor::new(
-        "hair_gpu_strokes_layout",
+    commands.insert_resource(GpuStrokePipeline(ComputePass::queue(
+        &pipeline_cache,
+        "hair_gpu_strokes",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
@@ -165,15 +163,8 @@ pub fn init_gpu_stroke_pipeline(
                 storage_buffer_sized(false, None),
             ),
         ),
-    );
-    let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("hair_gpu_strokes".into()),
-        layout: vec![layout.clone()],
-        shader: load_embedded_asset!(asset_server.as_ref(), "gpu_strokes.wesl"),
-        entry_point: Some("build".into()),
-        ..default()
-    });
-    commands.insert_resource(GpuStrokePipeline { layout, pipeline });
+        load_embedded_asset!(asset_server.as_ref(), "gpu_strokes.wesl"),
+    )));
 }
 
 /// A hair's stroke passes in the render world: a uniform a camera and this frame's bind groups.
@@ -230,7 +221,7 @@ impl GpuStrokeBuffers {
             };
             let bind_group = device.create_bind_group(
                 "hair_gpu_strokes",
-                &pipeline_cache.get_bind_group_layout(&pipeline.layout),
+                &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
                 &BindGroupEntries::sequential((
                     binding,
                     hair.strands.as_entire_binding(),

@@ -28,10 +28,10 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries, Buffer,
-    BufferDescriptor, BufferUsages, CachedComputePipelineId, ComputePassDescriptor,
-    ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType, StorageBuffer,
-    UniformBuffer,
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries,
+    BindGroupLayoutEntry, Buffer, BufferDescriptor, BufferUsages, CachedComputePipelineId,
+    ComputePassDescriptor, ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType,
+    StorageBuffer, UniformBuffer,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
 use bevy::render::sync_component::SyncComponent;
@@ -456,20 +456,45 @@ fn gather_gpu_tube_inputs(
     }
 }
 
-/// The compute pipeline, made in `RenderStartup`.
-#[derive(Resource)]
-struct GpuTubePipeline {
-    layout: BindGroupLayoutDescriptor,
-    pipeline: CachedComputePipelineId,
+/// A compute pass of the crate: its pipeline and bind group layout, queued in `RenderStartup`.
+pub(super) struct ComputePass {
+    pub layout: BindGroupLayoutDescriptor,
+    pub pipeline: CachedComputePipelineId,
 }
+
+impl ComputePass {
+    /// Queues the pass `name` (its entry point `build` in `shader`) with a bind group of
+    /// `entries`.
+    pub fn queue(
+        pipeline_cache: &PipelineCache,
+        name: &'static str,
+        entries: &[BindGroupLayoutEntry],
+        shader: Handle<Shader>,
+    ) -> Self {
+        let layout = BindGroupLayoutDescriptor::new(name, entries);
+        let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+            label: Some(name.into()),
+            layout: vec![layout.clone()],
+            shader,
+            entry_point: Some("build".into()),
+            ..default()
+        });
+        Self { layout, pipeline }
+    }
+}
+
+/// The tube pass.
+#[derive(Resource)]
+struct GpuTubePipeline(ComputePass);
 
 fn init_gpu_tube_pipeline(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let layout = BindGroupLayoutDescriptor::new(
-        "hair_gpu_tubes_layout",
+    commands.insert_resource(GpuTubePipeline(ComputePass::queue(
+        &pipeline_cache,
+        "hair_gpu_tubes",
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
@@ -481,15 +506,8 @@ fn init_gpu_tube_pipeline(
                 storage_buffer_sized(false, None),
             ),
         ),
-    );
-    let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-        label: Some("hair_gpu_tubes".into()),
-        layout: vec![layout.clone()],
-        shader: load_embedded_asset!(asset_server.as_ref(), "gpu_tubes.wesl"),
-        entry_point: Some("build".into()),
-        ..default()
-    });
-    commands.insert_resource(GpuTubePipeline { layout, pipeline });
+        load_embedded_asset!(asset_server.as_ref(), "gpu_tubes.wesl"),
+    )));
 }
 
 /// Uploads each hair's particles and makes its bind group over its mesh's vertex slab, then its
@@ -559,7 +577,7 @@ fn prepare_gpu_tubes(
         };
         let bind_group = device.create_bind_group(
             "hair_gpu_tubes",
-            &pipeline_cache.get_bind_group_layout(&pipeline.layout),
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
             &BindGroupEntries::sequential((
                 p,
                 s,
@@ -605,7 +623,7 @@ fn build_gpu_tubes(
     highlight_pipeline: Res<GpuHighlightPipeline>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.pipeline) else {
+    let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.0.pipeline) else {
         return;
     };
     let mut ready = hairs.iter().filter_map(|b| b.ready.as_ref()).peekable();
@@ -631,8 +649,8 @@ fn build_gpu_tubes(
         .filter_map(|b| b.highlights.ready.as_ref())
         .collect();
     for (id, groups) in [
-        (stroke_pipeline.pipeline, strokes),
-        (highlight_pipeline.pipeline, highlights),
+        (stroke_pipeline.0.pipeline, strokes),
+        (highlight_pipeline.0.pipeline, highlights),
     ] {
         let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {
             continue;

@@ -10,11 +10,10 @@
 //!
 //! [`HairMeshBuiltOnGpu`]: crate::mesh::HairMeshBuiltOnGpu
 
-use bevy::asset::RenderAssetUsages;
-use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 
 use super::strip::{StrokeCamera, StrokeParams};
+use crate::mesh::StripBuffers;
 
 /// One camera's strokes of a hair, to be built on the GPU this frame.
 #[derive(Clone, Debug, PartialEq)]
@@ -45,24 +44,13 @@ pub fn gpu_stroke_vertex_count(strands: usize, rings: usize, sides: usize) -> us
 /// A stroke mesh that the GPU fills ([`gpu_stroke_vertex_count`]): positions, +Z normals, UVs
 /// and colours (all zero until the GPU writes them) and the fixed triangles of every quad.
 pub fn gpu_stroke_mesh(strands: usize, rings: usize, sides: usize) -> Mesh {
-    let vertices = gpu_stroke_vertex_count(strands, rings, sides);
-    let indices: Vec<u32> = (0..vertices as u32 / 4)
-        .flat_map(|q| [0, 1, 2, 1, 3, 2].map(|i| q * 4 + i))
-        .collect();
-    Mesh::new(
-        PrimitiveTopology::TriangleList,
-        RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
-    )
-    .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 0.0, 1.0]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, vec![[0.0f32; 2]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, vec![[0.0f32; 4]; vertices])
-    .with_inserted_indices(Indices::U32(indices))
+    StripBuffers::gpu_quads(gpu_stroke_vertex_count(strands, rings, sides) / 4, true)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bevy::mesh::Indices;
 
     #[test]
     fn the_gpu_stroke_mesh_has_a_quad_per_segment_and_rim_edge() {

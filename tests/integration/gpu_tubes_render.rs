@@ -12,7 +12,9 @@ use libtest_mimic::Failed;
 
 use crate::mass_render::spawn_still_hair;
 use crate::ring_render::spikes;
-use crate::silhouette_render::{is_ink, scene as silhouette_scene, spawn as spawn_stroked};
+use crate::silhouette_render::{
+    fold_strand, is_ink, scene as silhouette_scene, spawn as spawn_stroked,
+};
 use crate::toon_render::{BACKGROUND, ramps, save, scene};
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
@@ -201,12 +203,7 @@ fn covered(
 fn gpu_built_strokes_ink_where_the_cpus_do() -> Result<(), Failed> {
     use bevy_cartoon_hair::silhouette::GpuStrokeJobs;
     let mut r = silhouette_scene()?;
-    let mut points: Vec<Vec3> = (0..5)
-        .map(|i| Vec3::new(-1.0 + 0.45 * i as f32, 0.08, 0.3))
-        .collect();
-    points.push(Vec3::new(1.2, 0.0, 0.0));
-    points.extend((0..5).map(|i| Vec3::new(0.8 - 0.45 * i as f32, -0.08, -0.3)));
-    let hair = spawn_stroked(&mut r, points, 0.22);
+    let hair = spawn_stroked(&mut r, fold_strand(), 0.22);
     let compare = |r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
                    name: &str,
                    hair: Entity|

@@ -169,16 +169,20 @@ fn strokes_outline_the_boundary_not_the_face() -> Result<(), Failed> {
     Ok(())
 }
 
-fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
-    let mut r = scene()?;
-    // Left to right in front, a U-turn, then right to left behind and a little lower: the back
-    // half's outline passes behind the front half.
+/// Left to right in front, a U-turn, then right to left behind and a little lower: the back
+/// half's outline passes behind the front half.
+pub(crate) fn fold_strand() -> Vec<Vec3> {
     let mut points: Vec<Vec3> = (0..5)
         .map(|i| Vec3::new(-1.0 + 0.45 * i as f32, 0.08, 0.3))
         .collect();
     points.push(Vec3::new(1.2, 0.0, 0.0));
     points.extend((0..5).map(|i| Vec3::new(0.8 - 0.45 * i as f32, -0.08, -0.3)));
-    let hair = spawn(&mut r, points, 0.22);
+    points
+}
+
+fn self_overlap_hides_its_own_outline() -> Result<(), Failed> {
+    let mut r = scene()?;
+    let hair = spawn(&mut r, fold_strand(), 0.22);
     let frame = r.capture()?;
     save(&frame, "strokes_self_overlap")?;
     // Down each column where both halves show: the front half's top and bottom outlines and the
