@@ -81,6 +81,7 @@ fn app(heads: &[Head], build: Build) -> App {
     .insert_resource(HairGpuMeshSupport {
         supported: true,
         reason: None,
+        max_binding_bytes: u64::MAX,
     });
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
     let strokes = matches!(build, Build::CpuStrokes | Build::GpuStrokes);

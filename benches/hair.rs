@@ -706,6 +706,7 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
         .insert_resource(bevy_cartoon_hair::render::HairGpuMeshSupport {
             supported: true,
             reason: None,
+            max_binding_bytes: u64::MAX,
         });
     for head in heads {
         let world = app.world_mut();

@@ -16,7 +16,7 @@ use bevy::render::render_resource::{
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::gpu_tubes::ComputePass;
+use super::gpu_tubes::{ComputePass, slab_binding};
 
 use crate::math::finite_or;
 use crate::mesh::highlights::{GpuHighlights, gpu_highlight_vertex_count};
@@ -151,11 +151,12 @@ impl GpuHighlightBuffers {
         let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
             return;
         };
-        if slice.range.len() < vertices || params.strands == 0 {
+        let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, device)
+        else {
             return;
-        }
+        };
         self.params.set(GpuHighlightParams {
-            vertex_base: slice.range.start * params.stride,
+            vertex_base,
             ..params
         });
         self.params.write_buffer(device, queue);
@@ -165,11 +166,7 @@ impl GpuHighlightBuffers {
         let bind_group = device.create_bind_group(
             "hair_gpu_highlights",
             &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-            &BindGroupEntries::sequential((
-                binding,
-                frames.as_entire_binding(),
-                slice.buffer.as_entire_binding(),
-            )),
+            &BindGroupEntries::sequential((binding, frames.as_entire_binding(), slab)),
         );
         self.ready = Some((bind_group, params.strands));
     }

@@ -18,7 +18,7 @@ use bevy::render::render_resource::{
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::gpu_tubes::ComputePass;
+use super::gpu_tubes::{ComputePass, slab_binding};
 
 use crate::silhouette::GpuStrokeJob;
 use crate::silhouette::adjacency::Viewer;
@@ -208,11 +208,12 @@ impl GpuStrokeBuffers {
             let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
                 continue;
             };
-            if slice.range.len() < vertices || params.strands == 0 {
+            let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, device)
+            else {
                 continue;
-            }
+            };
             uniform.set(GpuStrokeParams {
-                vertex_base: slice.range.start * params.stride,
+                vertex_base,
                 ..params
             });
             uniform.write_buffer(device, queue);
@@ -227,7 +228,7 @@ impl GpuStrokeBuffers {
                     hair.strands.as_entire_binding(),
                     hair.sections.as_entire_binding(),
                     hair.frames.as_entire_binding(),
-                    slice.buffer.as_entire_binding(),
+                    slab,
                 )),
             );
             self.ready.push((bind_group, params.strands));

@@ -17,21 +17,23 @@
 //! render device can ([`HairGpuMeshSupport`]); [`HairMeshBuilder::Cpu`] builds every hair, and
 //! its strokes, on the CPU: the reference.
 
+use std::num::NonZeroU64;
+
 use bevy::asset::load_embedded_asset;
 use bevy::core_pipeline::schedule::camera_driver;
 use bevy::ecs::query::QueryItem;
 use bevy::ecs::system::lifetimeless::Read;
 use bevy::prelude::*;
 use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
-use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
+use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings, MeshBufferSlice};
 use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries,
-    BindGroupLayoutEntry, Buffer, BufferDescriptor, BufferUsages, CachedComputePipelineId,
-    ComputePassDescriptor, ComputePipelineDescriptor, PipelineCache, ShaderStages, ShaderType,
-    StorageBuffer, UniformBuffer,
+    BindGroupLayoutEntry, Buffer, BufferBinding, BufferDescriptor, BufferUsages,
+    CachedComputePipelineId, ComputePassDescriptor, ComputePipelineDescriptor, PipelineCache,
+    ShaderStages, ShaderType, StorageBuffer, UniformBuffer,
 };
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
 use bevy::render::sync_component::SyncComponent;
@@ -52,6 +54,7 @@ use crate::mesh::{
 };
 use crate::schedule::HairSystems;
 use crate::silhouette::GpuStrokeJobs;
+use crate::silhouette::gpu_jobs::gpu_stroke_vertex_count;
 use crate::sim::{BoneChainHair, ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 
 /// Where strand tube meshes are built. A resource; it may change at any time.
@@ -66,15 +69,29 @@ pub enum HairMeshBuilder {
     Cpu,
 }
 
-/// Whether this render device can build tubes and strokes on the GPU: compute shaders, five
-/// storage buffers in a compute stage, vertex buffers usable as storage. Set when the render
-/// plugin finishes.
+/// Whether this render device can build tubes and strokes on the GPU: compute shaders of 64
+/// invocations, five storage buffers in a compute stage (`max_storage_buffers_per_shader_stage`)
+/// and vertex buffers usable as storage. Set when the render plugin finishes.
 #[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
 pub struct HairGpuMeshSupport {
     /// Tubes may be built on the GPU.
     pub supported: bool,
     /// Why not, when they may not.
     pub reason: Option<String>,
+    /// The largest storage binding the device allows (`max_storage_buffer_binding_size`),
+    /// bytes: a hair whose tube or stroke mesh would be larger is built on the CPU.
+    pub max_binding_bytes: u64,
+}
+
+impl HairGpuMeshSupport {
+    /// Whether a hair of `strands` strands of `rings` rings and `sides` sides fits in the
+    /// device's storage bindings, its tube mesh (at most 64 bytes a vertex) and its stroke mesh
+    /// (48 bytes a vertex).
+    pub fn fits(&self, strands: usize, rings: usize, sides: usize) -> bool {
+        let tubes = (strands * (rings * sides + 2)) as u64 * 64;
+        let strokes = gpu_stroke_vertex_count(strands, rings, sides) as u64 * 48;
+        tubes.max(strokes) <= self.max_binding_bytes
+    }
 }
 
 /// The uniform of one hair's compute pass (`gpu_tubes.wesl`'s `Params`).
@@ -229,6 +246,7 @@ impl Plugin for GpuTubesPlugin {
             None => HairGpuMeshSupport {
                 supported: false,
                 reason: Some("no render device".into()),
+                max_binding_bytes: 0,
             },
         };
         // The pass writes the mesh allocator's vertex slabs; a device without storage buffers
@@ -263,6 +281,7 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     HairGpuMeshSupport {
         supported: reason.is_none(),
         reason,
+        max_binding_bytes: u64::from(limits.max_storage_buffer_binding_size),
     }
 }
 
@@ -275,10 +294,15 @@ fn choose_mesh_builder(
     mut commands: Commands,
     builder: Res<HairMeshBuilder>,
     support: Res<HairGpuMeshSupport>,
-    hairs: Query<(Entity, Has<HairMeshBuiltOnGpu>), (With<Hair>, Without<BoneChainHair>)>,
+    hairs: Query<
+        (Entity, Option<&ComputedHairMesh>, Has<HairMeshBuiltOnGpu>),
+        (With<Hair>, Without<BoneChainHair>),
+    >,
 ) {
-    for (hair, on_gpu) in &hairs {
-        let gpu = *builder == HairMeshBuilder::Gpu && support.supported;
+    for (hair, computed, on_gpu) in &hairs {
+        let fits = computed
+            .is_none_or(|c| support.fits(c.strands, c.topology.rings(), c.topology.sides()));
+        let gpu = *builder == HairMeshBuilder::Gpu && support.supported && fits;
         if gpu != on_gpu {
             if gpu {
                 commands.entity(hair).insert(HairMeshBuiltOnGpu);
@@ -456,6 +480,36 @@ fn gather_gpu_tube_inputs(
     }
 }
 
+/// The part of a mesh's vertex slab a pass writes, bound as storage: from the aligned offset at
+/// or before the mesh's first vertex to its last; with the mesh's first vertex in that binding,
+/// in 4-byte words. `None` when the mesh has fewer than `vertices` vertices or the binding
+/// would be larger than the device allows (`max_storage_buffer_binding_size`).
+pub(super) fn slab_binding<'a>(
+    slice: &MeshBufferSlice<'a>,
+    stride_words: u32,
+    vertices: usize,
+    device: &RenderDevice,
+) -> Option<(BufferBinding<'a>, u32)> {
+    if slice.range.len() < vertices || vertices == 0 {
+        return None;
+    }
+    let limits = device.limits();
+    let stride = u64::from(stride_words) * 4;
+    let align = u64::from(limits.min_storage_buffer_offset_alignment).max(4);
+    let start = u64::from(slice.range.start) * stride;
+    let offset = start / align * align;
+    let size = u64::from(slice.range.end) * stride - offset;
+    if size > u64::from(limits.max_storage_buffer_binding_size) {
+        return None;
+    }
+    let binding = BufferBinding {
+        buffer: slice.buffer,
+        offset,
+        size: NonZeroU64::new(size),
+    };
+    Some((binding, ((start - offset) / 4) as u32))
+}
+
 /// A compute pass of the crate: its pipeline and bind group layout, queued in `RenderStartup`.
 pub(super) struct ComputePass {
     pub layout: BindGroupLayoutDescriptor,
@@ -541,11 +595,18 @@ fn prepare_gpu_tubes(
         let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
             continue;
         };
-        if slice.range.len() < (per_strand * params.strands) as usize || params.strands == 0 {
+        let vertices = (per_strand * params.strands) as usize;
+        let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, &device)
+        else {
+            warn_once!(
+                "a hair mesh of {vertices} vertices is larger than this device binds as \
+                 storage ({} bytes): its tubes are not built (HairMeshBuilder::Cpu builds them)",
+                device.limits().max_storage_buffer_binding_size
+            );
             continue;
-        }
+        };
         buffers.params.set(GpuTubeParams {
-            vertex_base: slice.range.start * params.stride,
+            vertex_base,
             ..params
         });
         buffers.params.write_buffer(&device, &queue);
@@ -578,14 +639,7 @@ fn prepare_gpu_tubes(
         let bind_group = device.create_bind_group(
             "hair_gpu_tubes",
             &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-            &BindGroupEntries::sequential((
-                p,
-                s,
-                x,
-                c,
-                slice.buffer.as_entire_binding(),
-                frames.as_entire_binding(),
-            )),
+            &BindGroupEntries::sequential((p, s, x, c, slab, frames.as_entire_binding())),
         );
         buffers.ready = Some((bind_group, params.strands));
         let (Some(strands), Some(sections)) = (buffers.strands.buffer(), buffers.sections.buffer())
@@ -663,5 +717,27 @@ fn build_gpu_tubes(
             pass.set_bind_group(0, bind_group, &[]);
             pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hair_too_large_for_the_devices_storage_bindings_stays_on_the_cpu() {
+        // 10,000 strands of 16 rings of 8 sides (about W2's hair). Its stroke mesh (10,000 x 2 x 23
+        // quads of 4 vertices of 48 bytes, 88.3 MB) is larger than its tube mesh (83.2 MB at
+        // 64 bytes a vertex).
+        let support = |max_binding_bytes| HairGpuMeshSupport {
+            supported: true,
+            reason: None,
+            max_binding_bytes,
+        };
+        assert!(support(128 << 20).fits(10_000, 16, 8));
+        assert!(!support(64 << 20).fits(10_000, 16, 8));
+        assert!(support(88_320_000).fits(10_000, 16, 8));
+        assert!(!support(88_319_999).fits(10_000, 16, 8));
+        assert!(!HairGpuMeshSupport::default().fits(1, 2, 3));
     }
 }
