@@ -281,7 +281,7 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     HairGpuMeshSupport {
         supported: reason.is_none(),
         reason,
-        max_binding_bytes: u64::from(limits.max_storage_buffer_binding_size),
+        max_binding_bytes: limits.max_storage_buffer_binding_size,
     }
 }
 
@@ -499,7 +499,7 @@ pub(super) fn slab_binding<'a>(
     let start = u64::from(slice.range.start) * stride;
     let offset = start / align * align;
     let size = u64::from(slice.range.end) * stride - offset;
-    if size > u64::from(limits.max_storage_buffer_binding_size) {
+    if size > limits.max_storage_buffer_binding_size {
         return None;
     }
     let binding = BufferBinding {
