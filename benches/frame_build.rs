@@ -38,8 +38,7 @@ use bevy_cartoon_hair::asset::HairAssetPlugin;
 use bevy_cartoon_hair::mesh::highlights::{HairHighlightsOf, SpecularQuads};
 use bevy_cartoon_hair::mesh::{HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin};
 use bevy_cartoon_hair::render::{
-    GpuHighlightParams, GpuStrokeParams, GpuTubeInput, GpuTubeParams, GpuTubesPlugin,
-    HairGpuMeshSupport, HairMeshBuilder,
+    GpuHighlightParams, GpuStrokeParams, GpuTubeInput, GpuTubeParams, HairMeshBuilder,
 };
 use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, HairStrokesOf, SilhouetteSettings};
 use bevy_cartoon_hair::sim::HairSimulationPlugin;
@@ -66,7 +65,6 @@ fn app(heads: &[Head], build: Build) -> App {
         HairSimulationPlugin,
         HairMeshPlugin,
         HairSilhouettePlugin,
-        GpuTubesPlugin,
     ))
     .init_asset::<Mesh>()
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(
@@ -76,13 +74,8 @@ fn app(heads: &[Head], build: Build) -> App {
         HairMeshBuilder::Gpu
     } else {
         HairMeshBuilder::Cpu
-    })
-    // No render device here: say the GPU path is there, as on any desktop adapter.
-    .insert_resource(HairGpuMeshSupport {
-        supported: true,
-        reason: None,
-        max_binding_bytes: u64::MAX,
     });
+    common::gpu_path(&mut app);
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
     let strokes = matches!(build, Build::CpuStrokes | Build::GpuStrokes);
     for head in heads {

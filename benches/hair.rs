@@ -701,13 +701,7 @@ fn frame_app(heads: &[Head], culling: bool) -> App {
     use bevy_cartoon_hair::mesh::highlights::SpecularQuads;
     use bevy_cartoon_hair::silhouette::SilhouetteSettings;
     let mut app = stages_app();
-    // No render device here: say the GPU path is there, as on any desktop adapter.
-    app.add_plugins(bevy_cartoon_hair::render::GpuTubesPlugin)
-        .insert_resource(bevy_cartoon_hair::render::HairGpuMeshSupport {
-            supported: true,
-            reason: None,
-            max_binding_bytes: u64::MAX,
-        });
+    common::gpu_path(&mut app);
     for head in heads {
         let world = app.world_mut();
         let hair = common::spawn_head(world, head);

@@ -30,6 +30,19 @@ pub fn minimal_plugins() -> bevy::app::PluginGroupBuilder {
     MinimalPlugins.set(bevy_cartoon_hair::compute_on_every_core())
 }
 
+/// Adds the GPU building of tubes, strokes and quads as on any desktop adapter: there is no
+/// render device here, so its support is declared. The CPU then does what it does for a
+/// GPU-built hair (gathering the passes' inputs); the passes themselves do not run.
+pub fn gpu_path(app: &mut App) {
+    use bevy_cartoon_hair::render::{GpuTubesPlugin, HairGpuMeshSupport};
+    app.add_plugins(GpuTubesPlugin)
+        .insert_resource(HairGpuMeshSupport {
+            supported: true,
+            reason: None,
+            max_binding_bytes: u64::MAX,
+        });
+}
+
 /// A camera at `eye` looking at `target`, 1280x720, its projection and frustum set by hand (the
 /// bench app has no camera or render plugins to do it).
 pub fn bench_camera(world: &mut World, eye: Vec3, target: Vec3) {

@@ -18,7 +18,7 @@ use bevy::prelude::*;
 
 use super::tube::sample_spline;
 use super::{ComputedHairMesh, HairMeshBuiltOnGpu, HairMeshSettings, StripBuffers};
-use crate::sim::{Hair, HairStrands, Strand, StrandParticles};
+use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 
 /// Specular sampling quads of a hair. Off by default; inserted with defaults when missing.
 #[derive(Component, Reflect, Clone, Debug, PartialEq)]
@@ -62,7 +62,8 @@ pub struct HairHighlightsOf(pub Entity);
 pub struct HairHighlights(Vec<Entity>);
 
 /// The highlight strips of a hair to build on the GPU this frame (see the module docs); on the
-/// [`Hair`] entity, `None` inside while the CPU builds them or none are shown.
+/// [`Hair`] entity (inserted with it), `None` inside while the CPU builds them or none are
+/// shown.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct GpuHighlightJob(pub Option<GpuHighlights>);
 
@@ -225,7 +226,8 @@ pub fn build_specular_quads(
             &super::HairInView,
             &super::HairLodLevel,
             &ComputedHairMesh,
-            Option<&mut GpuHighlightJob>,
+            &mut GpuHighlightJob,
+            &ComputedHair,
         ),
         (With<Hair>, With<ComputedHairMesh>),
     >,
@@ -246,22 +248,21 @@ pub fn build_specular_quads(
         .next()
         .map(|t| t.back().as_vec3())
         .unwrap_or(Vec3::Y);
-    for (hair, settings, mesh_settings, strand_list, highlights, in_view, lod, computed, job) in
-        &mut hairs
+    for (
+        hair,
+        settings,
+        mesh_settings,
+        strand_list,
+        highlights,
+        in_view,
+        lod,
+        computed,
+        mut job,
+        sim,
+    ) in &mut hairs
     {
         let gpu = on_gpu.contains(hair);
-        let mut job = match job {
-            Some(job) => Some(job),
-            None => {
-                if gpu {
-                    commands.entity(hair).try_insert(GpuHighlightJob::default());
-                }
-                None
-            }
-        };
-        if let Some(job) = job.as_mut()
-            && job.0.is_some()
-        {
+        if job.0.is_some() {
             job.0 = None;
         }
         let existing = highlights.and_then(|h| h.iter().next());
@@ -305,14 +306,12 @@ pub fn build_specular_quads(
             {
                 *mesh = gpu_highlight_mesh(computed.strands, rings);
             }
-            if let Some(job) = job.as_mut() {
-                job.0 = Some(GpuHighlights {
-                    mesh: handle.id(),
-                    eye,
-                    to_light,
-                    settings: settings.clone(),
-                });
-            }
+            job.0 = Some(GpuHighlights {
+                mesh: handle.id(),
+                eye,
+                to_light,
+                settings: settings.clone(),
+            });
             continue;
         }
         builder.clear();
@@ -325,10 +324,11 @@ pub fn build_specular_quads(
             },
             ..settings.clone()
         };
+        // The tube's radius, scaled with the character as the tube is.
+        let radius = mesh_settings.radius * sim.size();
         for e in strand_list.iter() {
             if let Ok((_, particles)) = strands.get(e) {
-                let radius_at =
-                    |x: f32| mesh_settings.radius * mesh_settings.taper.eval(x).max(0.0);
+                let radius_at = |x: f32| radius * mesh_settings.taper.eval(x).max(0.0);
                 builder.add_strand(&particles.positions, settings, eye, to_light, radius_at);
             }
         }

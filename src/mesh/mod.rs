@@ -190,6 +190,7 @@ impl Plugin for HairMeshPlugin {
             .register_type::<highlights::SpecularQuads>()
             .register_required_components::<Hair, HairMeshSettings>()
             .register_required_components::<Hair, highlights::SpecularQuads>()
+            .register_required_components::<Hair, highlights::GpuHighlightJob>()
             .register_type::<culling::HairCulling>()
             .register_type::<culling::HairInView>()
             .register_type::<culling::HairCullingStats>()

@@ -27,7 +27,7 @@ pub struct GpuStrokeJob {
 }
 
 /// The strokes of a hair the GPU builds this frame, one job per camera; empty when the CPU
-/// builds them or there are none. On the [`Hair`](crate::sim::Hair) entity.
+/// builds them or there are none. On the [`Hair`](crate::sim::Hair) entity (inserted with it).
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct GpuStrokeJobs(pub Vec<GpuStrokeJob>);
 

@@ -54,6 +54,7 @@ impl Plugin for HairSilhouettePlugin {
             .register_type::<SilhouetteCamera>()
             .register_type::<StrokePrepass>()
             .register_required_components::<Hair, SilhouetteSettings>()
+            .register_required_components::<Hair, GpuStrokeJobs>()
             .add_systems(
                 PostUpdate,
                 (extract_silhouettes, sync_stroke_prepasses)

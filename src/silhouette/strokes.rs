@@ -262,7 +262,7 @@ pub fn extract_silhouettes(
             Option<&mut ComputedSilhouettes>,
             &HairInView,
             Has<HairMeshBuiltOnGpu>,
-            Option<&mut GpuStrokeJobs>,
+            &mut GpuStrokeJobs,
         ),
         With<Hair>,
     >,
@@ -318,21 +318,10 @@ pub fn extract_silhouettes(
         }
     }
     let pool = crate::parallel::compute_pool();
-    for (hair, settings, mesh_settings, hair_mesh, computed, in_view, on_gpu, gpu_jobs) in
+    for (hair, settings, mesh_settings, hair_mesh, computed, in_view, on_gpu, mut jobs) in
         &mut hairs
     {
-        let mut jobs = match gpu_jobs {
-            Some(jobs) => Some(jobs),
-            None => {
-                if on_gpu {
-                    commands.entity(hair).try_insert(GpuStrokeJobs::default());
-                }
-                None
-            }
-        };
-        if let Some(jobs) = jobs.as_mut()
-            && !jobs.0.is_empty()
-        {
+        if !jobs.0.is_empty() {
             jobs.0.clear();
         }
         let topology = &hair_mesh.topology;
@@ -486,13 +475,11 @@ pub fn extract_silhouettes(
                         }
                     }
                 }
-                if let Some(jobs) = jobs.as_mut() {
-                    jobs.0.push(GpuStrokeJob {
-                        mesh: view.meshes[0].id(),
-                        camera: stroke_camera,
-                        params,
-                    });
-                }
+                jobs.0.push(GpuStrokeJob {
+                    mesh: view.meshes[0].id(),
+                    camera: stroke_camera,
+                    params,
+                });
                 continue;
             }
             view.gpu_layout = None;
