@@ -20,16 +20,21 @@
 //! println!("centre pixel: {:?}", frame.pixel(frame.width / 2, frame.height / 2));
 //! ```
 
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use bevy::app::PluginsState;
 use bevy::prelude::*;
-use bevy::render::RenderApp;
 use bevy::render::pipelined_rendering::PipelinedRenderingPlugin;
 use bevy::render::render_resource::{
     CachedPipelineState, PipelineCache, TextureFormat, TextureUsages,
 };
+use bevy::render::renderer::{
+    RenderAdapter, RenderAdapterInfo, RenderDevice, RenderInstance, RenderQueue,
+};
+use bevy::render::settings::{RenderCreation, RenderResources};
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::render::{RenderApp, RenderPlugin};
 use bevy::window::ExitCondition;
 
 /// What to install when no adapter is found (Debian and Ubuntu package names).
@@ -43,6 +48,9 @@ pub enum HeadlessError {
     /// wgpu found no Vulkan adapter on this machine.
     #[error("{ADAPTER_HELP}")]
     NoAdapter,
+    /// The adapter refused to open a device.
+    #[error("the GPU adapter would not open a device: {0}")]
+    DeviceFailed(String),
     /// Some render pipeline failed to compile (usually a shader error).
     #[error("a render pipeline failed: {0}")]
     PipelineFailed(String),
@@ -59,16 +67,79 @@ pub enum HeadlessError {
     },
 }
 
-/// Looks for a Vulkan adapter the way Bevy will, without starting Bevy. Returns its name.
-pub fn find_adapter() -> Result<String, HeadlessError> {
+/// The process's one GPU context: a `wgpu` instance, its adapter, device and queue, created on
+/// first use and shared by [`find_adapter`] and every [`HeadlessRenderer`] (Bevy's
+/// `RenderCreation::Manual`). Drivers run out of instances when a process makes many (an NVIDIA
+/// driver refuses adapters after about 30), and each device keeps memory of its own, so a process
+/// that starts and drops renderers without limit (tests, the clip recorder, a batch exporter)
+/// makes them once.
+struct GpuContext {
+    resources: RenderResources,
+    adapter_name: String,
+}
+
+static GPU: OnceLock<Result<GpuContext, HeadlessError>> = OnceLock::new();
+static INSTANCES_CREATED: AtomicUsize = AtomicUsize::new(0);
+
+/// How many `wgpu` instances this module has created in this process: `1` once any renderer
+/// or [`find_adapter`] ran, however many renderers came and went (`0` before).
+pub fn gpu_instances_created() -> usize {
+    INSTANCES_CREATED.load(Ordering::Relaxed)
+}
+
+/// The shared context, created on the first call.
+fn gpu() -> Result<&'static GpuContext, HeadlessError> {
+    GPU.get_or_init(create_gpu).as_ref().map_err(Clone::clone)
+}
+
+/// A Vulkan instance, adapter and device as Bevy's automatic set-up makes them
+/// (`WgpuSettingsPriority::Functionality`: the adapter's features and limits, timestamp and
+/// pipeline-statistics queries among them where it has them).
+fn create_gpu() -> Result<GpuContext, HeadlessError> {
+    INSTANCES_CREATED.fetch_add(1, Ordering::Relaxed);
     let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
         backends: wgpu::Backends::VULKAN,
         ..wgpu::InstanceDescriptor::new_without_display_handle()
     });
-    let adapter =
-        bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
-            .map_err(|_| HeadlessError::NoAdapter)?;
-    Ok(adapter.get_info().name)
+    let adapter = bevy::tasks::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+        power_preference: wgpu::PowerPreference::HighPerformance,
+        ..default()
+    }))
+    .map_err(|_| HeadlessError::NoAdapter)?;
+    let info = adapter.get_info();
+    let mut features = adapter.features();
+    if info.device_type == wgpu::DeviceType::DiscreteGpu {
+        // As Bevy does: slow on a discrete GPU.
+        features.remove(wgpu::Features::MAPPABLE_PRIMARY_BUFFERS);
+    }
+    // Experimental features (mesh shaders, ray queries) need an unsafe opt-in and nothing here
+    // uses them.
+    features.remove(wgpu::Features::all_experimental_mask());
+    features |= wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
+    let (device, queue) = bevy::tasks::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("bevy_cartoon_hair headless"),
+        required_features: features,
+        required_limits: adapter.limits(),
+        ..default()
+    }))
+    .map_err(|e| HeadlessError::DeviceFailed(format!("{}: {e}", info.name)))?;
+    let adapter_name = info.name.clone();
+    Ok(GpuContext {
+        resources: RenderResources(
+            RenderDevice::from(device),
+            RenderQueue::new(queue),
+            RenderAdapterInfo::new(info),
+            RenderAdapter::new(adapter),
+            RenderInstance::new(instance),
+        ),
+        adapter_name,
+    })
+}
+
+/// Looks for a Vulkan adapter the way Bevy will and opens it, without starting Bevy. Returns its
+/// name. The instance and device are the ones every [`HeadlessRenderer`] of this process uses.
+pub fn find_adapter() -> Result<String, HeadlessError> {
+    gpu().map(|gpu| gpu.adapter_name.clone())
 }
 
 /// Size and patience of a headless capture.
@@ -86,6 +157,9 @@ pub struct CaptureSettings {
     pub settle_frames: u32,
     /// Give up after this many frames. Default: `600`.
     pub max_frames: u32,
+    /// Render on a thread of its own, one frame behind the app, as a game does
+    /// (`PipelinedRenderingPlugin`). Default: `false` (each frame drawn in its own update).
+    pub pipelined_rendering: bool,
     /// The asset folder, when it is not the default `assets` (a path relative to
     /// `BEVY_ASSET_ROOT`, or absolute). Default: `None`.
     pub asset_folder: Option<String>,
@@ -99,6 +173,7 @@ impl Default for CaptureSettings {
             min_frames: 3,
             settle_frames: 4,
             max_frames: 600,
+            pipelined_rendering: false,
             asset_folder: None,
         }
     }
@@ -175,32 +250,41 @@ pub struct HeadlessRenderer {
     settings: CaptureSettings,
     target: Handle<Image>,
     frames: u32,
+    pipelines: PipelineReport,
 }
 
 impl HeadlessRenderer {
-    /// Builds the app with `DefaultPlugins` minus the window backend, pipelined rendering and
-    /// logging. Fails with [`HeadlessError::NoAdapter`] before starting Bevy if no adapter exists.
+    /// Builds the app with `DefaultPlugins` minus the window backend and logging (and
+    /// pipelined rendering unless [`CaptureSettings::pipelined_rendering`]), on the process's
+    /// shared GPU device. Fails with [`HeadlessError::NoAdapter`] before starting Bevy if no
+    /// adapter exists.
     pub fn new(settings: CaptureSettings) -> Result<Self, HeadlessError> {
-        find_adapter()?;
+        let gpu = gpu()?;
         let mut app = App::new();
         let mut assets = bevy::asset::AssetPlugin::default();
         if let Some(folder) = &settings.asset_folder {
             assets.file_path.clone_from(folder);
         }
-        app.add_plugins(
-            DefaultPlugins
-                .set(assets)
-                .set(WindowPlugin {
-                    primary_window: None,
-                    exit_condition: ExitCondition::DontExit,
-                    close_when_requested: false,
-                    ..default()
-                })
-                .disable::<bevy::winit::WinitPlugin>()
-                // The app is stepped by hand; a render thread would make frames lag unpredictably.
-                .disable::<PipelinedRenderingPlugin>()
-                .disable::<bevy::log::LogPlugin>(),
-        );
+        let plugins = DefaultPlugins
+            .set(assets)
+            .set(RenderPlugin {
+                render_creation: RenderCreation::Manual(Box::new(gpu.resources.clone())),
+                ..default()
+            })
+            .set(WindowPlugin {
+                primary_window: None,
+                exit_condition: ExitCondition::DontExit,
+                close_when_requested: false,
+                ..default()
+            })
+            .disable::<bevy::winit::WinitPlugin>()
+            .disable::<bevy::log::LogPlugin>();
+        if settings.pipelined_rendering {
+            app.add_plugins(plugins);
+        } else {
+            // Stepped by hand, each frame drawn in its own update.
+            app.add_plugins(plugins.disable::<PipelinedRenderingPlugin>());
+        }
         let mut image = Image::new_target_texture(
             settings.width,
             settings.height,
@@ -209,11 +293,21 @@ impl HeadlessRenderer {
         );
         image.texture_descriptor.usage |= TextureUsages::COPY_SRC;
         let target = app.world_mut().resource_mut::<Assets<Image>>().add(image);
+        let pipelines: PipelineReport = Arc::new(Mutex::new(Ok(false)));
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .insert_resource(PipelineReporter(pipelines.clone()))
+                .add_systems(
+                    bevy::render::Render,
+                    report_pipelines.in_set(bevy::render::RenderSystems::Cleanup),
+                );
+        }
         Ok(Self {
             app,
             settings,
             target,
             frames: 0,
+            pipelines,
         })
     }
 
@@ -380,34 +474,48 @@ impl HeadlessRenderer {
         Ok(())
     }
 
-    /// `Ok(true)` when no pipeline is queued or compiling; an error if one failed.
+    /// `Ok(true)` when no pipeline was queued or compiling in the last frame the render world
+    /// finished; an error if one failed.
     fn pipelines_state(&self) -> Result<bool, HeadlessError> {
-        let Some(render_app) = self.app.get_sub_app(RenderApp) else {
-            return Ok(true);
-        };
-        let Some(cache) = render_app.world().get_resource::<PipelineCache>() else {
-            return Ok(false);
-        };
-        let mut idle = true;
-        for pipeline in cache.pipelines() {
-            match &pipeline.state {
-                CachedPipelineState::Queued | CachedPipelineState::Creating(_) => idle = false,
-                // Bevy retries these once the shader (or an import) has loaded.
-                CachedPipelineState::Err(
-                    bevy::shader::ShaderCacheError::ShaderNotLoaded(_)
-                    | bevy::shader::ShaderCacheError::ShaderImportNotYetAvailable,
-                ) => idle = false,
-                CachedPipelineState::Err(err) => {
-                    let label = match &pipeline.descriptor {
-                        bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),
-                        bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => d.label.clone(),
-                        bevy::render::render_resource::PipelineDescriptor::MeshPipelineDescriptor(d) => d.label.clone(),
-                    };
-                    return Err(HeadlessError::PipelineFailed(format!("{label:?}: {err}")));
-                }
-                CachedPipelineState::Ok(_) => {}
-            }
-        }
-        Ok(idle)
+        self.pipelines
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+            .clone()
     }
+}
+
+/// The render world's pipelines as of its last frame: `Ok(true)` when all have compiled. Shared
+/// with the render world, which may run on a thread of its own (pipelined rendering).
+type PipelineReport = Arc<Mutex<Result<bool, HeadlessError>>>;
+
+/// Render world: writes the pipelines' state into the renderer's report, every frame.
+#[derive(Resource, Clone)]
+struct PipelineReporter(PipelineReport);
+
+fn report_pipelines(reporter: Res<PipelineReporter>, cache: Res<PipelineCache>) {
+    let mut state = Ok(true);
+    for pipeline in cache.pipelines() {
+        match &pipeline.state {
+            CachedPipelineState::Queued | CachedPipelineState::Creating(_) => state = Ok(false),
+            // Bevy retries these once the shader (or an import) has loaded.
+            CachedPipelineState::Err(
+                bevy::shader::ShaderCacheError::ShaderNotLoaded(_)
+                | bevy::shader::ShaderCacheError::ShaderImportNotYetAvailable,
+            ) => state = Ok(false),
+            CachedPipelineState::Err(err) => {
+                let label = match &pipeline.descriptor {
+                    bevy::render::render_resource::PipelineDescriptor::RenderPipelineDescriptor(d) => d.label.clone(),
+                    bevy::render::render_resource::PipelineDescriptor::ComputePipelineDescriptor(d) => d.label.clone(),
+                    bevy::render::render_resource::PipelineDescriptor::MeshPipelineDescriptor(d) => d.label.clone(),
+                };
+                state = Err(HeadlessError::PipelineFailed(format!("{label:?}: {err}")));
+                break;
+            }
+            CachedPipelineState::Ok(_) => {}
+        }
+    }
+    *reporter
+        .0
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner) = state;
 }

@@ -191,8 +191,8 @@ pub mod prelude {
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
-        HairMaterial, ImageSpaceOutline, LockLines, OutlineSource, RampMode, ToonHairMaterial,
-        ToonHairMeshes, ToonLighting, ToonRamps, ToonShading,
+        HairGpuBuildFailed, HairMaterial, ImageSpaceOutline, LockLines, OutlineSource, RampMode,
+        ToonHairMaterial, ToonHairMeshes, ToonLighting, ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};

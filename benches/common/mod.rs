@@ -34,13 +34,19 @@ pub fn minimal_plugins() -> bevy::app::PluginGroupBuilder {
 /// render device here, so its support is declared. The CPU then does what it does for a
 /// GPU-built hair (gathering the passes' inputs); the passes themselves do not run.
 pub fn gpu_path(app: &mut App) {
-    use bevy_cartoon_hair::render::{GpuTubesPlugin, HairGpuMeshSupport};
+    use bevy_cartoon_hair::render::{
+        GpuPassState, GpuTubesPlugin, HairGpuMeshSupport, HairGpuPasses,
+    };
     app.add_plugins(GpuTubesPlugin)
         .insert_resource(HairGpuMeshSupport {
             supported: true,
             reason: None,
             max_binding_bytes: u64::MAX,
+            binding_alignment: 256,
         });
+    app.world()
+        .resource::<HairGpuPasses>()
+        .set_state(GpuPassState::Ready);
 }
 
 /// A camera at `eye` looking at `target`, 1280x720, its projection and frustum set by hand (the

@@ -86,7 +86,7 @@ impl Default for HairMeshSettings {
         Self {
             hair_resolution: 16,
             shape_resolution: 8,
-            radius: 0.016,
+            radius: crate::sim::DEFAULT_STRAND_RADIUS,
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
             mass_normals: 0.8,
             section_aspect: 1.0,
@@ -204,6 +204,7 @@ impl Plugin for HairMeshPlugin {
             .add_systems(
                 PostUpdate,
                 (
+                    hand_radius_to_volume,
                     rebuild_strand_meshes,
                     highlights::build_specular_quads,
                     chain_hairs_in_view,
@@ -287,6 +288,19 @@ pub(crate) fn new_hair_mesh(topology: &TubeTopology, strands: usize) -> Mesh {
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
     .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, uvs_b)
     .with_inserted_indices(Indices::U32(indices))
+}
+
+/// Hands each hair's tube radius to the simulation's volume ([`HairStrandRadius`]), when it
+/// changes.
+fn hand_radius_to_volume(
+    mut commands: Commands,
+    hairs: Query<(Entity, &HairMeshSettings), Changed<HairMeshSettings>>,
+) {
+    for (hair, settings) in &hairs {
+        commands
+            .entity(hair)
+            .try_insert(crate::sim::HairStrandRadius(settings.radius));
+    }
 }
 
 /// Rebuilds each hair's mesh from its strands' particles: topology when resolutions or the strand

@@ -24,6 +24,7 @@ use bevy::core_pipeline::schedule::camera_driver;
 use bevy::ecs::query::QueryItem;
 use bevy::ecs::system::lifetimeless::Read;
 use bevy::prelude::*;
+use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::{ExtractComponent, ExtractComponentPlugin};
 use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings, MeshBufferSlice};
 use bevy::render::render_resource::binding_types::{
@@ -43,6 +44,7 @@ use super::gpu_highlights::{
     GpuHighlightBuffers, GpuHighlightInput, GpuHighlightPipeline, highlight_input,
     init_gpu_highlight_pipeline,
 };
+use super::gpu_status::{GpuPassIds, HairGpuPasses, choose_mesh_builder, report_pass_state};
 use super::gpu_strokes::{
     GpuStrokeBuffers, GpuStrokeInput, GpuStrokePipeline, HairGpuBuffers, init_gpu_stroke_pipeline,
     stroke_input,
@@ -55,7 +57,7 @@ use crate::mesh::{
 use crate::schedule::HairSystems;
 use crate::silhouette::GpuStrokeJobs;
 use crate::silhouette::gpu_jobs::gpu_stroke_vertex_count;
-use crate::sim::{BoneChainHair, ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 
 /// Where strand tube meshes are built. A resource; it may change at any time.
 #[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -79,18 +81,23 @@ pub struct HairGpuMeshSupport {
     /// Why not, when they may not.
     pub reason: Option<String>,
     /// The largest storage binding the device allows (`max_storage_buffer_binding_size`),
-    /// bytes: a hair whose tube or stroke mesh would be larger is built on the CPU.
+    /// bytes: a hair whose tube or stroke mesh would be larger is built on the CPU. A game may
+    /// lower it (never raise it).
     pub max_binding_bytes: u64,
+    /// The device's `min_storage_buffer_offset_alignment`: a mesh's binding starts at the
+    /// aligned offset at or before its first vertex, so it may be this much larger.
+    pub binding_alignment: u64,
 }
 
 impl HairGpuMeshSupport {
     /// Whether a hair of `strands` strands of `rings` rings and `sides` sides fits in the
     /// device's storage bindings, its tube mesh (at most 64 bytes a vertex) and its stroke mesh
-    /// (48 bytes a vertex).
+    /// (48 bytes a vertex), each with the padding its binding's alignment may add in front.
     pub fn fits(&self, strands: usize, rings: usize, sides: usize) -> bool {
         let tubes = (strands * (rings * sides + 2)) as u64 * 64;
         let strokes = gpu_stroke_vertex_count(strands, rings, sides) as u64 * 48;
-        tubes.max(strokes) <= self.max_binding_bytes
+        let padding = self.binding_alignment.saturating_sub(4);
+        tubes.max(strokes) + padding <= self.max_binding_bytes
     }
 }
 
@@ -205,8 +212,10 @@ impl Plugin for GpuTubesPlugin {
         bevy::asset::embedded_asset!(app, "gpu_tubes.wesl");
         bevy::asset::embedded_asset!(app, "gpu_strokes.wesl");
         bevy::asset::embedded_asset!(app, "gpu_highlights.wesl");
+        let passes = HairGpuPasses::default();
         app.init_resource::<HairMeshBuilder>()
             .init_resource::<HairGpuMeshSupport>()
+            .insert_resource(passes.clone())
             .register_type::<HairMeshBuilder>()
             .add_plugins(ExtractComponentPlugin::<GpuTubeInput>::default())
             .add_systems(
@@ -222,17 +231,25 @@ impl Plugin for GpuTubesPlugin {
             return;
         };
         render_app
+            .insert_resource(passes)
             .add_systems(
                 RenderStartup,
                 (
-                    init_gpu_tube_pipeline,
-                    init_gpu_stroke_pipeline,
-                    init_gpu_highlight_pipeline,
-                ),
+                    (
+                        init_gpu_tube_pipeline,
+                        init_gpu_stroke_pipeline,
+                        init_gpu_highlight_pipeline,
+                    ),
+                    name_gpu_passes,
+                )
+                    .chain(),
             )
             .add_systems(
                 Render,
-                prepare_gpu_tubes.in_set(RenderSystems::PrepareBindGroups),
+                (
+                    report_pass_state.in_set(RenderSystems::Prepare),
+                    prepare_gpu_tubes.in_set(RenderSystems::PrepareBindGroups),
+                ),
             )
             .add_systems(RenderGraph, build_gpu_tubes.before(camera_driver));
     }
@@ -246,7 +263,7 @@ impl Plugin for GpuTubesPlugin {
             None => HairGpuMeshSupport {
                 supported: false,
                 reason: Some("no render device".into()),
-                max_binding_bytes: 0,
+                ..default()
             },
         };
         // The pass writes the mesh allocator's vertex slabs; a device without storage buffers
@@ -262,6 +279,20 @@ impl Plugin for GpuTubesPlugin {
         }
         app.insert_resource(support);
     }
+}
+
+/// The three passes' pipelines, for [`report_pass_state`].
+fn name_gpu_passes(
+    mut commands: Commands,
+    tubes: Res<GpuTubePipeline>,
+    strokes: Res<GpuStrokePipeline>,
+    highlights: Res<GpuHighlightPipeline>,
+) {
+    commands.insert_resource(GpuPassIds([
+        ("hair_gpu_tubes", tubes.0.pipeline),
+        ("hair_gpu_strokes", strokes.0.pipeline),
+        ("hair_gpu_highlights", highlights.0.pipeline),
+    ]));
 }
 
 /// What the render device allows.
@@ -282,34 +313,7 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
         supported: reason.is_none(),
         reason,
         max_binding_bytes: limits.max_storage_buffer_binding_size,
-    }
-}
-
-/// Marks the hairs built on the GPU this frame (the CPU mesh stage skips their vertices).
-#[expect(
-    clippy::type_complexity,
-    reason = "a Bevy system: its parameters are its queries"
-)]
-fn choose_mesh_builder(
-    mut commands: Commands,
-    builder: Res<HairMeshBuilder>,
-    support: Res<HairGpuMeshSupport>,
-    hairs: Query<
-        (Entity, Option<&ComputedHairMesh>, Has<HairMeshBuiltOnGpu>),
-        (With<Hair>, Without<BoneChainHair>),
-    >,
-) {
-    for (hair, computed, on_gpu) in &hairs {
-        let fits = computed
-            .is_none_or(|c| support.fits(c.strands, c.topology.rings(), c.topology.sides()));
-        let gpu = *builder == HairMeshBuilder::Gpu && support.supported && fits;
-        if gpu != on_gpu {
-            if gpu {
-                commands.entity(hair).insert(HairMeshBuiltOnGpu);
-            } else {
-                commands.entity(hair).remove::<HairMeshBuiltOnGpu>();
-            }
-        }
+        binding_alignment: u64::from(limits.min_storage_buffer_offset_alignment),
     }
 }
 
@@ -576,99 +580,132 @@ fn prepare_gpu_tubes(
         Res<GpuHighlightPipeline>,
     ),
     pipeline_cache: Res<PipelineCache>,
-    device: Res<RenderDevice>,
-    queue: Res<RenderQueue>,
+    (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
 ) {
     let (pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
     for (entity, mut input, buffers) in &mut inputs {
-        // A new hair mesh gets its buffers now and is built from the next frame on.
-        let Some(mut buffers) = buffers else {
-            commands.entity(entity).insert(GpuTubeBuffers::default());
-            continue;
+        // A hair new to the GPU, or back in view, gets its buffers now and is built this frame
+        // (the component lands before the render graph runs).
+        let mut new_buffers = None;
+        let buffers = match buffers {
+            Some(buffers) => buffers.into_inner(),
+            None => new_buffers.insert(GpuTubeBuffers::default()),
         };
-        let buffers = &mut *buffers;
-        buffers.ready = None;
-        buffers.strokes.ready.clear();
-        buffers.highlights.ready = None;
-        let params = input.params;
-        let per_strand = params.rings * params.sides + 2;
-        let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
-            continue;
-        };
-        let vertices = (per_strand * params.strands) as usize;
-        let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, &device)
-        else {
-            warn_once!(
-                "a hair mesh of {vertices} vertices is larger than this device binds as \
-                 storage ({} bytes): its tubes are not built (HairMeshBuilder::Cpu builds them)",
-                device.limits().max_storage_buffer_binding_size
-            );
-            continue;
-        };
-        buffers.params.set(GpuTubeParams {
-            vertex_base,
-            ..params
-        });
-        buffers.params.write_buffer(&device, &queue);
-        // Never empty: there is a strand, so a particle and a section.
-        buffers.particles.set(std::mem::take(&mut input.particles));
-        buffers.sections.set(std::mem::take(&mut input.sections));
-        buffers.strands.set(std::mem::take(&mut input.strands));
-        buffers.particles.write_buffer(&device, &queue);
-        buffers.sections.write_buffer(&device, &queue);
-        buffers.strands.write_buffer(&device, &queue);
-        // Three vec4 a ring.
-        let frame_bytes = u64::from(params.strands * params.rings) * 48;
-        if buffers.frames.as_ref().map(|b| b.size()) != Some(frame_bytes) {
-            buffers.frames = Some(device.create_buffer(&BufferDescriptor {
-                label: Some("hair_gpu_tube_frames"),
-                size: frame_bytes,
-                usage: BufferUsages::STORAGE,
-                mapped_at_creation: false,
-            }));
+        prepare_hair(
+            &mut input,
+            buffers,
+            (&pipeline, &stroke_pipeline, &highlight_pipeline),
+            (&mesh_allocator, &pipeline_cache, &device, &queue),
+            &passes,
+        );
+        if let Some(buffers) = new_buffers {
+            commands.entity(entity).insert(buffers);
         }
-        let (Some(p), Some(s), Some(x), Some(c), Some(frames)) = (
-            buffers.params.binding(),
-            buffers.strands.binding(),
-            buffers.particles.binding(),
-            buffers.sections.binding(),
-            buffers.frames.as_ref(),
-        ) else {
-            continue;
-        };
-        let bind_group = device.create_bind_group(
-            "hair_gpu_tubes",
-            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-            &BindGroupEntries::sequential((p, s, x, c, slab, frames.as_entire_binding())),
-        );
-        buffers.ready = Some((bind_group, params.strands));
-        let (Some(strands), Some(sections)) = (buffers.strands.buffer(), buffers.sections.buffer())
-        else {
-            continue;
-        };
-        buffers.strokes.prepare(
-            &input.strokes,
-            HairGpuBuffers {
-                strands,
-                sections,
-                frames,
-            },
-            (&device, &queue, &mesh_allocator),
-            &stroke_pipeline,
-            &pipeline_cache,
-        );
-        buffers.highlights.prepare(
-            input.highlights.as_ref(),
-            frames,
-            (&device, &queue, &mesh_allocator),
-            &highlight_pipeline,
-            &pipeline_cache,
-        );
     }
 }
 
+/// One hair's part of [`prepare_gpu_tubes`].
+fn prepare_hair(
+    input: &mut GpuTubeInput,
+    buffers: &mut GpuTubeBuffers,
+    (pipeline, stroke_pipeline, highlight_pipeline): (
+        &GpuTubePipeline,
+        &GpuStrokePipeline,
+        &GpuHighlightPipeline,
+    ),
+    (mesh_allocator, pipeline_cache, device, queue): (
+        &MeshAllocator,
+        &PipelineCache,
+        &RenderDevice,
+        &RenderQueue,
+    ),
+    passes: &HairGpuPasses,
+) {
+    buffers.ready = None;
+    buffers.strokes.ready.clear();
+    buffers.highlights.ready = None;
+    let params = input.params;
+    let per_strand = params.rings * params.sides + 2;
+    let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
+        return;
+    };
+    let vertices = (per_strand * params.strands) as usize;
+    let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, device) else {
+        passes.refuse(
+            input.mesh,
+            format!(
+                "its mesh of {vertices} vertices is larger than this device binds as \
+                 storage ({} bytes); it is built on the CPU (fewer strands or a coarser \
+                 HairMeshSettings fit)",
+                device.limits().max_storage_buffer_binding_size
+            ),
+        );
+        return;
+    };
+    buffers.params.set(GpuTubeParams {
+        vertex_base,
+        ..params
+    });
+    buffers.params.write_buffer(device, queue);
+    // Never empty: there is a strand, so a particle and a section.
+    buffers.particles.set(std::mem::take(&mut input.particles));
+    buffers.sections.set(std::mem::take(&mut input.sections));
+    buffers.strands.set(std::mem::take(&mut input.strands));
+    buffers.particles.write_buffer(device, queue);
+    buffers.sections.write_buffer(device, queue);
+    buffers.strands.write_buffer(device, queue);
+    // Three vec4 a ring.
+    let frame_bytes = u64::from(params.strands * params.rings) * 48;
+    if buffers.frames.as_ref().map(|b| b.size()) != Some(frame_bytes) {
+        buffers.frames = Some(device.create_buffer(&BufferDescriptor {
+            label: Some("hair_gpu_tube_frames"),
+            size: frame_bytes,
+            usage: BufferUsages::STORAGE,
+            mapped_at_creation: false,
+        }));
+    }
+    let (Some(p), Some(s), Some(x), Some(c), Some(frames)) = (
+        buffers.params.binding(),
+        buffers.strands.binding(),
+        buffers.particles.binding(),
+        buffers.sections.binding(),
+        buffers.frames.as_ref(),
+    ) else {
+        return;
+    };
+    let bind_group = device.create_bind_group(
+        "hair_gpu_tubes",
+        &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
+        &BindGroupEntries::sequential((p, s, x, c, slab, frames.as_entire_binding())),
+    );
+    buffers.ready = Some((bind_group, params.strands));
+    let (Some(strands), Some(sections)) = (buffers.strands.buffer(), buffers.sections.buffer())
+    else {
+        return;
+    };
+    buffers.strokes.prepare(
+        &input.strokes,
+        HairGpuBuffers {
+            strands,
+            sections,
+            frames,
+        },
+        (device, queue, mesh_allocator),
+        stroke_pipeline,
+        pipeline_cache,
+    );
+    buffers.highlights.prepare(
+        input.highlights.as_ref(),
+        frames,
+        (device, queue, mesh_allocator),
+        highlight_pipeline,
+        pipeline_cache,
+    );
+}
+
 /// Runs the tube pass of every hair ready this frame, then their stroke and highlight passes,
-/// before any camera draws.
+/// before any camera draws: three compute passes, each timed by `RenderDiagnosticsPlugin` where
+/// a game adds it (`render/hair_gpu_tubes/elapsed_gpu` and its pipeline statistics).
 fn build_gpu_tubes(
     mut render_context: RenderContext,
     hairs: Query<&GpuTubeBuffers>,
@@ -677,34 +714,30 @@ fn build_gpu_tubes(
     highlight_pipeline: Res<GpuHighlightPipeline>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let Some(compute) = pipeline_cache.get_compute_pipeline(pipeline.0.pipeline) else {
-        return;
-    };
-    let mut ready = hairs.iter().filter_map(|b| b.ready.as_ref()).peekable();
-    if ready.peek().is_none() {
-        return;
-    }
-    let mut pass = render_context
-        .command_encoder()
-        .begin_compute_pass(&ComputePassDescriptor {
-            label: Some("hair_gpu_tubes"),
-            ..default()
-        });
-    pass.set_pipeline(compute);
-    for (bind_group, strands) in ready {
-        pass.set_bind_group(0, bind_group, &[]);
-        pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
-    }
-    // Strokes and highlights read the frames the tube passes wrote (wgpu orders the
-    // dispatches).
     let built = || hairs.iter().filter(|b| b.ready.is_some());
+    let tubes: Vec<_> = built().filter_map(|b| b.ready.as_ref()).collect();
+    if tubes.is_empty()
+        || pipeline_cache
+            .get_compute_pipeline(pipeline.0.pipeline)
+            .is_none()
+    {
+        return;
+    }
+    // Strokes and highlights read the frames the tube pass wrote (wgpu orders the passes).
     let strokes: Vec<_> = built().flat_map(|b| &b.strokes.ready).collect();
     let highlights: Vec<_> = built()
         .filter_map(|b| b.highlights.ready.as_ref())
         .collect();
-    for (id, groups) in [
-        (stroke_pipeline.0.pipeline, strokes),
-        (highlight_pipeline.0.pipeline, highlights),
+    let diagnostics = render_context.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    for (name, id, groups) in [
+        ("hair_gpu_tubes", pipeline.0.pipeline, tubes),
+        ("hair_gpu_strokes", stroke_pipeline.0.pipeline, strokes),
+        (
+            "hair_gpu_highlights",
+            highlight_pipeline.0.pipeline,
+            highlights,
+        ),
     ] {
         let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {
             continue;
@@ -712,11 +745,20 @@ fn build_gpu_tubes(
         if groups.is_empty() {
             continue;
         }
+        let mut pass =
+            render_context
+                .command_encoder()
+                .begin_compute_pass(&ComputePassDescriptor {
+                    label: Some(name),
+                    ..default()
+                });
+        let span = diagnostics.pass_span(&mut pass, name);
         pass.set_pipeline(compute);
         for (bind_group, strands) in groups {
             pass.set_bind_group(0, bind_group, &[]);
             pass.dispatch_workgroups(strands.div_ceil(64), 1, 1);
         }
+        span.end(&mut pass);
     }
 }
 
@@ -733,11 +775,24 @@ mod tests {
             supported: true,
             reason: None,
             max_binding_bytes,
+            binding_alignment: 4,
         };
         assert!(support(128 << 20).fits(10_000, 16, 8));
         assert!(!support(64 << 20).fits(10_000, 16, 8));
         assert!(support(88_320_000).fits(10_000, 16, 8));
         assert!(!support(88_319_999).fits(10_000, 16, 8));
         assert!(!HairGpuMeshSupport::default().fits(1, 2, 3));
+        // A binding starts at the aligned offset at or before the mesh's first vertex: with a
+        // 256-byte alignment it may hold 252 bytes more than the mesh.
+        let aligned = HairGpuMeshSupport {
+            binding_alignment: 256,
+            ..support(88_320_000 + 252)
+        };
+        assert!(aligned.fits(10_000, 16, 8));
+        let short = HairGpuMeshSupport {
+            max_binding_bytes: 88_320_000 + 251,
+            ..aligned
+        };
+        assert!(!short.fits(10_000, 16, 8));
     }
 }

@@ -14,6 +14,7 @@ use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
 mod gpu_highlights;
+mod gpu_status;
 mod gpu_strokes;
 mod gpu_tubes;
 mod outline;
@@ -30,6 +31,7 @@ pub use fringe_shadow::{
     FringeShadowUniform,
 };
 pub use gpu_highlights::{GpuHighlightInput, GpuHighlightParams};
+pub use gpu_status::{GpuPassState, HairGpuBuildFailed, HairGpuFallback, HairGpuPasses};
 pub use gpu_strokes::{GpuStrokeInput, GpuStrokeParams};
 pub use gpu_tubes::{
     GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
@@ -52,7 +54,10 @@ pub use user_mesh::{ToonHairMeshes, ToonHairMeshesApplied};
 /// Every WESL library module of the crate, as `(file, source)`, for validation and tools. A file
 /// `f.wesl` is embedded at `embedded://bevy_cartoon_hair/render/f.wesl` and imported as
 /// `bevy_cartoon_hair::render::f`.
-pub const SHADER_LIBRARY: &[(&str, &str)] = &[("curves.wesl", include_str!("curves.wesl"))];
+pub const SHADER_LIBRARY: &[(&str, &str)] = &[
+    ("curves.wesl", include_str!("curves.wesl")),
+    ("numeric.wesl", include_str!("numeric.wesl")),
+];
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
 pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
@@ -78,6 +83,7 @@ pub struct HairShaderLibraryPlugin;
 impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "curves.wesl");
+        load_shader_library!(app, "numeric.wesl");
     }
 }
 

@@ -410,6 +410,10 @@ impl Material for ToonHairMaterial {
         _layout: &MeshVertexBufferLayoutRef,
         key: MaterialPipelineKey<Self>,
     ) -> Result<(), SpecializedMeshPipelineError> {
+        // Back faces are culled in every pass: the main pass's default, and the prepass and
+        // shadow passes would otherwise draw them (Bevy leaves culling there to the material),
+        // shading each tube's hidden half in the prepass and casting it into every cascade.
+        descriptor.primitive.cull_mode = Some(bevy::render::render_resource::Face::Back);
         if let Some(fragment) = descriptor.fragment.as_mut() {
             for def in key.bind_group_data.shader_defs() {
                 fragment.shader_defs.push(def.into());

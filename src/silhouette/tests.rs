@@ -621,6 +621,10 @@ fn degenerate_strokes_are_skipped_not_nan() {
 /// random polylines (open and closed, sharp turns, points behind the camera, varied widths,
 /// depth scaling and fades).
 #[test]
+#[cfg_attr(
+    not(cartoon_hair_avx2_host),
+    ignore = "this CPU has no AVX2: the AVX2 kernels cannot be compared here (not run)"
+)]
 fn strip_avx2_and_portable_paths_agree_bit_for_bit() {
     let mut rng = crate::test_support::Rng(0x9e37_79b9_7f4a_7c15);
     let mut next = move || rng.next();
@@ -660,8 +664,6 @@ fn strip_avx2_and_portable_paths_agree_bit_for_bit() {
             compared += portable.0.len();
         }
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        assert!(compared > 10_000, "only {compared} values compared");
-    }
+    // Run only where the CPU has AVX2 (see the attribute): both paths must have been compared.
+    assert!(compared > 10_000, "only {compared} values compared");
 }

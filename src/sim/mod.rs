@@ -32,6 +32,7 @@ mod collider;
 #[cfg(test)]
 mod collider_tests;
 mod contact;
+mod culling;
 mod events;
 mod physics;
 mod reload;
@@ -52,6 +53,7 @@ pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawne
 pub use chains::{BoneChainHair, BoneChainHairs, ChainSelect, HairBoneChains, MIN_TAIL};
 pub use clock::{HairTime, HairTimeExt};
 pub use collider::{HairCollider, HairColliderMode, HairCollidesOnly};
+pub use culling::{HairCulling, HairInView};
 pub use events::{
     BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
     HairAssetKind, HairReady, HairRebuilt, RebuildReason, VrmSpringsFailed,
@@ -61,7 +63,7 @@ pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
-pub use volume::{HairVolume, VolumeScratch, keep_apart};
+pub use volume::{DEFAULT_STRAND_RADIUS, HairStrandRadius, HairVolume, VolumeScratch, keep_apart};
 pub use vrm::{VRM0_TAIL, VrmSpringChains, anchor_for_rate, vrm_sim_settings};
 pub use wind::{FieldStep, HairForceField, HairForceFieldKind, HairWind, HairWindOverride};
 

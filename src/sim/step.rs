@@ -104,8 +104,8 @@ pub(crate) fn step_hair_strands(
         &GlobalTransform,
         &HairSimSettings,
         &mut ComputedHair,
-        Option<&crate::mesh::HairMeshSettings>,
-        Option<(&crate::mesh::HairCulling, &crate::mesh::HairInView)>,
+        Option<&super::HairStrandRadius>,
+        Option<(&super::HairCulling, &super::HairInView)>,
     )>,
     (own, only_colliders): (
         Query<(Entity, &HairCollider, &GlobalTransform)>,
@@ -505,8 +505,8 @@ pub(crate) fn step_hair_strands(
         if let (Some(volume), false) = (settings.volume, no_substeps) {
             let radius = volume
                 .radius
-                .or(mesh_settings.map(|m| m.radius))
-                .unwrap_or_else(|| crate::mesh::HairMeshSettings::default().radius)
+                .or(mesh_settings.map(|r| r.0))
+                .unwrap_or(super::DEFAULT_STRAND_RADIUS)
                 * computed.size;
             let ComputedHair {
                 batches,

@@ -63,10 +63,21 @@ pub struct HairVolume {
     /// at a rate this scales (see the `volume` module docs). Default: `0.5`.
     pub stiffness: f32,
     /// Particles of different strands closer than twice this (metres, at the character's
-    /// built size) are pushed apart. `None`: the hair's tube radius
-    /// (`HairMeshSettings::radius`, or its default without one). Default: `None`.
+    /// built size) are pushed apart. `None`: the hair's [`HairStrandRadius`] (the drawn tube's
+    /// radius, which the mesh stage hands over), or [`DEFAULT_STRAND_RADIUS`] without one.
+    /// Default: `None`.
     pub radius: Option<f32>,
 }
+
+/// The radius of a hair's strands as drawn, metres at the built size, for the volume
+/// ([`HairVolume::radius`] `None`). The mesh stage sets it on the hair entity from
+/// `HairMeshSettings::radius`; a game without it may set it itself.
+#[derive(Component, Reflect, Clone, Copy, Debug, PartialEq)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct HairStrandRadius(pub f32);
+
+/// The strand radius without a [`HairStrandRadius`] (and `HairMeshSettings`' default).
+pub const DEFAULT_STRAND_RADIUS: f32 = 0.016;
 
 impl Default for HairVolume {
     fn default() -> Self {

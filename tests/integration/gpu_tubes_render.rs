@@ -33,7 +33,7 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
 ];
 
 /// Pixels whose colour differs by more than `tolerance` in a channel.
-fn differing(a: &CapturedFrame, b: &CapturedFrame, tolerance: u8) -> usize {
+pub(crate) fn differing(a: &CapturedFrame, b: &CapturedFrame, tolerance: u8) -> usize {
     a.rgba
         .chunks(4)
         .zip(b.rgba.chunks(4))

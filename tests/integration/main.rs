@@ -13,6 +13,7 @@ mod chain_render;
 mod character_render;
 mod clip;
 mod fringe_render;
+mod gpu_fallback_render;
 mod gpu_tubes_render;
 mod hairstyle_render;
 mod hot_reload;
@@ -65,6 +66,7 @@ fn main() {
         .chain(ring_render::RENDER_TESTS)
         .chain(hairstyle_render::RENDER_TESTS)
         .chain(gpu_tubes_render::RENDER_TESTS)
+        .chain(gpu_fallback_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -5,6 +5,7 @@ use bevy::core_pipeline::prepass::ViewPrepassTextures;
 use bevy::image::ToExtents;
 use bevy::prelude::*;
 use bevy::render::camera::ExtractedCamera;
+use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::extract_component::{ComponentUniforms, DynamicUniformIndex};
 use bevy::render::render_resource::{
     BindGroup, BindGroupEntries, DynamicBindGroupEntries, Operations, PipelineCache,
@@ -167,6 +168,8 @@ pub(super) fn image_space_outline(
     };
     let edges = &textures.edges.default_view;
     let dilated = &textures.dilated.default_view;
+    let diagnostics = ctx.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
     for (label, pipeline, bind_group, destination) in [
         ("outline_detect", detect, &bind_groups.detect, edges),
         ("outline_dilate_x", dilate, &bind_groups.dilate, dilated),
@@ -192,8 +195,10 @@ pub(super) fn image_space_outline(
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+        let span = diagnostics.pass_span(&mut pass, label);
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bind_group, &offset);
         pass.draw(0..3, 0..1);
+        span.end(&mut pass);
     }
 }

@@ -163,6 +163,11 @@ fn chain_interleaves_structural_particles_off_the_strand() {
     }
 }
 
+/// Without gravity or anchors, only the solver's structure (the interleaved particles that fix
+/// bending and torsion) keeps the style: the head turns a quarter turn and moves 20 cm, then
+/// holds still, and the strands are back in their style around the moved head. A solver that
+/// did nothing would leave them where the head was (tens of centimetres off); one that only
+/// pinned the roots would leave them lagging.
 #[test]
 fn styled_hair_keeps_its_style_without_gravity() {
     let groom = spiky_groom(20, 6);
@@ -172,13 +177,36 @@ fn styled_hair_keeps_its_style_without_gravity() {
         ..default()
     };
     let mut h = Harness::new(groom.clone(), settings, 60.0);
-    for _ in 0..120 {
+    for _ in 0..30 {
         h.update();
     }
-    let rest = groom_rest_world(&groom, &h.bone_affine());
-    let dev = max_deviation(&h.strands(), &rest);
-    assert!(dev < 1e-3, "style drifted by {dev} m");
+    let start = h.bone_affine();
+    for frame in 0..60 {
+        let t = (frame + 1) as f32 / 60.0;
+        h.set_bone(
+            Transform::from_xyz(0.2 * t, 1.6, 0.0)
+                .with_rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2 * t)),
+        );
+        h.update();
+    }
+    for _ in 0..240 {
+        h.update();
+    }
+    let moved = groom_rest_world(&groom, &h.bone_affine());
+    let left_behind = groom_rest_world(&groom, &start);
+    let dev = max_deviation(&h.strands(), &moved);
+    let from_start = max_deviation(&h.strands(), &left_behind);
+    println!("after the turn: {dev} m from the style, {from_start} m from where it started");
+    assert!(
+        from_start > 0.1,
+        "the hair did not follow the head ({from_start} m)"
+    );
+    assert!(dev < STYLE_KEPT_M, "style drifted by {dev} m");
 }
+
+/// How far [`styled_hair_keeps_its_style_without_gravity`]'s strands may end from their style
+/// (measured: 1.7 mm; a solver that did nothing ends 489 mm off).
+const STYLE_KEPT_M: f32 = 3e-3;
 
 #[test]
 fn roots_follow_the_animated_bone_exactly_and_lengths_hold() {
@@ -487,6 +515,10 @@ fn non_finite_strands_are_reset_not_propagated() {
 
 /// The state hash of [`state_after_500_fixed_steps_is_deterministic`] on this crate's
 /// reference platform (x86-64, Linux); a change to the solver's arithmetic changes it.
+///
+/// A change detector, not a correctness test: it says that the solver's results changed, not
+/// that they are wrong. When a change to the solver is meant, check the behaviour tests and
+/// store the new hash.
 const GOLDEN_500_STEPS: u64 = 0x33ea_a949_24ea_e356;
 
 #[test]
@@ -520,6 +552,10 @@ fn state_after_500_fixed_steps_is_deterministic() {
 }
 
 #[test]
+#[cfg_attr(
+    not(cartoon_hair_avx2_host),
+    ignore = "this CPU has no AVX2: the AVX2 kernels cannot be compared here (not run)"
+)]
 fn solver_avx2_and_portable_paths_agree_bit_for_bit() {
     let mut rng = Rng(0x2545_f491_4f6c_dd1d);
     let mut compared = 0usize;
@@ -586,10 +622,8 @@ fn solver_avx2_and_portable_paths_agree_bit_for_bit() {
             compared += portable.len();
         }
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        assert!(compared > 10_000, "only {compared} values compared");
-    }
+    // Run only where the CPU has AVX2 (see the attribute): both paths must have been compared.
+    assert!(compared > 10_000, "only {compared} values compared");
 }
 
 /// An app with the simulation, the asset server on the repository's `assets/`, and a log of

@@ -1,0 +1,217 @@
+//! Whether the GPU passes can build a hair this frame, told by the render world to the main
+//! world, and the choice of builder made from it.
+//!
+//! A hair is never left invisible or frozen by the GPU path:
+//! - until the tube, stroke and highlight pipelines have compiled, it is built on the CPU;
+//! - when one of them fails (a driver or shader back end that rejects it, a broken shader
+//!   reload), every hair goes back to the CPU with a [`HairGpuBuildFailed`] event;
+//! - when the device refuses a hair's mesh binding (too large for
+//!   `max_storage_buffer_binding_size`, alignment included), that hair goes back to the CPU with
+//!   the event, until its mesh changes.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, PoisonError};
+
+use bevy::prelude::*;
+use bevy::render::render_resource::{CachedComputePipelineId, CachedPipelineState, PipelineCache};
+
+use crate::mesh::{ComputedHairMesh, HairMeshBuiltOnGpu};
+use crate::sim::{BoneChainHair, Hair};
+
+use super::gpu_tubes::{HairGpuMeshSupport, HairMeshBuilder};
+
+/// The state of the crate's compute pipelines, all three together.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum GpuPassState {
+    /// Queued or compiling (hair is built on the CPU meanwhile).
+    #[default]
+    Compiling,
+    /// All compiled: hair may be built on the GPU.
+    Ready,
+    /// One failed, with the pipeline cache's error.
+    Failed(String),
+}
+
+#[derive(Debug, Default)]
+struct Report {
+    state: GpuPassState,
+    /// Meshes whose binding the device refused this frame, with why.
+    refused: HashMap<AssetId<Mesh>, String>,
+}
+
+/// What the render world reports of the GPU passes, read by the main world. A resource in both
+/// worlds, sharing one report.
+#[derive(Resource, Clone, Debug, Default)]
+pub struct HairGpuPasses(Arc<Mutex<Report>>);
+
+impl HairGpuPasses {
+    fn lock(&self) -> std::sync::MutexGuard<'_, Report> {
+        self.0.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// The pipelines' state as last seen by the render world.
+    pub fn state(&self) -> GpuPassState {
+        self.lock().state.clone()
+    }
+
+    /// Sets the state. The render world does, every frame; an app without a renderer (a
+    /// bench of the CPU side of the GPU path) may declare the passes ready.
+    pub fn set_state(&self, state: GpuPassState) {
+        self.lock().state = state;
+    }
+
+    /// The device refused `mesh`'s binding: its hair goes back to the CPU.
+    pub(super) fn refuse(&self, mesh: AssetId<Mesh>, reason: String) {
+        self.lock().refused.insert(mesh, reason);
+    }
+
+    /// Takes the refusal of `mesh`, if any.
+    fn take_refusal(&self, mesh: AssetId<Mesh>) -> Option<String> {
+        self.lock().refused.remove(&mesh)
+    }
+}
+
+/// A hair that the GPU path could not build went back to the CPU (it stays visible and moving).
+/// Triggered on the hair entity and logged once as an error.
+#[derive(EntityEvent, Clone, Debug, PartialEq)]
+pub struct HairGpuBuildFailed {
+    /// The hair entity.
+    pub entity: Entity,
+    /// Why, and what to do.
+    pub reason: String,
+}
+
+/// On a hair built on the CPU because the GPU path failed for it: the reason, and the mesh it
+/// was refused for (a new mesh, after a level-of-detail or strand-count change, is tried again).
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct HairGpuFallback {
+    /// Why, as in [`HairGpuBuildFailed`].
+    pub reason: String,
+    /// The mesh refused; `None` when every hair fell back (a pipeline failed).
+    pub mesh: Option<AssetId<Mesh>>,
+}
+
+/// Render world: the three compute pipelines' state, every frame.
+pub(super) fn report_pass_state(
+    passes: Res<HairGpuPasses>,
+    cache: Res<PipelineCache>,
+    ids: Option<Res<GpuPassIds>>,
+) {
+    let Some(ids) = ids else {
+        return;
+    };
+    let mut state = GpuPassState::Ready;
+    for (name, id) in ids.0 {
+        match cache.get_compute_pipeline_state(id) {
+            CachedPipelineState::Ok(_) => {}
+            CachedPipelineState::Err(
+                bevy::shader::ShaderCacheError::ShaderNotLoaded(_)
+                | bevy::shader::ShaderCacheError::ShaderImportNotYetAvailable,
+            )
+            | CachedPipelineState::Queued
+            | CachedPipelineState::Creating(_) => {
+                if state == GpuPassState::Ready {
+                    state = GpuPassState::Compiling;
+                }
+            }
+            CachedPipelineState::Err(err) => {
+                state = GpuPassState::Failed(format!("the GPU pass `{name}` failed: {err}"));
+                break;
+            }
+        }
+    }
+    passes.set_state(state);
+}
+
+/// The crate's compute pipelines, by name (render world).
+#[derive(Resource, Clone, Copy)]
+pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 3]);
+
+/// Main world: marks the hairs built on the GPU this frame (the CPU mesh stage skips their
+/// vertices), and puts a hair back on the CPU, with [`HairGpuBuildFailed`], when the GPU cannot
+/// build it.
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+pub(super) fn choose_mesh_builder(
+    mut commands: Commands,
+    builder: Res<HairMeshBuilder>,
+    support: Res<HairGpuMeshSupport>,
+    passes: Res<HairGpuPasses>,
+    hairs: Query<
+        (
+            Entity,
+            Option<&ComputedHairMesh>,
+            Has<HairMeshBuiltOnGpu>,
+            Option<&HairGpuFallback>,
+        ),
+        (With<Hair>, Without<BoneChainHair>),
+    >,
+) {
+    let state = passes.state();
+    for (hair, computed, on_gpu, fallback) in &hairs {
+        let wanted = *builder == HairMeshBuilder::Gpu && support.supported;
+        let mesh = computed.map(|c| c.mesh.id());
+        // Why this hair cannot be on the GPU now, if it cannot; `None` for waiting.
+        let mut failure = None;
+        if let Some(c) = computed
+            && !support.fits(c.strands, c.topology.rings(), c.topology.sides())
+        {
+            failure = Some((
+                format!(
+                    "its mesh ({} strands of {} rings and {} sides) is larger than this device \
+                     binds as storage ({} bytes); it is built on the CPU (fewer strands or a \
+                     coarser HairMeshSettings fit)",
+                    c.strands,
+                    c.topology.rings(),
+                    c.topology.sides(),
+                    support.max_binding_bytes
+                ),
+                mesh,
+            ));
+        }
+        if let Some(reason) = mesh.and_then(|m| passes.take_refusal(m)) {
+            failure = Some((reason, mesh));
+        }
+        if let GpuPassState::Failed(reason) = &state {
+            failure = Some((
+                format!("{reason}; hair is built on the CPU (HairMeshBuilder::Cpu silences this)"),
+                None,
+            ));
+        }
+        // A refusal holds while the hair keeps the mesh it was refused for.
+        let still_refused = fallback.is_some_and(|f| f.mesh.is_some() && f.mesh == mesh);
+        let gpu = wanted
+            && failure.is_none()
+            && !still_refused
+            && state == GpuPassState::Ready
+            && computed.is_some();
+        if gpu != on_gpu {
+            if gpu {
+                commands.entity(hair).insert(HairMeshBuiltOnGpu);
+            } else {
+                commands.entity(hair).remove::<HairMeshBuiltOnGpu>();
+            }
+        }
+        match failure {
+            Some((reason, mesh)) if wanted => {
+                if fallback.is_none_or(|f| f.reason != reason) {
+                    error!("hair {hair}: {reason}");
+                    commands.entity(hair).insert(HairGpuFallback {
+                        reason: reason.clone(),
+                        mesh,
+                    });
+                    commands.trigger(HairGpuBuildFailed {
+                        entity: hair,
+                        reason,
+                    });
+                }
+            }
+            _ if gpu && fallback.is_some() => {
+                commands.entity(hair).remove::<HairGpuFallback>();
+            }
+            _ => {}
+        }
+    }
+}

@@ -1,0 +1,485 @@
+//! Render tests of the GPU path where it can go wrong on a player's machine: hair is built on the
+//! CPU until the passes compile, goes back to the CPU (with an event) when a pass fails or a
+//! binding is refused, is built in the frame it comes back into view, writes no NaN vertex from
+//! a NaN particle, and draws right with several hairs in one vertex slab and with pipelined
+//! rendering.
+
+use bevy::camera::RenderTarget;
+use bevy::prelude::*;
+use bevy::render::RenderApp;
+use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
+use bevy::render::render_resource::{BufferDescriptor, BufferUsages, MapMode, PollType};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairMeshBuiltOnGpu};
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::{
+    GpuPassState, GpuTubeInput, HairGpuBuildFailed, HairGpuMeshSupport, HairGpuPasses,
+    HairMeshBuilder,
+};
+use libtest_mimic::Failed;
+
+use crate::gpu_tubes_render::differing;
+use crate::mass_render::spawn_still_hair;
+use crate::ring_render::spikes;
+use crate::toon_render::{BACKGROUND, ramps, save};
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "gpu_hair_is_built_on_the_cpu_until_its_passes_compile",
+        gpu_hair_is_built_on_the_cpu_until_its_passes_compile,
+    ),
+    (
+        "a_failing_gpu_pass_puts_hair_back_on_the_cpu",
+        a_failing_gpu_pass_puts_hair_back_on_the_cpu,
+    ),
+    (
+        "a_refused_binding_puts_hair_back_on_the_cpu",
+        a_refused_binding_puts_hair_back_on_the_cpu,
+    ),
+    (
+        "a_hair_back_in_view_is_built_in_that_frame",
+        a_hair_back_in_view_is_built_in_that_frame,
+    ),
+    (
+        "a_nan_particle_makes_no_nan_vertex_on_the_gpu",
+        a_nan_particle_makes_no_nan_vertex_on_the_gpu,
+    ),
+    (
+        "hairs_of_several_sizes_share_the_vertex_slab",
+        hairs_of_several_sizes_share_the_vertex_slab,
+    ),
+    (
+        "gpu_hair_draws_with_pipelined_rendering",
+        gpu_hair_draws_with_pipelined_rendering,
+    ),
+];
+
+/// The hair plugins, a light and a camera looking at the origin from the front.
+fn scene(pipelined_rendering: bool) -> Result<(HeadlessRenderer, Entity), Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        pipelined_rendering,
+        ..default()
+    })?;
+    r.app.add_plugins(CartoonHairPlugins);
+    r.app.init_resource::<Failures>().add_observer(
+        |failed: On<HairGpuBuildFailed>, mut all: ResMut<Failures>| {
+            all.0.push((failed.entity, failed.reason.clone()));
+        },
+    );
+    let target = r.target();
+    let world = r.app.world_mut();
+    world.spawn((
+        DirectionalLight {
+            illuminance: 5_000.0,
+            ..default()
+        },
+        Transform::from_xyz(0.3, 0.8, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    let camera = world
+        .spawn((
+            Camera3d::default(),
+            Camera {
+                clear_color: ClearColorConfig::Custom(Color::BLACK),
+                ..default()
+            },
+            bevy::core_pipeline::tonemapping::Tonemapping::Linear,
+            Msaa::Off,
+            RenderTarget::Image(target.into()),
+            front(),
+        ))
+        .id();
+    Ok((r, camera))
+}
+
+fn front() -> Transform {
+    Transform::from_xyz(0.0, 0.3, 3.0).looking_at(Vec3::ZERO, Vec3::Y)
+}
+
+/// Every [`HairGpuBuildFailed`] seen, with its hair and reason.
+#[derive(Resource, Default)]
+struct Failures(Vec<(Entity, String)>);
+
+/// Spiky hair (every `step`th of the 240 spikes), held still.
+fn spawn_spikes(r: &mut HeadlessRenderer, step: usize, transform: Transform) -> Entity {
+    let ramp = ramps(r).three_tone;
+    let strands = spikes().into_iter().step_by(step).collect();
+    let hair = spawn_still_hair(
+        r.app.world_mut(),
+        strands,
+        ToonHairMaterial { ramp, ..default() },
+        HairMeshSettings {
+            radius: 0.03,
+            taper: QuadraticCurve::new(-1.5, 0.5, 1.0),
+            mass_normals: 0.8,
+            ..default()
+        },
+    );
+    r.app.world_mut().entity_mut(hair).insert(transform);
+    hair
+}
+
+fn on_gpu(r: &HeadlessRenderer, hair: Entity) -> bool {
+    r.app.world().entity(hair).contains::<HairMeshBuiltOnGpu>()
+}
+
+/// One frame captured without waiting on pipelines (a failed one is what these tests make).
+fn next_frame(r: &mut HeadlessRenderer) -> Result<CapturedFrame, Failed> {
+    let mut frame = None;
+    r.capture_sequence(1, |_, f| frame = Some(f))?;
+    frame.ok_or_else(|| "no frame arrived".into())
+}
+
+/// The picture of `r`'s scene with every hair built on the CPU, then the builder set back.
+fn cpu_reference(r: &mut HeadlessRenderer) -> Result<CapturedFrame, Failed> {
+    let builder = *r.app.world().resource::<HairMeshBuilder>();
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    for _ in 0..3 {
+        r.update();
+    }
+    let frame = next_frame(r)?;
+    r.app.insert_resource(builder);
+    Ok(frame)
+}
+
+/// `a` and `b` differ in under 1% of `a`'s hair pixels by more than 3 levels.
+fn same_picture(a: &CapturedFrame, b: &CapturedFrame, what: &str) -> Result<(), Failed> {
+    let hair_px = a.count(|p| p != BACKGROUND);
+    let diff = differing(a, b, 3);
+    eprintln!("{what}: {diff} of {hair_px} hair px differ");
+    if hair_px < 500 || diff * 100 > hair_px {
+        return Err(format!("{what}: {diff} of {hair_px} hair px differ").into());
+    }
+    Ok(())
+}
+
+/// From its first frame, frame by frame: a hair is marked GPU-built only in a frame that starts
+/// with the GPU passes compiled (the CPU builds it before that, so it is never left without
+/// vertices), and it does move to the GPU once they have.
+fn gpu_hair_is_built_on_the_cpu_until_its_passes_compile() -> Result<(), Failed> {
+    let (mut r, _) = scene(false)?;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    let mut compiling_frames = 0;
+    for frame in 0..600 {
+        let before = r
+            .app
+            .world()
+            .get_resource::<HairGpuPasses>()
+            .map(HairGpuPasses::state)
+            .unwrap_or_default();
+        r.update();
+        let gpu = on_gpu(&r, hair);
+        if gpu && before != GpuPassState::Ready {
+            return Err(format!(
+                "frame {frame}: the hair is built on the GPU while its passes are {before:?}"
+            )
+            .into());
+        }
+        if before == GpuPassState::Compiling {
+            compiling_frames += 1;
+            // The CPU built its vertices meanwhile: the mesh is not the blank it was made as.
+            let world = r.app.world();
+            if let Some(computed) = world.get::<ComputedHairMesh>(hair)
+                && let Some(mesh) = world.resource::<Assets<Mesh>>().get(&computed.mesh)
+                && let Some(positions) = mesh
+                    .attribute(Mesh::ATTRIBUTE_POSITION)
+                    .and_then(|a| a.as_float3())
+                && frame > 2
+                && positions.iter().all(|p| *p == positions[0])
+            {
+                return Err(
+                    format!("frame {frame}: the CPU left the hair's vertices blank").into(),
+                );
+            }
+        }
+        if let GpuPassState::Failed(e) = &before {
+            return Err(format!("a GPU pass failed: {e}").into());
+        }
+        if gpu {
+            eprintln!("on the GPU from frame {frame}, after {compiling_frames} compiling frames");
+            return Ok(());
+        }
+    }
+    Err("the hair never moved to the GPU".into())
+}
+
+/// A hair on the GPU whose tube pass then fails (its shader replaced by one that does not
+/// compile, as a driver that rejects it would): the hair goes back to the CPU with a
+/// [`HairGpuBuildFailed`] naming it and the pass, and keeps moving: turned afterwards, it is
+/// drawn as the CPU draws it, not frozen where it was.
+fn a_failing_gpu_pass_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
+    let (mut r, _) = scene(false)?;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    let before = r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU to begin with".into());
+    }
+    let path = "embedded://bevy_cartoon_hair/render/gpu_tubes.wesl";
+    let handle: Handle<Shader> = r.app.world().resource::<AssetServer>().load(path);
+    r.app
+        .world_mut()
+        .resource_mut::<Assets<Shader>>()
+        .insert(&handle, Shader::from_wesl("fn build( {", path))?;
+    r.app
+        .world_mut()
+        .entity_mut(hair)
+        .insert(Transform::from_rotation(Quat::from_rotation_y(0.8)));
+    for _ in 0..10 {
+        r.update();
+    }
+    let after = next_frame(&mut r)?;
+    save(&after, "gpu_pass_failed")?;
+    let failures = &r.app.world().resource::<Failures>().0;
+    let Some((_, reason)) = failures.iter().find(|(e, _)| *e == hair) else {
+        return Err(format!("no HairGpuBuildFailed for the hair: {failures:?}").into());
+    };
+    eprintln!("event: {reason}");
+    if !reason.contains("hair_gpu_tubes") {
+        return Err(format!("the event does not name the pass: {reason}").into());
+    }
+    if on_gpu(&r, hair) {
+        return Err("the hair is still marked GPU-built".into());
+    }
+    let cpu = cpu_reference(&mut r)?;
+    same_picture(
+        &cpu,
+        &after,
+        "turned after the pass failed, against the CPU",
+    )?;
+    let moved = differing(&before, &after, 3);
+    if moved * 10 < before.count(|p| p != BACKGROUND) {
+        return Err(format!("the turned hair changed only {moved} px: frozen").into());
+    }
+    Ok(())
+}
+
+/// A hair on the GPU when the binding limit drops below its mesh (a game lowering
+/// `HairGpuMeshSupport::max_binding_bytes`, as a smaller device would have it): back on the CPU
+/// with an event naming the hair and the binding, and still moving.
+fn a_refused_binding_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
+    let (mut r, _) = scene(false)?;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU to begin with".into());
+    }
+    r.app
+        .world_mut()
+        .resource_mut::<HairGpuMeshSupport>()
+        .max_binding_bytes = 4096;
+    r.app
+        .world_mut()
+        .entity_mut(hair)
+        .insert(Transform::from_rotation(Quat::from_rotation_y(-0.7)));
+    let after = r.capture()?;
+    let failures = &r.app.world().resource::<Failures>().0;
+    let Some((_, reason)) = failures.iter().find(|(e, _)| *e == hair) else {
+        return Err(format!("no HairGpuBuildFailed for the hair: {failures:?}").into());
+    };
+    eprintln!("event: {reason}");
+    if !reason.contains("binds as storage") || failures.len() != 1 {
+        return Err(format!("expected one event about the binding: {failures:?}").into());
+    }
+    if on_gpu(&r, hair) {
+        return Err("the hair is still marked GPU-built".into());
+    }
+    let cpu = cpu_reference(&mut r)?;
+    same_picture(
+        &cpu,
+        &after,
+        "turned after the binding was refused, against the CPU",
+    )
+}
+
+/// A GPU-built hair leaves the view (the camera turns away), turns while no camera sees it, and
+/// the frame the camera turns back draws it turned, as the CPU draws it, not where it left.
+fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
+    let (mut r, camera) = scene(false)?;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    let left = r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU".into());
+    }
+    let away = Transform::from_xyz(0.0, 0.3, 3.0).looking_at(Vec3::new(0.0, 0.3, 10.0), Vec3::Y);
+    r.app.world_mut().entity_mut(camera).insert(away);
+    for _ in 0..3 {
+        r.update();
+    }
+    if r.app
+        .world()
+        .get::<GpuTubeInput>(hair_mesh(&r, hair)?)
+        .is_some()
+    {
+        return Err("the hair out of view still hands the GPU its particles".into());
+    }
+    r.app
+        .world_mut()
+        .entity_mut(hair)
+        .insert(Transform::from_rotation(Quat::from_rotation_y(0.9)));
+    for _ in 0..3 {
+        r.update();
+    }
+    r.app.world_mut().entity_mut(camera).insert(front());
+    let back = next_frame(&mut r)?;
+    save(&back, "gpu_back_in_view")?;
+    let cpu = cpu_reference(&mut r)?;
+    same_picture(&cpu, &back, "the first frame back in view, against the CPU")?;
+    if differing(&left, &back, 3) * 10 < left.count(|p| p != BACKGROUND) {
+        return Err("the first frame back in view shows the hair where it left".into());
+    }
+    Ok(())
+}
+
+fn hair_mesh(r: &HeadlessRenderer, hair: Entity) -> Result<Entity, Failed> {
+    Ok(r.app
+        .world()
+        .get::<ComputedHairMesh>(hair)
+        .ok_or("the hair has no mesh")?
+        .entity)
+}
+
+/// Particles that are NaN or infinite reach the tube pass (written into its input after the
+/// main world gathered it): every float the pass writes into the hair's vertices is finite.
+fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
+    let (mut r, _) = scene(false)?;
+    // The vertex slabs can be read back.
+    r.update();
+    r.app
+        .sub_app_mut(RenderApp)
+        .world_mut()
+        .resource_mut::<MeshAllocatorSettings>()
+        .extra_buffer_usages |= BufferUsages::COPY_SRC;
+    let hair = spawn_spikes(&mut r, 4, Transform::IDENTITY);
+    r.app
+        .add_systems(Last, |mut inputs: Query<&mut GpuTubeInput>| {
+            for mut input in &mut inputs {
+                let n = input.particles.len();
+                input.particles[n / 2] = Vec4::new(f32::NAN, 0.0, 0.0, 1.0);
+                input.particles[n / 3] = Vec4::new(0.0, f32::INFINITY, 0.0, 1.0);
+                input.particles[1] = Vec4::splat(f32::NAN);
+            }
+        });
+    r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU".into());
+    }
+    next_frame(&mut r)?;
+    let mesh = r
+        .app
+        .world()
+        .get::<ComputedHairMesh>(hair)
+        .ok_or("no hair mesh")?
+        .mesh
+        .id();
+    let floats = read_vertices(&r, mesh)?;
+    let bad = floats.iter().filter(|f| !f.is_finite()).count();
+    eprintln!("{} floats read back, {bad} not finite", floats.len());
+    if floats.is_empty() || bad > 0 {
+        return Err(format!("{bad} of {} vertex floats are not finite", floats.len()).into());
+    }
+    Ok(())
+}
+
+/// The floats of `mesh`'s vertices in its vertex slab, read back from the GPU.
+fn read_vertices(r: &HeadlessRenderer, mesh: AssetId<Mesh>) -> Result<Vec<f32>, Failed> {
+    let stride = r
+        .app
+        .world()
+        .resource::<Assets<Mesh>>()
+        .get(mesh)
+        .ok_or("no mesh asset")?
+        .get_vertex_size();
+    let world = r.app.sub_app(RenderApp).world();
+    let slice = world
+        .resource::<MeshAllocator>()
+        .mesh_vertex_slice(&mesh)
+        .ok_or("the hair mesh is not in a slab")?;
+    let device = world.resource::<RenderDevice>();
+    let queue = world.resource::<RenderQueue>();
+    let offset = u64::from(slice.range.start) * stride;
+    let size = u64::from(slice.range.end - slice.range.start) * stride;
+    let read = device.create_buffer(&BufferDescriptor {
+        label: Some("hair vertex readback"),
+        size,
+        usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&default());
+    encoder.copy_buffer_to_buffer(slice.buffer, offset, &read, 0, size);
+    queue.submit([encoder.finish()]);
+    read.slice(..).map_async(MapMode::Read, |_| {});
+    device
+        .poll(PollType::wait_indefinitely())
+        .map_err(|e| format!("{e:?}"))?;
+    let data = read
+        .slice(..)
+        .get_mapped_range()
+        .map_err(|e| format!("{e:?}"))?;
+    Ok(data
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
+}
+
+/// Three hairs of 24, 60 and 120 strands side by side, built on the GPU into one shared vertex
+/// slab (one of them not at its start, so its pass binds from an aligned offset), drawn as the
+/// CPU draws them; then the middle one despawned and one of 80 strands spawned in its place, and
+/// again drawn as the CPU draws them.
+fn hairs_of_several_sizes_share_the_vertex_slab() -> Result<(), Failed> {
+    let (mut r, _) = scene(false)?;
+    let at = |x: f32| Transform::from_xyz(x, 0.0, 0.0).with_scale(Vec3::splat(0.45));
+    let mut hairs = vec![
+        spawn_spikes(&mut r, 10, at(-0.8)),
+        spawn_spikes(&mut r, 4, at(0.0)),
+        spawn_spikes(&mut r, 2, at(0.8)),
+    ];
+    for round in 0..2 {
+        let gpu = r.capture()?;
+        save(&gpu, &format!("gpu_shared_slab_{round}"))?;
+        for &hair in &hairs {
+            if !on_gpu(&r, hair) {
+                return Err(format!("round {round}: hair {hair} is not built on the GPU").into());
+            }
+        }
+        let slices: Vec<_> = hairs
+            .iter()
+            .map(|&h| {
+                let mesh = r.app.world().get::<ComputedHairMesh>(h)?.mesh.id();
+                let world = r.app.sub_app(RenderApp).world();
+                let slice = world.resource::<MeshAllocator>().mesh_vertex_slice(&mesh)?;
+                Some((slice.buffer.id(), slice.range.start))
+            })
+            .collect::<Option<_>>()
+            .ok_or("a hair mesh has no slab")?;
+        let shared = slices
+            .iter()
+            .any(|(b, start)| *start > 0 && slices.iter().filter(|(o, _)| o == b).count() > 1);
+        eprintln!("round {round}: slabs and first vertices {slices:?}");
+        if !shared {
+            return Err(format!("no two hair meshes share a slab: {slices:?}").into());
+        }
+        let cpu = cpu_reference(&mut r)?;
+        save(&cpu, &format!("gpu_shared_slab_{round}_cpu"))?;
+        same_picture(&cpu, &gpu, &format!("round {round}, GPU against CPU"))?;
+        if round == 0 {
+            r.app.world_mut().entity_mut(hairs[1]).despawn();
+            hairs[1] = spawn_spikes(&mut r, 3, at(0.0));
+        }
+    }
+    Ok(())
+}
+
+/// With a render thread, as in a game (pipelined rendering, each frame drawn one update late),
+/// spiky hair is built on the GPU and drawn as the CPU draws it.
+fn gpu_hair_draws_with_pipelined_rendering() -> Result<(), Failed> {
+    let (mut r, _) = scene(true)?;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    let gpu = r.capture()?;
+    save(&gpu, "gpu_pipelined")?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU".into());
+    }
+    let cpu = cpu_reference(&mut r)?;
+    save(&cpu, "gpu_pipelined_cpu")?;
+    same_picture(&cpu, &gpu, "pipelined rendering, GPU against CPU")
+}
