@@ -15,7 +15,11 @@
 //! under every hair, the default look. Each pass is timed with Bevy's `RenderDiagnosticsPlugin`
 //! (GPU timestamps) and counted with pipeline statistics; the crate's passes
 //! (`hair_gpu_tubes`, `hair_gpu_strokes`, `hair_gpu_highlights`, `outline_*`) have spans of
-//! their own. The hair's share of a pass is the pass with hair minus the same scene without.
+//! their own. The hair's share of a pass is the pass with hair minus the same scene without
+//! (both with the depth and normal prepasses the hair's outline uses).
+//!
+//! Bevy 0.20 records the shadow passes as one time span (`per_view_shadow_pass`), without
+//! pipeline statistics.
 //!
 //! Pipeline statistics (vertex, fragment and compute invocations, primitives) are counts: the
 //! same on Mesa's CPU rasteriser (lavapipe) as on a GPU. On lavapipe the times are the CPU

@@ -83,7 +83,9 @@ fn tip_error(world: &mut World) -> Result<f32, Failed> {
 /// the idle animation: the quick head shake runs from 3.0 to 3.5 s. Over every frame no particle
 /// but a root lies more than 3 mm inside the head's spheres or the shoulders', chest's and
 /// back's capsules; a second after the shake the tips are back within 2 cm (or 1.5x) of how far
-/// from their style they were just before it. Frames of the shake are saved (`hairstyle_*`).
+/// from their style they were just before it; and the head does shake (turns at least
+/// [`HEAD_SHAKE_LEAST`] from its pose just before). Frames of the shake are saved
+/// (`hairstyle_*`).
 fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Failed> {
     let mut failures = Vec::new();
     for style in [NinjaHairstyle::Long, NinjaHairstyle::TwinTails] {
@@ -101,6 +103,12 @@ fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Fa
                 hairstyle: style,
             },
         ));
+        // The clock stands still while the scene loads, so the idle animation (and its shake)
+        // starts at 0 s in every run, however long loading takes.
+        r.app
+            .insert_resource(bevy::time::TimeUpdateStrategy::ManualDuration(
+                std::time::Duration::ZERO,
+            ));
         r.warm_up(ninja_scene_ready)?;
         let world = r.app.world_mut();
         let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
@@ -114,6 +122,8 @@ fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Fa
         let (mut worst, mut worst_at) = (f32::NEG_INFINITY, 0.0);
         let mut before = 0.0;
         let mut after = Vec::new();
+        // How far the head turned in the shake from where it was just before.
+        let (mut head_before, mut shook) = (Quat::IDENTITY, 0.0f32);
         for frame in 1..=135u32 {
             r.update_by(FRAME);
             let t = frame as f32 * FRAME;
@@ -122,8 +132,13 @@ fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Fa
             if depth > worst {
                 (worst, worst_at) = (depth, t);
             }
+            let head = head_rotation(world)?;
             if frame == 89 {
                 before = tip_error(world)?;
+                head_before = head;
+            }
+            if (90..=110).contains(&frame) {
+                shook = shook.max(head.angle_between(head_before));
             }
             if frame >= 120 {
                 after.push(tip_error(world)?);
@@ -134,10 +149,18 @@ fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Fa
             }
         }
         let settled = *after.last().ok_or("no frame after the shake")?;
+        if shook < HEAD_SHAKE_LEAST {
+            failures.push(format!(
+                "{}: the head turned only {:.1} degrees in the shake",
+                style.name(),
+                shook.to_degrees()
+            ));
+        }
         eprintln!(
-            "{}: deepest particle {:.1} mm at {worst_at:.2} s; tips {:.1} mm from their rest \
+            "{}: head turned {:.1} degrees in the shake; deepest particle {:.1} mm at {worst_at:.2} s; tips {:.1} mm from their rest \
              before the shake, at most {:.1} mm 0.5-1.0 s after it, {:.1} mm at 4.5 s",
             style.name(),
+            shook.to_degrees(),
             1000.0 * worst,
             1000.0 * before,
             1000.0 * after.iter().copied().fold(0.0, f32::max),
@@ -164,4 +187,19 @@ fn long_hairstyles_stay_outside_the_body_through_a_head_shake() -> Result<(), Fa
     } else {
         Err(failures.join("\n").into())
     }
+}
+
+/// The least the head must turn in the idle animation's shake for the shake test to mean
+/// anything, radians.
+const HEAD_SHAKE_LEAST: f32 = 0.1;
+
+/// The rotation of the bone the first hair hangs on.
+fn head_rotation(world: &mut World) -> Result<Quat, Failed> {
+    let mut hairs = world.query_filtered::<&GlobalTransform, With<ComputedHair>>();
+    Ok(hairs
+        .iter(world)
+        .next()
+        .ok_or("no hair")?
+        .compute_transform()
+        .rotation)
 }
