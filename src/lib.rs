@@ -73,13 +73,8 @@
 //!
 //! ## Feature flags
 //!
-//! | feature  | default | what it adds |
-//! |----------|---------|--------------|
-//! | `render` | yes     | Toon materials and other GPU-side parts, presets (`ron`). |
-//! | `rapier` | yes     | The head collider is also a rapier collider other rapier users see; hairs with `HairCollisionGroups` collide with the world's rapier colliders. Without it, hair collides with [`sim::HairCollider`]s only. |
-//! | `avian`  | no      | The same for avian 0.8: the head collider is also an avian collider (zero density); hairs with `HairCollisionLayers` collide with the world's avian colliders. |
-//! | `demo`   | no      | The ninja demo scene, its clip recorder and the headless capture harness (pulls in `wgpu`; implies `render`). |
-//! | `ui`     | no      | The live egui tuning panel, a development tool not in [`CartoonHairPlugins`] (pulls in `bevy_egui`; implies `render`). |
+//! `render` and `rapier` are on by default; `avian`, `ui` and `demo` are opt-in. What each adds:
+//! the README's Cargo features table (one copy, there).
 //!
 //! ## Plugins
 //!

@@ -18,7 +18,49 @@ use bevy::render::render_resource::{CachedComputePipelineId, CachedPipelineState
 use crate::mesh::{ComputedHairMesh, HairMeshBuiltOnGpu};
 use crate::sim::{BoneChainHair, Hair};
 
-use super::gpu_tubes::{HairGpuMeshSupport, HairMeshBuilder};
+use crate::silhouette::gpu_jobs::gpu_stroke_vertex_count;
+
+/// Where strand tube meshes are built. A resource; it may change at any time.
+#[derive(Resource, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[reflect(Resource, Default, Debug, PartialEq)]
+pub enum HairMeshBuilder {
+    /// On the GPU where the render device can ([`HairGpuMeshSupport`]), object-space strokes
+    /// included; on the CPU otherwise.
+    #[default]
+    Gpu,
+    /// Always on the CPU (the reference; every frame's vertices are uploaded).
+    Cpu,
+}
+
+/// Whether this render device can build tubes and strokes on the GPU: compute shaders of 64
+/// invocations, five storage buffers in a compute stage (`max_storage_buffers_per_shader_stage`)
+/// and vertex buffers usable as storage. Set when the render plugin finishes.
+#[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
+pub struct HairGpuMeshSupport {
+    /// Tubes may be built on the GPU.
+    pub supported: bool,
+    /// Why not, when they may not.
+    pub reason: Option<String>,
+    /// The largest storage binding the device allows (`max_storage_buffer_binding_size`),
+    /// bytes: a hair whose tube or stroke mesh would be larger is built on the CPU. A game may
+    /// lower it (never raise it).
+    pub max_binding_bytes: u64,
+    /// The device's `min_storage_buffer_offset_alignment`: a mesh's binding starts at the
+    /// aligned offset at or before its first vertex, so it may be this much larger.
+    pub binding_alignment: u64,
+}
+
+impl HairGpuMeshSupport {
+    /// Whether a hair of `strands` strands of `rings` rings and `sides` sides fits in the
+    /// device's storage bindings, its tube mesh (at most 64 bytes a vertex) and its stroke mesh
+    /// (48 bytes a vertex), each with the padding its binding's alignment may add in front.
+    pub fn fits(&self, strands: usize, rings: usize, sides: usize) -> bool {
+        let tubes = (strands * (rings * sides + 2)) as u64 * 64;
+        let strokes = gpu_stroke_vertex_count(strands, rings, sides) as u64 * 48;
+        let padding = self.binding_alignment.saturating_sub(4);
+        tubes.max(strokes) + padding <= self.max_binding_bytes
+    }
+}
 
 /// The state of the crate's compute pipelines, all three together.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -213,5 +255,40 @@ pub(super) fn choose_mesh_builder(
             }
             _ => {}
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hair_too_large_for_the_devices_storage_bindings_stays_on_the_cpu() {
+        // 10,000 strands of 16 rings of 8 sides (about W2's hair). Its stroke mesh (10,000 x 2 x 23
+        // quads of 4 vertices of 48 bytes, 88.3 MB) is larger than its tube mesh (83.2 MB at
+        // 64 bytes a vertex).
+        let support = |max_binding_bytes| HairGpuMeshSupport {
+            supported: true,
+            reason: None,
+            max_binding_bytes,
+            binding_alignment: 4,
+        };
+        assert!(support(128 << 20).fits(10_000, 16, 8));
+        assert!(!support(64 << 20).fits(10_000, 16, 8));
+        assert!(support(88_320_000).fits(10_000, 16, 8));
+        assert!(!support(88_319_999).fits(10_000, 16, 8));
+        assert!(!HairGpuMeshSupport::default().fits(1, 2, 3));
+        // A binding starts at the aligned offset at or before the mesh's first vertex: with a
+        // 256-byte alignment it may hold 252 bytes more than the mesh.
+        let aligned = HairGpuMeshSupport {
+            binding_alignment: 256,
+            ..support(88_320_000 + 252)
+        };
+        assert!(aligned.fits(10_000, 16, 8));
+        let short = HairGpuMeshSupport {
+            max_binding_bytes: 88_320_000 + 251,
+            ..aligned
+        };
+        assert!(!short.fits(10_000, 16, 8));
     }
 }

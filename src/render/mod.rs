@@ -31,11 +31,12 @@ pub use fringe_shadow::{
     FringeShadowUniform,
 };
 pub use gpu_highlights::{GpuHighlightInput, GpuHighlightParams};
-pub use gpu_status::{GpuPassState, HairGpuBuildFailed, HairGpuFallback, HairGpuPasses};
-pub use gpu_strokes::{GpuStrokeInput, GpuStrokeParams};
-pub use gpu_tubes::{
-    GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin, HairGpuMeshSupport, HairMeshBuilder,
+pub use gpu_status::{
+    GpuPassState, HairGpuBuildFailed, HairGpuFallback, HairGpuMeshSupport, HairGpuPasses,
+    HairMeshBuilder,
 };
+pub use gpu_strokes::{GpuStrokeInput, GpuStrokeParams};
+pub use gpu_tubes::{GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin};
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
     MAX_OUTLINE_DILATION, OutlineSource,
