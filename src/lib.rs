@@ -179,15 +179,18 @@ pub mod prelude {
         HeadCollision,
     };
     pub use crate::curve::QuadraticCurve;
-    pub use crate::mesh::HairMeshSettings;
     pub use crate::mesh::highlights::SpecularQuads;
+    pub use crate::mesh::{
+        HairCulling, HairLod, HairMeshSettings, HairStrandSections, LockSection,
+    };
     pub use crate::plugins::CartoonHairPlugins;
     #[cfg(feature = "render")]
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
-        HairGpuBuildFailed, HairMaterial, ImageSpaceOutline, LockLines, OutlineSource, RampMode,
-        ToonHairMaterial, ToonHairMeshes, ToonLighting, ToonRamps, ToonShading,
+        FringeShadow, FringeShadowMeshes, HairGpuBuildFailed, HairMaterial, ImageSpaceOutline,
+        LockLines, OutlineSource, RampMode, ToonHairMaterial, ToonHairMeshes, ToonLighting,
+        ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};
@@ -196,10 +199,10 @@ pub mod prelude {
     #[cfg(feature = "avian")]
     pub use crate::sim::HairCollisionLayers;
     pub use crate::sim::{
-        AttachToBone, ChainSelect, Hair, HairBoneChains, HairCollider, HairColliderMode,
-        HairCollidesOnly, HairForceField, HairForceFieldKind, HairSimControl, HairSimSettings,
-        HairTime, HairTimeExt, HairWind, HairWindOverride, Strand, StrandParticles,
-        VrmSpringChains, VrmSpringsFailed,
+        AttachToBone, BoneNotFound, ChainSelect, Hair, HairAssetFailed, HairBoneChains,
+        HairCollider, HairColliderMode, HairCollidesOnly, HairForceField, HairForceFieldKind,
+        HairReady, HairSimControl, HairSimSettings, HairTime, HairTimeExt, HairWind,
+        HairWindOverride, Strand, StrandParticles, VrmSpringChains, VrmSpringsFailed,
     };
     #[cfg(feature = "ui")]
     pub use crate::ui::{HairTuningUi, HairTuningUiPlugin};

@@ -63,7 +63,8 @@ pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
 pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
-pub use volume::{DEFAULT_STRAND_RADIUS, HairStrandRadius, HairVolume, VolumeScratch, keep_apart};
+pub use volume::{DEFAULT_STRAND_RADIUS, HairStrandRadius, HairVolume};
+pub(crate) use volume::{VolumeScratch, keep_apart};
 pub use vrm::{VRM0_TAIL, VrmSpringChains, anchor_for_rate, vrm_sim_settings};
 pub use wind::{FieldStep, HairForceField, HairForceFieldKind, HairWind, HairWindOverride};
 
