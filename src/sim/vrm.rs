@@ -320,11 +320,27 @@ pub(crate) fn build_vrm_springs(
                 .id();
             built.springs.push(e);
         }
-        info!(
-            "{file}: {} VRM springs and {} colliders simulated as hair",
-            built.springs.len(),
-            built.colliders.len()
-        );
+        if built.springs.is_empty() {
+            // A file with the extension but nothing to simulate: the game should hear of it.
+            let error = format!(
+                "{file}: no usable spring bones ({} springs or bone groups in the file, none with \
+                 joints in the spawned scene): its hair will not move; check the file's \
+                 VRMC_springBone springs or secondaryAnimation boneGroups",
+                springs.springs.len()
+            );
+            warn!("{error}");
+            commands.trigger(VrmSpringsFailed {
+                entity: root,
+                file: file.clone(),
+                error,
+            });
+        } else {
+            info!(
+                "{file}: {} VRM springs and {} colliders simulated as hair",
+                built.springs.len(),
+                built.colliders.len()
+            );
+        }
         commands.entity(root).insert(built);
     }
 }

@@ -390,6 +390,34 @@ fn a_broken_vrm_is_reported_once_and_simulates_nothing() {
     assert_eq!(strand_count(&mut app), 0);
 }
 
+/// A VRM whose spring-bone extension holds no springs (empty bone groups) simulates nothing
+/// and says so once, as an event a game can act on, naming the file.
+#[test]
+fn a_vrm_without_usable_springs_is_reported() {
+    let mut app = event_app();
+    #[derive(Resource, Default)]
+    struct Failed(Vec<String>);
+    app.init_resource::<Failed>()
+        .add_observer(|e: On<VrmSpringsFailed>, mut f: ResMut<Failed>| {
+            f.0.push(format!("{} | {}", e.file, e.error));
+        });
+    let (root, _) = vrm_scene(&mut app, VrmSprings::default());
+    app.world_mut()
+        .get_mut::<VrmSpringBones>(root)
+        .unwrap()
+        .file = "empty.vrm".into();
+    for _ in 0..10 {
+        app.update();
+    }
+    let failed = &app.world().resource::<Failed>().0;
+    assert_eq!(failed.len(), 1, "{failed:?}");
+    assert!(
+        failed[0].starts_with("empty.vrm | empty.vrm: no usable spring bones"),
+        "{failed:?}"
+    );
+    assert_eq!(strand_count(&mut app), 0);
+}
+
 #[test]
 fn a_vrm_collider_radius_follows_its_node_scale() {
     // The head (and everything under it) at twice the size: the 2 cm sphere on chain A's middle
