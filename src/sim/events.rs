@@ -116,9 +116,11 @@ pub struct HairAnimationMismatch {
     pub message: String,
 }
 
-/// A VRM character's spring-bone JSON could not be read: the character is shown, but its
-/// spring bones are not simulated. Triggered on the scene root that carries the
-/// [`VrmSpringBones`](crate::asset::VrmSpringBones).
+/// A VRM character's springs are not simulated, triggered on its scene root (the entity with
+/// the `WorldAssetRoot`) and logged: its spring-bone JSON could not be read (the character is
+/// shown without simulated springs), it has no usable springs, or the `.vrm` file did not load
+/// at all (then `error` is the loader's reason, e.g. a texture format the game's Bevy features
+/// cannot decode).
 #[derive(EntityEvent, Clone, Debug, PartialEq)]
 pub struct VrmSpringsFailed {
     /// The scene root.

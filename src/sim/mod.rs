@@ -124,6 +124,9 @@ impl Plugin for HairSimulationPlugin {
                 (
                     bone::attach_to_bones,
                     vrm::build_vrm_springs,
+                    vrm::report_failed_vrm_loads.run_if(
+                        resource_exists::<Messages<bevy::asset::UntypedAssetLoadFailedEvent>>,
+                    ),
                     chains::build_bone_chains,
                     reload::mark_reloaded_hairs,
                     reload::report_failed_reloads,

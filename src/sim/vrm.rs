@@ -42,6 +42,7 @@
 
 use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
+use bevy::world_serialization::WorldAssetRoot;
 
 use crate::asset::{
     CollisionCapsule, CollisionPlane, CollisionSphere, MAX_PARTICLES_PER_STRAND, VrmNode, VrmShape,
@@ -180,6 +181,50 @@ fn fit_quadratic(points: &[(f32, f32)]) -> QuadraticCurve {
             }
             let s = m.inverse() * r;
             QuadraticCurve::new(s.x, s.y, s.z)
+        }
+    }
+}
+
+/// A `.vrm` file that fails to load (a broken file, or textures in a format the game's Bevy
+/// features cannot decode, such as JPEG without Bevy's `jpeg` feature) is reported like a hair
+/// file: an error in the log naming the file and the loader's reason, and [`VrmSpringsFailed`]
+/// on every scene root that waits for it.
+pub(crate) fn report_failed_vrm_loads(
+    mut commands: Commands,
+    mut failed: MessageReader<bevy::asset::UntypedAssetLoadFailedEvent>,
+    roots: Query<(Entity, &WorldAssetRoot), Without<VrmSpringChains>>,
+) {
+    for event in failed.read() {
+        let is_vrm = event
+            .path
+            .path()
+            .extension()
+            .is_some_and(|x| x.eq_ignore_ascii_case("vrm"));
+        if !is_vrm {
+            continue;
+        }
+        let file = event.path.without_label().to_string();
+        // The loader's reason, without a backtrace Bevy may have attached.
+        let reason = event.error.to_string();
+        let reason = reason.lines().next().unwrap_or_default();
+        let error = format!(
+            "{file}: the VRM file did not load, so its character and springs are missing: {reason} \
+             (a VRM's textures need Bevy's `png` and `jpeg` features)"
+        );
+        error!("{error}");
+        for (entity, root) in &roots {
+            let waits = root
+                .0
+                .path()
+                .is_some_and(|p| p.without_label() == event.path.without_label());
+            if waits {
+                commands.trigger(VrmSpringsFailed {
+                    entity,
+                    file: file.clone(),
+                    error: error.clone(),
+                });
+                commands.entity(entity).insert(VrmSpringChains::default());
+            }
         }
     }
 }

@@ -29,6 +29,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "a_vrm_with_broken_spring_json_shows_the_character_and_says_where",
         a_vrm_with_broken_spring_json_shows_the_character_and_says_where,
     ),
+    (
+        "a_vrm_that_does_not_load_is_an_event_naming_it",
+        a_vrm_that_does_not_load_is_an_event_naming_it,
+    ),
 ];
 
 /// The toon hair colour: a red-brown, in its ramp's tones.
@@ -555,4 +559,48 @@ fn a_vrm_with_broken_spring_json_shows_the_character_and_says_where() -> Result<
         return Err(format!("head {head}, springs {springs}, strands {strands}").into());
     }
     Ok(())
+}
+
+/// A `.vrm` that does not load (here a truncated file, as a VRM with textures the game's Bevy
+/// features cannot decode also fails) is a `VrmSpringsFailed` on the scene root that waits for
+/// it, naming the file and the loader's reason.
+fn a_vrm_that_does_not_load_is_an_event_naming_it() -> Result<(), Failed> {
+    let dir = std::env::temp_dir().join(format!("hair_bad_vrm_{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    // A glTF binary header that promises more than the file holds.
+    std::fs::write(dir.join("bad.vrm"), b"glTF\x02\x00\x00\x00\xff\xff\x00\x00")?;
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        asset_folder: Some(dir.display().to_string()),
+        ..default()
+    })?;
+    r.app.add_plugins(CartoonHairPlugins);
+    #[derive(Resource, Default)]
+    struct Seen(Vec<(Entity, String, String)>);
+    r.app.init_resource::<Seen>().add_observer(
+        |e: On<VrmSpringsFailed>, mut seen: ResMut<Seen>| {
+            seen.0.push((e.entity, e.file.clone(), e.error.clone()));
+        },
+    );
+    let world = r.app.world_mut();
+    let assets = world.resource::<AssetServer>().clone();
+    let root = world
+        .spawn(WorldAssetRoot(
+            assets.load(GltfAssetLabel::Scene(0).from_asset("bad.vrm")),
+        ))
+        .id();
+    for _ in 0..200 {
+        r.update();
+        if !r.app.world().resource::<Seen>().0.is_empty() {
+            break;
+        }
+    }
+    let seen = &r.app.world().resource::<Seen>().0;
+    std::fs::remove_dir_all(&dir).ok();
+    eprintln!("{seen:?}");
+    match seen.as_slice() {
+        [(e, file, error)] if *e == root && file == "bad.vrm" && error.contains("did not load") => {
+            Ok(())
+        }
+        _ => Err(format!("expected one event on the root naming bad.vrm: {seen:?}").into()),
+    }
 }
