@@ -119,6 +119,25 @@ fn spawn_spikes(r: &mut HeadlessRenderer, step: usize, transform: Transform) -> 
     hair
 }
 
+/// `hair` is off the GPU, with exactly one [`HairGpuBuildFailed`], for it, whose reason says
+/// `why`.
+fn back_on_the_cpu(r: &HeadlessRenderer, hair: Entity, why: &str) -> Result<(), Failed> {
+    let failures = &r.app.world().resource::<Failures>().0;
+    eprintln!("events: {failures:?}");
+    match failures.as_slice() {
+        [(e, reason)] if *e == hair && reason.contains(why) => {}
+        _ => {
+            return Err(
+                format!("expected one event for the hair saying {why:?}: {failures:?}").into(),
+            );
+        }
+    }
+    if on_gpu(r, hair) {
+        return Err("the hair is still marked GPU-built".into());
+    }
+    Ok(())
+}
+
 fn on_gpu(r: &HeadlessRenderer, hair: Entity) -> bool {
     r.app.world().entity(hair).contains::<HairMeshBuiltOnGpu>()
 }
@@ -229,17 +248,7 @@ fn a_failing_gpu_pass_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
     }
     let after = next_frame(&mut r)?;
     save(&after, "gpu_pass_failed")?;
-    let failures = &r.app.world().resource::<Failures>().0;
-    let Some((_, reason)) = failures.iter().find(|(e, _)| *e == hair) else {
-        return Err(format!("no HairGpuBuildFailed for the hair: {failures:?}").into());
-    };
-    eprintln!("event: {reason}");
-    if !reason.contains("hair_gpu_tubes") {
-        return Err(format!("the event does not name the pass: {reason}").into());
-    }
-    if on_gpu(&r, hair) {
-        return Err("the hair is still marked GPU-built".into());
-    }
+    back_on_the_cpu(&r, hair, "hair_gpu_tubes")?;
     let cpu = cpu_reference(&mut r)?;
     same_picture(
         &cpu,
@@ -272,17 +281,7 @@ fn a_refused_binding_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
         .entity_mut(hair)
         .insert(Transform::from_rotation(Quat::from_rotation_y(-0.7)));
     let after = r.capture()?;
-    let failures = &r.app.world().resource::<Failures>().0;
-    let Some((_, reason)) = failures.iter().find(|(e, _)| *e == hair) else {
-        return Err(format!("no HairGpuBuildFailed for the hair: {failures:?}").into());
-    };
-    eprintln!("event: {reason}");
-    if !reason.contains("binds as storage") || failures.len() != 1 {
-        return Err(format!("expected one event about the binding: {failures:?}").into());
-    }
-    if on_gpu(&r, hair) {
-        return Err("the hair is still marked GPU-built".into());
-    }
+    back_on_the_cpu(&r, hair, "binds as storage")?;
     let cpu = cpu_reference(&mut r)?;
     same_picture(
         &cpu,
