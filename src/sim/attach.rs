@@ -3,6 +3,8 @@
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 
+use super::attach_work::AttachWork;
+
 use bevy::asset::UntypedAssetId;
 use bevy::transform::helper::TransformHelper;
 
@@ -122,7 +124,7 @@ pub struct ComputedHair {
     pub(crate) volume: super::VolumeScratch,
     /// The step's per-frame buffers.
     #[reflect(ignore)]
-    pub(crate) scratch: super::step::StepScratch,
+    pub(crate) scratch: super::scratch::StepScratch,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }
@@ -481,26 +483,6 @@ pub(super) fn report_failure(
 /// Spawns strand entities and solver state once a hair's assets are ready, and rebuilds them
 /// when a handle, a file (hot reload), the bone's scale or the structure offset changes. Failed
 /// assets and bone mismatches are reported once each.
-/// Whether the Attach stage's systems queued work this frame: each sync point after them runs
-/// only then, so a frame in which nothing attaches or rebuilds has none.
-#[derive(Resource, Default, Debug)]
-pub(crate) struct AttachWork {
-    /// `attach_to_bones` looked at a hair whose bone was not settled.
-    pub(crate) bones: bool,
-    /// `build_hair_strands` built, rebuilt or reported something.
-    pub(crate) strands: bool,
-}
-
-impl AttachWork {
-    pub(crate) fn bones(work: Res<Self>) -> bool {
-        work.bones
-    }
-
-    pub(crate) fn strands(work: Res<Self>) -> bool {
-        work.strands
-    }
-}
-
 pub(crate) fn build_hair_strands(
     mut commands: Commands,
     mut work: ResMut<AttachWork>,

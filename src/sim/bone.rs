@@ -146,7 +146,7 @@ const LISTED_BONES: usize = 40;
 )]
 pub(crate) fn attach_to_bones(
     mut commands: Commands,
-    mut work: ResMut<super::attach::AttachWork>,
+    mut work: ResMut<super::attach_work::AttachWork>,
     hairs: Query<(
         Entity,
         Ref<AttachToBone>,

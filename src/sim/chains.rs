@@ -16,7 +16,8 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 use bevy::world_serialization::WorldAssetRoot;
 
-use super::attach::{AttachWork, Hair, HairStrands, Strand, StrandParticles};
+use super::attach::{Hair, HairStrands, Strand, StrandParticles};
+use super::attach_work::AttachWork;
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
 use super::collider::HairCollidesOnly;
 use super::events::BoneNotFound;

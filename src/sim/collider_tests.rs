@@ -500,7 +500,7 @@ fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
     let mut h = Harness::new(spiky_groom(10, 5), HairSimSettings::default(), 60.0);
     h.update();
     let work = |h: &Harness| {
-        let w = h.app.world().resource::<super::attach::AttachWork>();
+        let w = h.app.world().resource::<super::attach_work::AttachWork>();
         (w.bones, w.strands)
     };
     assert_eq!(work(&h), (false, false), "steady state still syncs");

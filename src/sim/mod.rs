@@ -25,6 +25,7 @@
 //! written is finite.
 
 mod attach;
+mod attach_work;
 mod bone;
 mod chains;
 mod clock;
@@ -36,6 +37,7 @@ mod culling;
 mod events;
 mod physics;
 mod reload;
+mod scratch;
 mod settings;
 pub mod solver;
 mod step;
@@ -102,7 +104,7 @@ impl Plugin for HairSimulationPlugin {
                 clock::advance_hair_time.after(bevy::time::TimeSystems),
             )
             .init_resource::<step::ColliderHistory>()
-            .init_resource::<attach::AttachWork>()
+            .init_resource::<attach_work::AttachWork>()
             .register_type::<Hair>()
             .register_type::<HairSimSettings>()
             .register_type::<HairSimControl>()
@@ -132,9 +134,9 @@ impl Plugin for HairSimulationPlugin {
                     reload::report_failed_reloads,
                     // Strands are built on the bone found this frame. Each sync point runs only
                     // in frames whose systems before it had work (see `AttachWork`).
-                    ApplyDeferred.run_if(attach::AttachWork::bones),
+                    ApplyDeferred.run_if(attach_work::AttachWork::bones),
                     attach::build_hair_strands,
-                    ApplyDeferred.run_if(attach::AttachWork::strands),
+                    ApplyDeferred.run_if(attach_work::AttachWork::strands),
                 )
                     .chain()
                     .in_set(HairSystems::Attach),

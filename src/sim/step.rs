@@ -15,8 +15,9 @@ use super::attach::{
 use super::collider::{HairCollider, HairCollidesOnly};
 use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
+use super::scratch::{ShapeView, StepScratch};
 use super::settings::{HairDampingFrame, HairSimSettings, compliance_factor};
-use super::solver::{Batch, Contact, ContactShape, PINNED, StepInput, along};
+use super::solver::{Batch, Contact, ContactShape, PINNED, along};
 use super::wind::{FieldStep, HairForceField, HairWind, HairWindOverride};
 use super::{HairSimControl, HairTime};
 
@@ -31,48 +32,6 @@ pub(crate) struct ColliderHistory {
     shapes: Vec<(ShapeView, Entity)>,
     /// Every force field that blows: pose last frame, now, field.
     field_views: Vec<(Affine3A, Affine3A, HairForceField)>,
-}
-
-/// A collider shape over one frame: its pose last frame and now, the shape in its space, and
-/// whether particles are kept inside it.
-type ShapeView = (Affine3A, Affine3A, LocalShape, bool);
-
-/// One hair's per-frame buffers, kept between frames so a steady frame allocates none of them.
-#[derive(Clone, Debug, Default)]
-pub struct StepScratch {
-    input: StepInput,
-    templates: Vec<ShapeView>,
-    fields: Vec<(Affine3A, Affine3A, HairForceField)>,
-    /// Each template's origin at the previous substep (friction follows its motion).
-    origins: Vec<Vec3A>,
-    /// Anchor factors per node, for each chain length.
-    factors: Vec<(usize, Vec<f32>)>,
-}
-
-impl StepScratch {
-    /// Where each buffer's memory is and how much it holds: equal across two frames when
-    /// nothing was reallocated.
-    #[cfg(test)]
-    pub(crate) fn footprint(&self) -> Vec<(usize, usize)> {
-        fn of<T>(v: &Vec<T>) -> (usize, usize) {
-            (v.as_ptr() as usize, v.capacity())
-        }
-        let i = &self.input;
-        let mut out = vec![
-            of(&i.bones),
-            of(&i.spheres),
-            of(&i.sphere_shift),
-            of(&i.contacts),
-            of(&i.fields),
-            of(&i.bone_motion),
-            of(&self.templates),
-            of(&self.fields),
-            of(&self.origins),
-            of(&self.factors),
-        ];
-        out.extend(self.factors.iter().map(|(_, f)| of(f)));
-        out
-    }
 }
 
 /// Interpolates two affine transforms (translation and scale linearly, rotation by slerp).
