@@ -16,8 +16,8 @@
 //! CPU with it: for a CPU-built hair mesh, changed every frame, a copy of the mesh into the
 //! render world and its vertices interleaved and its indices copied into the bytes written to
 //! the GPU, and the same for its stroke and highlight meshes; for a GPU-built hair, a copy of
-//! its `GpuTubeInput` and its particles, strands, sections and the uniforms of its tube,
-//! stroke and highlight passes written into the bytes sent (its stroke and highlight meshes do
+//! its GPU input and its particles, strands, sections and the records of its tube, stroke
+//! and highlight passes written into the bytes sent (its stroke and highlight meshes do
 //! not change on the CPU, so Bevy sends nothing for them). The bytes sent a frame are printed.
 //! There is no GPU here: the compute passes themselves are not timed.
 #![expect(
@@ -31,15 +31,12 @@ use std::time::Duration;
 
 use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
-use bevy::render::render_resource::ShaderType;
 use bevy::time::TimeUpdateStrategy;
 use bevy_cartoon_hair::HairSchedulePlugin;
 use bevy_cartoon_hair::asset::HairAssetPlugin;
 use bevy_cartoon_hair::mesh::highlights::{HairHighlightsOf, SpecularQuads};
 use bevy_cartoon_hair::mesh::{HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin};
-use bevy_cartoon_hair::render::{
-    GpuHighlightParams, GpuStrokeParams, GpuTubeInput, GpuTubeParams, HairMeshBuilder,
-};
+use bevy_cartoon_hair::render::{HairMeshBuilder, encode_gpu_inputs};
 use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, HairStrokesOf, SilhouetteSettings};
 use bevy_cartoon_hair::sim::HairSimulationPlugin;
 use common::{Head, bench_camera, minimal_plugins};
@@ -104,27 +101,8 @@ fn app(heads: &[Head], build: Build) -> App {
 /// go to the GPU, written into `staging`; returns their count.
 fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
     staging.clear();
-    // GPU-built hairs: their inputs.
-    let mut inputs = world.query::<&GpuTubeInput>();
-    for input in inputs.iter(world) {
-        let copy = input.clone();
-        for v in copy.particles.iter().chain(&copy.sections) {
-            staging.extend(v.to_array().iter().flat_map(|f| f.to_le_bytes()));
-        }
-        for s in &copy.strands {
-            for v in [s.reference_direction, s.reference_normal] {
-                staging.extend(v.to_array().iter().flat_map(|f| f.to_le_bytes()));
-            }
-            for u in [s.first, s.count, s.section, s.pad] {
-                staging.extend(u.to_le_bytes());
-            }
-        }
-        // The passes' uniforms.
-        let uniforms = GpuTubeParams::min_size().get()
-            + copy.strokes.len() as u64 * GpuStrokeParams::min_size().get()
-            + u64::from(copy.highlights.is_some()) * GpuHighlightParams::min_size().get();
-        staging.extend(std::iter::repeat_n(0u8, uniforms as usize));
-    }
+    // GPU-built hairs: their inputs and records, as the render world encodes them.
+    encode_gpu_inputs(world, staging);
     // CPU-built hairs in view: their meshes changed this frame and are sent whole.
     let mut hairs = world.query::<(
         &HairInView,
@@ -196,11 +174,7 @@ fn bench_frame_build(c: &mut Criterion) {
             let mut app = app(&heads, build);
             let mut staging = Vec::new();
             let bytes = extract_and_prepare(app.world_mut(), &mut staging);
-            let gpu_hairs = app
-                .world_mut()
-                .query::<&GpuTubeInput>()
-                .iter(app.world())
-                .count();
+            let gpu_hairs = encode_gpu_inputs(app.world_mut(), &mut Vec::new());
             println!(
                 "{name}/{label}: {:.2} MB sent to the GPU a frame, {gpu_hairs} hairs built on the GPU",
                 bytes as f64 / 1e6

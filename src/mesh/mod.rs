@@ -493,7 +493,7 @@ pub fn rebuild_strand_meshes(
             counted.culled += 1;
             continue;
         }
-        // The GPU builds its vertices from this frame's particles (`render::gpu_tubes`).
+        // The GPU builds its vertices from this frame's particles (`render::GpuTubesPlugin`).
         if on_gpu {
             continue;
         }

@@ -46,6 +46,8 @@ pub const MAX_RINGS: usize = 256;
 pub const MIN_SIDES: usize = 3;
 /// The most vertices per ring.
 pub const MAX_SIDES: usize = 64;
+/// Vertices after a strand's rings: the centres of its root and tip caps.
+pub const CAP_VERTICES: usize = 2;
 
 /// Below this total length (world units) a strand is degenerate and drawn as the fallback tube.
 const MIN_STRAND_LENGTH: f32 = 1e-6;
@@ -263,7 +265,7 @@ impl TubeTopology {
 
     /// `rings * sides + 2`: the ring vertices and the two cap centres.
     pub fn vertex_count(&self) -> usize {
-        self.rings * self.sides + 2
+        self.rings * self.sides + CAP_VERTICES
     }
 
     /// `2 * sides * rings`: `2 * sides * (rings - 1)` wall triangles and `sides` per cap.

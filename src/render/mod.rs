@@ -13,10 +13,7 @@ use crate::schedule::HairSystems;
 use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
-mod gpu_highlights;
-mod gpu_status;
-mod gpu_strokes;
-mod gpu_tubes;
+mod gpu;
 mod outline;
 mod ramps;
 #[cfg(test)]
@@ -30,13 +27,12 @@ pub use fringe_shadow::{
     FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
     FringeShadowUniform,
 };
-pub use gpu_highlights::{GpuHighlightInput, GpuHighlightParams};
-pub use gpu_status::{
-    GpuPassState, HairGpuBuildFailed, HairGpuFallback, HairGpuMeshSupport, HairGpuPasses,
-    HairMeshBuilder,
+#[doc(hidden)]
+pub use gpu::encode_gpu_inputs;
+pub use gpu::{
+    GpuPassState, GpuTubesPlugin, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback,
+    HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder, PassDispatches,
 };
-pub use gpu_strokes::{GpuStrokeInput, GpuStrokeParams};
-pub use gpu_tubes::{GpuStrand, GpuTubeInput, GpuTubeParams, GpuTubesPlugin};
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
     MAX_OUTLINE_DILATION, OutlineSource,
@@ -57,7 +53,7 @@ pub use user_mesh::{ToonHairMeshes, ToonHairMeshesApplied};
 /// `bevy_cartoon_hair::render::f`.
 pub const SHADER_LIBRARY: &[(&str, &str)] = &[
     ("curves.wesl", include_str!("curves.wesl")),
-    ("numeric.wesl", include_str!("numeric.wesl")),
+    ("gpu/common.wesl", include_str!("gpu/common.wesl")),
 ];
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
@@ -71,9 +67,9 @@ pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
 /// The entry-point shaders of the crate's post-process and compute passes, as `(name, source)`.
 pub const PASS_SHADERS: &[(&str, &str)] = &[
     ("outline.wesl", include_str!("outline/outline.wesl")),
-    ("gpu_tubes.wesl", include_str!("gpu_tubes.wesl")),
-    ("gpu_strokes.wesl", include_str!("gpu_strokes.wesl")),
-    ("gpu_highlights.wesl", include_str!("gpu_highlights.wesl")),
+    ("gpu/tubes.wesl", include_str!("gpu/tubes.wesl")),
+    ("gpu/strokes.wesl", include_str!("gpu/strokes.wesl")),
+    ("gpu/highlights.wesl", include_str!("gpu/highlights.wesl")),
 ];
 
 /// Registers the crate's WESL library modules so materials can `import` them. Part of
@@ -84,7 +80,7 @@ pub struct HairShaderLibraryPlugin;
 impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "curves.wesl");
-        load_shader_library!(app, "numeric.wesl");
+        load_shader_library!(app, "gpu/common.wesl");
     }
 }
 

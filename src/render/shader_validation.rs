@@ -331,20 +331,23 @@ fn every_toon_material_variant_composes_and_validates() {
 #[test]
 fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
     use super::PASS_SHADERS;
-    // Each pass's bindings are the ones gpu_tubes.rs and gpu_strokes.rs lay out: the tube pass
-    // a uniform, three read-only storage buffers, the vertex slab and the ring frames it
-    // writes; the stroke pass a uniform, the strands, sections and frames, and the stroke slab;
-    // the highlight pass a uniform, the frames and the highlight slab.
+    // Each pass's bindings are the ones render/gpu lays out: the batch header first; the tube
+    // pass then its hairs, strands and points, the vertex slab and the ring frames it writes;
+    // the stroke pass its jobs, the strands, points and frames, and the stroke slab; the
+    // highlight pass its jobs, the frames and the highlight slab.
+    let defs = super::gpu::shader_defs();
     for (file, bindings) in [
-        ("gpu_tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
-        ("gpu_strokes.wesl", &[0, 1, 2, 3, 4][..]),
-        ("gpu_highlights.wesl", &[0, 1, 2][..]),
+        ("gpu/tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
+        ("gpu/strokes.wesl", &[0, 1, 2, 3, 4, 5][..]),
+        ("gpu/highlights.wesl", &[0, 1, 2, 3][..]),
     ] {
         let (name, source) = PASS_SHADERS
             .iter()
             .find(|(n, _)| *n == file)
             .unwrap_or_else(|| panic!("{file} is listed"));
-        let module = compose_and_validate(name, source, &[]).unwrap_or_else(|e| panic!("{e}"));
+        let module = ShaderCompiler::new(&[])
+            .compile(name, source, &[], &defs)
+            .unwrap_or_else(|e| panic!("{e}"));
         let entry = module
             .entry_points
             .iter()
@@ -358,6 +361,13 @@ fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
             .filter_map(|(_, g)| g.binding.as_ref().map(|b| b.binding))
             .collect();
         assert_eq!(found, bindings, "{file}");
+        // Without the constants from Rust the passes do not compile: none is copied by hand.
+        assert!(
+            ShaderCompiler::new(&[])
+                .compile(name, source, &[], &[])
+                .is_err(),
+            "{file} compiled without the shader defs"
+        );
     }
 }
 

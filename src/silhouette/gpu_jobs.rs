@@ -2,7 +2,7 @@
 //! vertices to search, so [`extract_silhouettes`](super::extract_silhouettes) hands the GPU
 //! what it needs instead, one [`GpuStrokeJob`] per camera (the camera, the stroke parameters,
 //! and a stroke mesh of fixed topology the GPU fills), and the render plugin's stroke pass
-//! (`render::gpu_strokes`) finds the contours and sweeps the strips.
+//! (the render stage's GPU stroke pass) finds the contours and sweeps the strips.
 //!
 //! The GPU's strokes follow each strand's two contours ring by ring (where the surface normal
 //! turns perpendicular to the view), where the CPU chains the tube mesh's silhouette edges; the

@@ -14,8 +14,7 @@ use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRender
 use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairMeshBuiltOnGpu};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{
-    GpuPassState, GpuTubeInput, HairGpuBuildFailed, HairGpuMeshSupport, HairGpuPasses,
-    HairMeshBuilder,
+    GpuPassState, HairGpuBuildFailed, HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder,
 };
 use libtest_mimic::Failed;
 
@@ -233,7 +232,7 @@ fn a_failing_gpu_pass_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
     if !on_gpu(&r, hair) {
         return Err("the hair was not built on the GPU to begin with".into());
     }
-    let path = "embedded://bevy_cartoon_hair/render/gpu_tubes.wesl";
+    let path = "embedded://bevy_cartoon_hair/render/gpu/tubes.wesl";
     let handle: Handle<Shader> = r.app.world().resource::<AssetServer>().load(path);
     r.app
         .world_mut()
@@ -304,12 +303,9 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
     for _ in 0..3 {
         r.update();
     }
-    if r.app
-        .world()
-        .get::<GpuTubeInput>(hair_mesh(&r, hair)?)
-        .is_some()
-    {
-        return Err("the hair out of view still hands the GPU its particles".into());
+    let built = r.app.world().resource::<HairGpuPasses>().dispatches();
+    if built.tubes.invocations > 0 {
+        return Err(format!("the hair out of view is still built on the GPU: {built:?}").into());
     }
     r.app
         .world_mut()
@@ -329,16 +325,9 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
     Ok(())
 }
 
-fn hair_mesh(r: &HeadlessRenderer, hair: Entity) -> Result<Entity, Failed> {
-    Ok(r.app
-        .world()
-        .get::<ComputedHairMesh>(hair)
-        .ok_or("the hair has no mesh")?
-        .entity)
-}
-
-/// Particles that are NaN or infinite reach the tube pass (written into its input after the
-/// main world gathered it): every float the pass writes into the hair's vertices is finite.
+/// Particles that are NaN or infinite reach the tube pass (written into the strands after the
+/// simulation, as a broken solver or a game writing them would leave them): every float the
+/// pass writes into the hair's vertices is finite.
 fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
     let (mut r, _) = scene(false)?;
     // The vertex slabs can be read back.
@@ -349,15 +338,21 @@ fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
         .resource_mut::<MeshAllocatorSettings>()
         .extra_buffer_usages |= BufferUsages::COPY_SRC;
     let hair = spawn_spikes(&mut r, 4, Transform::IDENTITY);
-    r.app
-        .add_systems(Last, |mut inputs: Query<&mut GpuTubeInput>| {
-            for mut input in &mut inputs {
-                let n = input.particles.len();
-                input.particles[n / 2] = Vec4::new(f32::NAN, 0.0, 0.0, 1.0);
-                input.particles[n / 3] = Vec4::new(0.0, f32::INFINITY, 0.0, 1.0);
-                input.particles[1] = Vec4::splat(f32::NAN);
+    r.app.add_systems(
+        PostUpdate,
+        (|mut strands: Query<&mut StrandParticles>| {
+            for (i, mut particles) in strands.iter_mut().enumerate() {
+                let n = particles.positions.len();
+                match i % 3 {
+                    0 => particles.positions[n / 2] = Vec3::new(f32::NAN, 0.0, 0.0),
+                    1 => particles.positions[n - 1] = Vec3::new(0.0, f32::INFINITY, 0.0),
+                    _ => particles.positions[1] = Vec3::splat(f32::NAN),
+                }
             }
-        });
+        })
+        .after(HairSystems::Simulate)
+        .before(HairSystems::BuildMesh),
+    );
     r.capture()?;
     if !on_gpu(&r, hair) {
         return Err("the hair was not built on the GPU".into());
@@ -456,6 +451,30 @@ fn hairs_of_several_sizes_share_the_vertex_slab() -> Result<(), Failed> {
         eprintln!("round {round}: slabs and first vertices {slices:?}");
         if !shared {
             return Err(format!("no two hair meshes share a slab: {slices:?}").into());
+        }
+        // One dispatch a slab, however many hairs it holds, and an invocation a strand.
+        let mut slabs: Vec<_> = slices.iter().map(|(b, _)| *b).collect();
+        slabs.sort();
+        slabs.dedup();
+        let strands: usize = hairs
+            .iter()
+            .filter_map(|&h| r.app.world().get::<ComputedHairMesh>(h))
+            .map(|c| c.strands)
+            .sum();
+        let built = r.app.world().resource::<HairGpuPasses>().dispatches();
+        eprintln!(
+            "round {round}: {strands} strands in {} slabs: {built:?}",
+            slabs.len()
+        );
+        if built.tubes.dispatches as usize != slabs.len()
+            || built.tubes.invocations as usize != strands
+        {
+            return Err(format!(
+                "round {round}: {} hairs of {strands} strands in {} slabs took {built:?}",
+                hairs.len(),
+                slabs.len()
+            )
+            .into());
         }
         let cpu = cpu_reference(&mut r)?;
         save(&cpu, &format!("gpu_shared_slab_{round}_cpu"))?;

@@ -74,9 +74,30 @@ pub enum GpuPassState {
     Failed(String),
 }
 
+/// One pass's work in a frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PassDispatches {
+    /// Dispatches (one a batch: hairs whose meshes share a vertex slab).
+    pub dispatches: u32,
+    /// Invocations that did work: strands, summed over the pass's hairs or jobs.
+    pub invocations: u32,
+}
+
+/// The GPU passes' work in the last frame rendered ([`HairGpuPasses::dispatches`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct HairGpuDispatches {
+    /// The tube pass.
+    pub tubes: PassDispatches,
+    /// The stroke pass (a strand a camera).
+    pub strokes: PassDispatches,
+    /// The highlight pass.
+    pub highlights: PassDispatches,
+}
+
 #[derive(Debug, Default)]
 struct Report {
     state: GpuPassState,
+    dispatches: HairGpuDispatches,
     /// Meshes whose binding the device refused this frame, with why.
     refused: HashMap<AssetId<Mesh>, String>,
 }
@@ -100,6 +121,15 @@ impl HairGpuPasses {
     /// bench of the CPU side of the GPU path) may declare the passes ready.
     pub fn set_state(&self, state: GpuPassState) {
         self.lock().state = state;
+    }
+
+    /// The passes' work in the last frame the render world ran them.
+    pub fn dispatches(&self) -> HairGpuDispatches {
+        self.lock().dispatches
+    }
+
+    pub(super) fn set_dispatches(&self, dispatches: HairGpuDispatches) {
+        self.lock().dispatches = dispatches;
     }
 
     /// The device refused `mesh`'s binding: its hair goes back to the CPU.

@@ -1,32 +1,33 @@
-//! Silhouette strokes built on the GPU, for hairs whose tubes the GPU builds
-//! ([`gpu_tubes`](super::gpu_tubes)): after a hair's tube pass, one compute pass a camera
-//! (`gpu_strokes.wesl`) reads the ring frames the tube pass left, finds each strand's two
-//! contours and writes the stroke strips straight into the camera's stroke mesh (the mesh
-//! allocator's slab, as for the tubes). The silhouette stage decides which strokes are built
-//! this way and with what camera and parameters ([`GpuStrokeJobs`]); the stroke meshes keep
-//! their material, so the mass scope's test against the hair mask works as for the CPU's.
+//! The stroke pass: every camera's silhouette strokes of every hair of a tube batch whose stroke
+//! meshes share a vertex slab, in one dispatch (`strokes.wesl`). It reads the ring frames the
+//! tube pass left, finds each strand's two contours and writes the stroke strips straight into
+//! the cameras' stroke meshes (the mesh allocator's slab, as for the tubes). The silhouette
+//! stage decides which strokes are built this way and with what camera and parameters
+//! ([`GpuStrokeJobs`](crate::silhouette::GpuStrokeJobs)); the stroke meshes keep their material,
+//! so the mass scope's test against the hair mask works as for the CPU's.
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::mesh::allocator::MeshAllocator;
 use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroup, BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages,
-    ShaderType, UniformBuffer,
+    BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages, ShaderType,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::gpu_tubes::{ComputePass, slab_binding};
+use super::toolbox::{
+    ComputePass, GpuBatch, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers,
+    vertex_offsets,
+};
 
 use crate::silhouette::GpuStrokeJob;
 use crate::silhouette::adjacency::Viewer;
 use crate::silhouette::gpu_jobs::gpu_stroke_vertex_count;
 
-/// The uniform of one camera's stroke pass over one hair (`gpu_strokes.wesl`'s `Params`).
+/// One camera's strokes of one hair (`strokes.wesl`'s `Job`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, ShaderType)]
-pub struct GpuStrokeParams {
+pub(crate) struct GpuStrokeRecord {
     /// Clip from world.
     pub view_proj: Mat4,
     /// World offset per pixel along screen x, per unit clip `w`.
@@ -43,15 +44,16 @@ pub struct GpuStrokeParams {
     pub fade: Vec4,
     /// Linear RGBA.
     pub color: Vec4,
-    /// The stroke mesh's first vertex in its slab, in 4-byte words (set in the render world).
+    /// The stroke mesh's first vertex in the batch's binding, in 4-byte words (set in the
+    /// render world).
     pub vertex_base: u32,
     /// Words per vertex.
     pub stride: u32,
     /// Word offsets in a vertex of the position, the UV and the colour.
     pub position_offset: u32,
-    /// See [`GpuStrokeParams::position_offset`].
+    /// See [`GpuStrokeRecord::position_offset`].
     pub uv_offset: u32,
-    /// See [`GpuStrokeParams::position_offset`].
+    /// See [`GpuStrokeRecord::position_offset`].
     pub color_offset: u32,
     /// Rings per strand.
     pub rings: u32,
@@ -59,20 +61,28 @@ pub struct GpuStrokeParams {
     pub sides: u32,
     /// Strands in the hair.
     pub strands: u32,
+    /// The hair's first strand in its tube batch (set in the render world).
+    pub first_strand: u32,
+    /// The hair's first ring frame in its tube batch, in vec4 (set in the render world).
+    pub frame_base: u32,
+    /// The job's first invocation in its dispatch (set in the render world).
+    pub first_invocation: u32,
+    /// Padding.
+    pub pad: u32,
 }
 
-/// One camera's strokes of a hair in [`GpuTubeInput`](super::gpu_tubes::GpuTubeInput).
+/// One camera's strokes of a hair, as the main world gathers them.
 #[derive(Clone, Debug, Default, PartialEq)]
-pub struct GpuStrokeInput {
+pub(crate) struct GpuStrokeInput {
     /// The stroke mesh.
     pub mesh: AssetId<Mesh>,
-    /// Its pass's uniform (`vertex_base` is filled in the render world).
-    pub params: GpuStrokeParams,
+    /// Its record (the render world fills in where it lies).
+    pub record: GpuStrokeRecord,
 }
 
 /// The stroke pass input of `job` for a hair of `strands` strands of `rings` rings and `sides`
 /// sides; `None` when the job's mesh is not a GPU stroke mesh of that size.
-pub fn stroke_input(
+pub(crate) fn stroke_input(
     job: &GpuStrokeJob,
     meshes: &Assets<Mesh>,
     rings: usize,
@@ -83,7 +93,7 @@ pub fn stroke_input(
     if mesh.count_vertices() != gpu_stroke_vertex_count(strands, rings, sides) || rings < 2 {
         return None;
     }
-    let [position, uv, color, stride] = super::gpu_tubes::vertex_offsets(
+    let [position, uv, color, stride] = vertex_offsets(
         mesh,
         [
             Mesh::ATTRIBUTE_POSITION.id,
@@ -100,7 +110,7 @@ pub fn stroke_input(
     let p = &job.params;
     Some(GpuStrokeInput {
         mesh: job.mesh,
-        params: GpuStrokeParams {
+        record: GpuStrokeRecord {
             view_proj: camera.view_proj(),
             unproject_x,
             unproject_y,
@@ -136,16 +146,17 @@ pub fn stroke_input(
             rings: rings as u32,
             sides: sides as u32,
             strands: strands as u32,
+            ..default()
         },
     })
 }
 
 /// The stroke pass's pipeline, made in `RenderStartup`.
 #[derive(Resource)]
-pub struct GpuStrokePipeline(pub(super) ComputePass);
+pub(crate) struct GpuStrokePipeline(pub ComputePass);
 
 /// Queues the stroke pass's pipeline.
-pub fn init_gpu_stroke_pipeline(
+pub(crate) fn init_gpu_stroke_pipeline(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
@@ -156,82 +167,66 @@ pub fn init_gpu_stroke_pipeline(
         &BindGroupLayoutEntries::sequential(
             ShaderStages::COMPUTE,
             (
-                uniform_buffer::<GpuStrokeParams>(false),
+                uniform_buffer::<GpuBatch>(false),
+                storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
             ),
         ),
-        load_embedded_asset!(asset_server.as_ref(), "gpu_strokes.wesl"),
+        load_embedded_asset!(asset_server.as_ref(), "strokes.wesl"),
     )));
 }
 
-/// A hair's stroke passes in the render world: a uniform a camera and this frame's bind groups.
-#[derive(Default)]
-pub struct GpuStrokeBuffers {
-    params: Vec<UniformBuffer<GpuStrokeParams>>,
-    /// This frame's bind groups and strand counts.
-    pub ready: Vec<(BindGroup, u32)>,
+/// The vertices a stroke job writes.
+pub(crate) fn stroke_vertices(record: &GpuStrokeRecord) -> usize {
+    gpu_stroke_vertex_count(
+        record.strands as usize,
+        record.rings as usize,
+        record.sides as usize,
+    )
 }
 
-/// What the hair's tube pass shares with its stroke passes.
-pub struct HairGpuBuffers<'a> {
-    /// The strands.
-    pub strands: &'a Buffer,
-    /// The cross-section table.
-    pub sections: &'a Buffer,
-    /// The ring frames the tube pass writes.
-    pub frames: &'a Buffer,
-}
+impl JobRecord for GpuStrokeRecord {
+    fn strands(&self) -> u32 {
+        self.strands
+    }
 
-impl GpuStrokeBuffers {
-    /// Uploads each camera's uniform and makes its bind group over its stroke mesh's slab.
-    pub fn prepare(
-        &mut self,
-        inputs: &[GpuStrokeInput],
-        hair: HairGpuBuffers<'_>,
-        render: (&RenderDevice, &RenderQueue, &MeshAllocator),
-        pipeline: &GpuStrokePipeline,
-        pipeline_cache: &PipelineCache,
-    ) {
-        let (device, queue, mesh_allocator) = render;
-        self.ready.clear();
-        self.params.resize_with(inputs.len(), Default::default);
-        for (input, uniform) in inputs.iter().zip(&mut self.params) {
-            let params = input.params;
-            let vertices = gpu_stroke_vertex_count(
-                params.strands as usize,
-                params.rings as usize,
-                params.sides as usize,
-            );
-            let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh) else {
-                continue;
-            };
-            let Some((slab, vertex_base)) = slab_binding(&slice, params.stride, vertices, device)
-            else {
-                continue;
-            };
-            uniform.set(GpuStrokeParams {
-                vertex_base,
-                ..params
-            });
-            uniform.write_buffer(device, queue);
-            let Some(binding) = uniform.binding() else {
-                continue;
-            };
-            let bind_group = device.create_bind_group(
-                "hair_gpu_strokes",
-                &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-                &BindGroupEntries::sequential((
-                    binding,
-                    hair.strands.as_entire_binding(),
-                    hair.sections.as_entire_binding(),
-                    hair.frames.as_entire_binding(),
-                    slab,
-                )),
-            );
-            self.ready.push((bind_group, params.strands));
+    fn placed(self, vertex_base: u32, hair: HairPlacement, first_invocation: u32) -> Self {
+        Self {
+            vertex_base,
+            first_strand: hair.first_strand,
+            frame_base: hair.frame_base,
+            first_invocation,
+            ..self
         }
     }
+}
+
+/// One stroke batch in the render world.
+pub(crate) type StrokeBatch = JobBatch<GpuStrokeRecord>;
+
+/// Fills and uploads `batch` from `group`, with its bind group over the tube batch's buffers.
+pub(crate) fn prepare_stroke_batch(
+    batch: &mut StrokeBatch,
+    group: &SlabGroup<&Buffer, (GpuStrokeRecord, HairPlacement)>,
+    tubes: TubeBatchBuffers<'_>,
+    (device, queue): (&RenderDevice, &RenderQueue),
+    (pipeline, pipeline_cache): (&GpuStrokePipeline, &PipelineCache),
+) {
+    batch.prepare(group, (device, queue), |header, records, slab| {
+        device.create_bind_group(
+            "hair_gpu_strokes",
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
+            &BindGroupEntries::sequential((
+                header,
+                records,
+                tubes.strands.as_entire_binding(),
+                tubes.points.as_entire_binding(),
+                tubes.frames.as_entire_binding(),
+                slab,
+            )),
+        )
+    });
 }

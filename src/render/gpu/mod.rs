@@ -1,0 +1,434 @@
+//! Strand tubes, silhouette strokes and specular quads built on the GPU.
+//!
+//! Each frame the main world gathers the particles of every GPU-built hair in view
+//! ([`gather`]); the render world batches the hairs whose meshes share a vertex slab (the mesh
+//! allocator keeps meshes of one layout together) and runs three compute passes, each one
+//! dispatch a batch, however many hairs it holds:
+//! - the tube pass ([`tubes`], `tubes.wesl`) sweeps every strand's tube straight into its hair
+//!   mesh's vertex buffer and leaves each ring's frame in a buffer;
+//! - the stroke pass ([`strokes`], `strokes.wesl`) finds each strand's contours for each camera
+//!   from those frames and writes the stroke strips into the cameras' stroke meshes;
+//! - the highlight pass ([`highlights`], `highlights.wesl`) writes the specular quads.
+//!
+//! The hair mesh stays an ordinary Bevy `Mesh` with its UVs and indices, so the main pass, the
+//! prepasses, the shadow passes, the image-space outline and the fringe shadow draw it as
+//! before; only its positions, normals and tangents come from the compute pass. Its vertex data
+//! is uploaded once, when the mesh is created; each frame the GPU gets the particles (16 bytes
+//! each), one 48-byte record per strand and one record per hair and job. The mesh allocator's
+//! vertex slabs are made usable as storage buffers (`MeshAllocatorSettings::extra_buffer_usages`)
+//! so that the passes can write them, as Bevy's `compute_mesh` example does.
+//!
+//! A hair is built on the GPU when [`HairMeshBuilder::Gpu`] is chosen (the default) and the
+//! render device can ([`HairGpuMeshSupport`]); [`HairMeshBuilder::Cpu`] builds every hair, and
+//! its strokes, on the CPU: the reference. [`status`] keeps a hair visible and moving when the
+//! GPU cannot build it.
+
+use bevy::core_pipeline::schedule::camera_driver;
+use bevy::prelude::*;
+use bevy::render::diagnostic::RecordDiagnostics;
+use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
+use bevy::render::render_resource::{Buffer, BufferUsages, ComputePassDescriptor, PipelineCache};
+use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
+use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
+
+use crate::schedule::HairSystems;
+
+mod gather;
+mod highlights;
+mod status;
+mod strokes;
+mod toolbox;
+mod tubes;
+
+#[cfg(test)]
+mod layout_tests;
+
+#[doc(hidden)]
+pub use gather::encode_gpu_inputs;
+use gather::{GpuTubeInput, gather_gpu_tube_inputs};
+use highlights::{
+    GpuHighlightPipeline, HighlightBatch, highlight_vertices, init_gpu_highlight_pipeline,
+    prepare_highlight_batch,
+};
+use status::{GpuPassIds, choose_mesh_builder, report_pass_state};
+pub use status::{
+    GpuPassState, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback, HairGpuMeshSupport,
+    HairGpuPasses, HairMeshBuilder, PassDispatches,
+};
+use strokes::{
+    GpuStrokePipeline, StrokeBatch, init_gpu_stroke_pipeline, prepare_stroke_batch, stroke_vertices,
+};
+#[cfg(test)]
+pub(super) use toolbox::shader_defs;
+use toolbox::{BindingLimits, PreparedBatch, SlabSpan, dispatch, group_by_slab};
+use tubes::{GpuTubePipeline, TubeBatch, TubeHairInput, init_gpu_tube_pipeline};
+
+/// Builds strand tubes, strokes and highlights on the GPU. Part of
+/// [`CartoonHairPlugins`](crate::CartoonHairPlugins) (feature `render`).
+#[derive(Default)]
+pub struct GpuTubesPlugin;
+
+impl Plugin for GpuTubesPlugin {
+    fn build(&self, app: &mut App) {
+        bevy::asset::embedded_asset!(app, "tubes.wesl");
+        bevy::asset::embedded_asset!(app, "strokes.wesl");
+        bevy::asset::embedded_asset!(app, "highlights.wesl");
+        let passes = HairGpuPasses::default();
+        app.init_resource::<HairMeshBuilder>()
+            .init_resource::<HairGpuMeshSupport>()
+            .insert_resource(passes.clone())
+            .register_type::<HairMeshBuilder>()
+            .add_plugins(ExtractComponentPlugin::<GpuTubeInput>::default())
+            .add_systems(
+                PostUpdate,
+                (
+                    choose_mesh_builder.before(HairSystems::BuildMesh),
+                    gather_gpu_tube_inputs
+                        .after(HairSystems::Silhouettes)
+                        .before(HairSystems::Materials),
+                ),
+            );
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        render_app
+            .insert_resource(passes)
+            .init_resource::<GpuBatches>()
+            .add_systems(
+                RenderStartup,
+                (
+                    (
+                        init_gpu_tube_pipeline,
+                        init_gpu_stroke_pipeline,
+                        init_gpu_highlight_pipeline,
+                    ),
+                    name_gpu_passes,
+                )
+                    .chain(),
+            )
+            .add_systems(
+                Render,
+                (
+                    report_pass_state.in_set(RenderSystems::Prepare),
+                    prepare_gpu_batches.in_set(RenderSystems::PrepareBindGroups),
+                ),
+            )
+            .add_systems(RenderGraph, build_gpu_batches.before(camera_driver));
+    }
+
+    fn finish(&self, app: &mut App) {
+        let Some(render_app) = app.get_sub_app_mut(RenderApp) else {
+            return;
+        };
+        let support = match render_app.world().get_resource::<RenderDevice>() {
+            Some(device) => gpu_support(device),
+            None => HairGpuMeshSupport {
+                supported: false,
+                reason: Some("no render device".into()),
+                ..default()
+            },
+        };
+        // The passes write the mesh allocator's vertex slabs; a device without storage buffers
+        // (WebGL 2) would refuse such buffers, so they are asked for only where the passes run.
+        if support.supported {
+            render_app
+                .world_mut()
+                .resource_mut::<MeshAllocatorSettings>()
+                .extra_buffer_usages |= BufferUsages::STORAGE;
+        }
+        if let Some(reason) = &support.reason {
+            info!("hair tubes are built on the CPU: {reason}");
+        }
+        app.insert_resource(support);
+    }
+}
+
+/// The three passes' pipelines, for [`report_pass_state`].
+fn name_gpu_passes(
+    mut commands: Commands,
+    tubes: Res<GpuTubePipeline>,
+    strokes: Res<GpuStrokePipeline>,
+    highlights: Res<GpuHighlightPipeline>,
+) {
+    commands.insert_resource(GpuPassIds([
+        ("hair_gpu_tubes", tubes.0.pipeline),
+        ("hair_gpu_strokes", strokes.0.pipeline),
+        ("hair_gpu_highlights", highlights.0.pipeline),
+    ]));
+}
+
+/// What the render device allows.
+fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
+    let limits = device.limits();
+    let reason = if limits.max_storage_buffers_per_shader_stage < 5 {
+        Some(format!(
+            "the device allows {} storage buffers in a shader stage, the passes need 5",
+            limits.max_storage_buffers_per_shader_stage
+        ))
+    } else if limits.max_compute_workgroup_size_x < toolbox::WORKGROUP_SIZE {
+        // WebGL has no compute at all; every other backend Bevy runs on has.
+        Some(format!(
+            "the device has no compute shaders of {} invocations",
+            toolbox::WORKGROUP_SIZE
+        ))
+    } else {
+        None
+    };
+    HairGpuMeshSupport {
+        supported: reason.is_none(),
+        reason,
+        max_binding_bytes: limits.max_storage_buffer_binding_size,
+        binding_alignment: u64::from(limits.min_storage_buffer_offset_alignment),
+    }
+}
+
+/// This frame's batches of the three passes (render world), their buffers reused frame to
+/// frame.
+#[derive(Resource, Default)]
+struct GpuBatches {
+    tubes: Vec<TubeBatch>,
+    strokes: Vec<StrokeBatch>,
+    highlights: Vec<HighlightBatch>,
+    /// Batches in use this frame, of each pass.
+    used: [usize; 3],
+}
+
+/// Groups the hairs of this frame by vertex slab, uploads each batch's records, strands and
+/// particles and makes its bind groups; a hair whose mesh the device cannot bind is refused
+/// (it goes back to the CPU).
+fn prepare_gpu_batches(
+    mut inputs: Query<&mut GpuTubeInput>,
+    mut batches: ResMut<GpuBatches>,
+    mesh_allocator: Res<MeshAllocator>,
+    pipelines: (
+        Res<GpuTubePipeline>,
+        Res<GpuStrokePipeline>,
+        Res<GpuHighlightPipeline>,
+    ),
+    pipeline_cache: Res<PipelineCache>,
+    (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
+) {
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
+    let render = (device.as_ref(), queue.as_ref());
+    let limits = BindingLimits::of(&device.limits());
+    let batches = batches.as_mut();
+    batches.used = [0; 3];
+    let inputs: Vec<_> = inputs.iter_mut().collect();
+    // The tube meshes, by slab.
+    let mut spans = Vec::with_capacity(inputs.len());
+    for (i, input) in inputs.iter().enumerate() {
+        let hair = &input.hair;
+        let vertices = (hair.strands * (hair.rings * hair.sides + CAP_VERTICES)) as usize;
+        if let Some(slice) = mesh_allocator.mesh_vertex_slice(&input.mesh)
+            && let Some(span) = SlabSpan::new(i, &slice, hair.stride, vertices)
+        {
+            spans.push(span);
+        }
+    }
+    let (groups, refused) = group_by_slab(spans, Buffer::id, limits);
+    for i in refused {
+        let hair = &inputs[i].hair;
+        passes.refuse(
+            inputs[i].mesh,
+            format!(
+                "its mesh of {} vertices is larger than this device binds as storage ({} \
+                 bytes); it is built on the CPU (fewer strands or a coarser HairMeshSettings fit)",
+                hair.strands * (hair.rings * hair.sides + CAP_VERTICES),
+                limits.max_bytes
+            ),
+        );
+    }
+    let hairs: Vec<TubeHairInput> = inputs
+        .iter()
+        .map(|input| TubeHairInput {
+            hair: input.hair,
+            strands: &input.strands,
+            particles: &input.particles,
+            sections: &input.sections,
+        })
+        .collect();
+    let mut placements = vec![None; inputs.len()];
+    if batches.tubes.len() < groups.len() {
+        batches.tubes.resize_with(groups.len(), Default::default);
+    }
+    for (b, group) in groups.iter().enumerate() {
+        let placed =
+            batches.tubes[b].prepare(b, group, &hairs, render, (&tube_pipeline, &pipeline_cache));
+        for (i, placement) in placed {
+            placements[i] = Some(placement);
+        }
+    }
+    batches.used[0] = groups.len();
+    // The stroke and highlight jobs of each tube batch, by slab.
+    let GpuBatches {
+        tubes,
+        strokes,
+        highlights,
+        used,
+    } = batches;
+    for (b, tube_batch) in tubes.iter().enumerate().take(used[0]) {
+        let Some(buffers) = tube_batch.buffers() else {
+            continue;
+        };
+        let in_batch = || {
+            inputs
+                .iter()
+                .zip(&placements)
+                .filter_map(move |(input, p)| p.filter(|p| p.batch == b).map(|p| (input, p)))
+        };
+        let mut stroke_spans = Vec::new();
+        let mut highlight_spans = Vec::new();
+        for (input, placement) in in_batch() {
+            for job in &input.strokes {
+                if let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
+                    && let Some(span) = SlabSpan::new(
+                        (job.record, placement),
+                        &slice,
+                        job.record.stride,
+                        stroke_vertices(&job.record),
+                    )
+                {
+                    stroke_spans.push(span);
+                }
+            }
+            if let Some(job) = &input.highlights
+                && let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
+                && let Some(span) = SlabSpan::new(
+                    (job.record, placement),
+                    &slice,
+                    job.record.stride,
+                    highlight_vertices(&job.record),
+                )
+            {
+                highlight_spans.push(span);
+            }
+        }
+        // The device binds a hair's stroke or highlight mesh when it binds its tubes
+        // (`HairGpuMeshSupport::fits`); one it refuses draws nothing this frame.
+        let (groups, _) = group_by_slab(stroke_spans, Buffer::id, limits);
+        for group in &groups {
+            if strokes.len() <= used[1] {
+                strokes.push(StrokeBatch::default());
+            }
+            prepare_stroke_batch(
+                &mut strokes[used[1]],
+                group,
+                buffers,
+                render,
+                (&stroke_pipeline, &pipeline_cache),
+            );
+            used[1] += 1;
+        }
+        let (groups, _) = group_by_slab(highlight_spans, Buffer::id, limits);
+        for group in &groups {
+            if highlights.len() <= used[2] {
+                highlights.push(HighlightBatch::default());
+            }
+            prepare_highlight_batch(
+                &mut highlights[used[2]],
+                group,
+                buffers,
+                render,
+                (&highlight_pipeline, &pipeline_cache),
+            );
+            used[2] += 1;
+        }
+    }
+}
+
+/// Vertices after each strand's rings in a tube mesh.
+const CAP_VERTICES: u32 = crate::mesh::tube::CAP_VERTICES as u32;
+
+/// Runs the tube pass over every batch, then the stroke and highlight passes, before any camera
+/// draws: three compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
+/// where a game adds it (`render/hair_gpu_tubes/elapsed_gpu` and its pipeline statistics). The
+/// dispatches go to [`HairGpuPasses::dispatches`].
+fn build_gpu_batches(
+    mut render_context: RenderContext,
+    batches: Res<GpuBatches>,
+    pipelines: (
+        Res<GpuTubePipeline>,
+        Res<GpuStrokePipeline>,
+        Res<GpuHighlightPipeline>,
+    ),
+    pipeline_cache: Res<PipelineCache>,
+    (device, passes): (Res<RenderDevice>, Res<HairGpuPasses>),
+) {
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
+    let mut dispatches = HairGpuDispatches::default();
+    let tubes: Vec<&PreparedBatch> = batches.tubes[..batches.used[0]]
+        .iter()
+        .filter_map(|b| b.prepared.as_ref())
+        .collect();
+    if tubes.is_empty()
+        || pipeline_cache
+            .get_compute_pipeline(tube_pipeline.0.pipeline)
+            .is_none()
+    {
+        passes.set_dispatches(dispatches);
+        return;
+    }
+    // Strokes and highlights read the frames the tube pass wrote (wgpu orders the passes).
+    let strokes: Vec<&PreparedBatch> = batches.strokes[..batches.used[1]]
+        .iter()
+        .filter_map(|b| b.prepared.as_ref())
+        .collect();
+    let highlights: Vec<&PreparedBatch> = batches.highlights[..batches.used[2]]
+        .iter()
+        .filter_map(|b| b.prepared.as_ref())
+        .collect();
+    let max_per_dimension = device.limits().max_compute_workgroups_per_dimension;
+    let diagnostics = render_context.diagnostic_recorder();
+    let diagnostics = diagnostics.as_deref();
+    let HairGpuDispatches {
+        tubes: tube_count,
+        strokes: stroke_count,
+        highlights: highlight_count,
+    } = &mut dispatches;
+    for (count, name, id, list) in [
+        (
+            tube_count,
+            "hair_gpu_tubes",
+            tube_pipeline.0.pipeline,
+            tubes,
+        ),
+        (
+            stroke_count,
+            "hair_gpu_strokes",
+            stroke_pipeline.0.pipeline,
+            strokes,
+        ),
+        (
+            highlight_count,
+            "hair_gpu_highlights",
+            highlight_pipeline.0.pipeline,
+            highlights,
+        ),
+    ] {
+        let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {
+            continue;
+        };
+        if list.is_empty() {
+            continue;
+        }
+        let mut pass =
+            render_context
+                .command_encoder()
+                .begin_compute_pass(&ComputePassDescriptor {
+                    label: Some(name),
+                    ..default()
+                });
+        let span = diagnostics.pass_span(&mut pass, name);
+        pass.set_pipeline(compute);
+        for batch in list {
+            pass.set_bind_group(0, &batch.bind_group, &[]);
+            if dispatch(&mut pass, batch.invocations, max_per_dimension) {
+                count.dispatches += 1;
+                count.invocations += batch.invocations;
+            }
+        }
+        span.end(&mut pass);
+    }
+    passes.set_dispatches(dispatches);
+}
