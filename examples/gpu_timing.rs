@@ -15,8 +15,10 @@
 //! under every hair, the default look. Each pass is timed with Bevy's `RenderDiagnosticsPlugin`
 //! (GPU timestamps) and counted with pipeline statistics; the crate's passes
 //! (`hair_gpu_tubes`, `hair_gpu_strokes`, `hair_gpu_highlights`, `outline_*`) have spans of
-//! their own. The hair's share of a pass is the pass with hair minus the same scene without
-//! (both with the depth and normal prepasses the hair's outline uses).
+//! their own, and each compute pass's dispatches and strands built a frame
+//! (`HairGpuPasses::dispatches`) are printed beside them. The hair's share of a pass is the
+//! pass with hair minus the same scene without (both with the depth and normal prepasses the
+//! hair's outline uses).
 //!
 //! Bevy 0.20 records the shadow passes as one time span (`per_view_shadow_pass`), without
 //! pipeline statistics.
@@ -34,7 +36,7 @@ use bevy::prelude::*;
 use bevy::render::diagnostic::RenderDiagnosticsPlugin;
 use bevy_cartoon_hair::headless::{CaptureSettings, HeadlessRenderer, find_adapter};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::HairMeshBuilder;
+use bevy_cartoon_hair::render::{HairGpuPasses, HairMeshBuilder};
 
 /// The benches' workloads and how they spawn a head of hair.
 #[path = "../benches/common/mod.rs"]
@@ -186,6 +188,22 @@ fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, S
             if let Some(v) = d.measurement().map(|m| m.value) {
                 let e = sums.entry(path.to_string()).or_default();
                 e.0 += v;
+                e.1 += 1;
+            }
+        }
+        // The crate's own count of its compute work: dispatches and strands built.
+        let built = r.app.world().resource::<HairGpuPasses>().dispatches();
+        for (pass, work) in [
+            ("hair_gpu_tubes", built.tubes),
+            ("hair_gpu_strokes", built.strokes),
+            ("hair_gpu_highlights", built.highlights),
+        ] {
+            for (figure, v) in [
+                ("dispatches", work.dispatches),
+                ("strands_built", work.invocations),
+            ] {
+                let e = sums.entry(format!("render/{pass}/{figure}")).or_default();
+                e.0 += f64::from(v);
                 e.1 += 1;
             }
         }

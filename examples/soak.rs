@@ -1,7 +1,7 @@
 //! A soak run: a crowd with hair through a whole play session of hostile frames, without a window.
 //!
 //! ```text
-//! cargo run --release --example soak -- [--frames N] [--seed S]
+//! cargo run --release --example soak -- [--frames N] [--seed S] [--report N]
 //! ```
 //!
 //! 16 characters wear the ninja's hair (two grooms, one collision file, from a scratch copy of
@@ -12,7 +12,8 @@
 //! rewrites the groom and collision files on disk: re-saved, broken, and restored, each reloaded
 //! through the asset server as a file watcher would. Then the heads stop and the hair settles.
 //!
-//! Every 10,000 frames it prints the process's resident memory, the live hair, strand and mesh
+//! Every 10,000 frames (`--report`) it prints the process's resident memory, its live heap (the
+//! bytes allocated and not freed, counted by the soak's allocator), the live hair, strand and mesh
 //! counts (each mesh becomes the GPU buffers a renderer would hold) and the largest distance of any
 //! strand tip from its style. At the end it checks, and exits 1 naming what failed:
 //! - memory flat: resident memory grows by at most [`MEMORY_BOUND_MB`] after the warm-up (a
@@ -23,8 +24,10 @@
 //! - every broken file reported as a [`HairAssetFailed`] event naming it;
 //! - as many hairs and meshes as at the start.
 
+use std::alloc::{GlobalAlloc, Layout, System};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 use bevy::asset::AssetPlugin;
@@ -50,6 +53,61 @@ const RETURN_BOUND_M: f32 = 0.002;
 const SETTLE_FRAMES: u64 = 3000;
 /// Frames a reload may take to be reported before it counts as lost.
 const REPORT_FRAMES: u64 = 2000;
+
+/// The system allocator, counting the bytes the process holds: live heap, the part of resident
+/// memory a leak grows (resident memory also holds what the allocator keeps after a free).
+struct Counting;
+
+static LIVE_BYTES: AtomicUsize = AtomicUsize::new(0);
+
+// SAFETY: every call goes to the system allocator with the caller's own arguments; the counter
+// only adds and subtracts the sizes the caller passes.
+#[expect(
+    unsafe_code,
+    reason = "a global allocator is an unsafe trait: this one forwards to the system's"
+)]
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: the caller's layout, as `GlobalAlloc::alloc` requires.
+        let p = unsafe { System.alloc(layout) };
+        if !p.is_null() {
+            LIVE_BYTES.fetch_add(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` came from `alloc` with this layout.
+        unsafe { System.dealloc(ptr, layout) };
+        LIVE_BYTES.fetch_sub(layout.size(), Ordering::Relaxed);
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        // SAFETY: as for `alloc`.
+        let p = unsafe { System.alloc_zeroed(layout) };
+        if !p.is_null() {
+            LIVE_BYTES.fetch_add(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        // SAFETY: `ptr` came from this allocator with `layout`.
+        let p = unsafe { System.realloc(ptr, layout, new_size) };
+        if !p.is_null() {
+            LIVE_BYTES.fetch_add(new_size, Ordering::Relaxed);
+            LIVE_BYTES.fetch_sub(layout.size(), Ordering::Relaxed);
+        }
+        p
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: Counting = Counting;
+
+fn live_mb() -> f64 {
+    LIVE_BYTES.load(Ordering::Relaxed) as f64 / 1e6
+}
 
 /// A small deterministic generator (xorshift).
 struct Rng(u64);
@@ -206,12 +264,14 @@ fn tip_from_style(app: &mut App) -> f32 {
 struct Args {
     frames: u64,
     seed: u64,
+    report: u64,
 }
 
 fn args() -> Result<Args, String> {
     let mut a = Args {
         frames: 100_000,
         seed: 0x5eed,
+        report: 10_000,
     };
     let mut it = std::env::args().skip(1);
     while let Some(flag) = it.next() {
@@ -223,9 +283,10 @@ fn args() -> Result<Args, String> {
         match flag.as_str() {
             "--frames" => a.frames = value("--frames")?.max(SETTLE_FRAMES + 1000),
             "--seed" => a.seed = value("--seed")?.max(1),
+            "--report" => a.report = value("--report")?.max(1),
             other => {
                 return Err(format!(
-                    "unknown argument {other:?}; use --frames N, --seed S"
+                    "unknown argument {other:?}; use --frames N, --seed S, --report N"
                 ));
             }
         }
@@ -316,8 +377,16 @@ fn main() -> ExitCode {
         args.seed
     );
     println!(
-        "{:>8} {:>8} {:>6} {:>7} {:>6} {:>11} {:>8} {:>7}",
-        "frame", "RSS MB", "hairs", "strands", "meshes", "tip->style", "reports", "seconds"
+        "{:>8} {:>8} {:>8} {:>6} {:>7} {:>6} {:>11} {:>8} {:>7}",
+        "frame",
+        "RSS MB",
+        "heap MB",
+        "hairs",
+        "strands",
+        "meshes",
+        "tip->style",
+        "reports",
+        "seconds"
     );
 
     let mut rng = Rng(args.seed);
@@ -438,16 +507,17 @@ fn main() -> ExitCode {
         if frame > warm {
             memory_peak = memory_peak.max(resident_mb());
         }
-        if frame % 10_000 == 0 || frame + 1 == args.frames {
+        if frame % args.report == 0 || frame + 1 == args.frames {
             let world = app.world_mut();
             let hair_count = world.query::<&Hair>().iter(world).count();
             let strand_count = world.query::<&Strand>().iter(world).count();
             let meshes = world.resource::<Assets<Mesh>>().len();
             let kept = world.resource::<Reports>().kept.len();
             println!(
-                "{frame:>8} {:>8.1} {hair_count:>6} {strand_count:>7} {meshes:>6} {:>9.3} m \
-                 {kept:>8} {:>7.0}",
+                "{frame:>8} {:>8.1} {:>8.1} {hair_count:>6} {strand_count:>7} {meshes:>6} \
+                 {:>9.3} m {kept:>8} {:>7.0}",
                 resident_mb(),
+                live_mb(),
                 max_tip,
                 started.elapsed().as_secs_f64()
             );
