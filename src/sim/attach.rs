@@ -406,7 +406,7 @@ impl HairAssets<'_> {
     /// The load error of `id`, if its load failed.
     fn failure(&self, id: impl Into<UntypedAssetId>) -> Option<String> {
         match self.server.load_state(id.into()) {
-            bevy::asset::LoadState::Failed(e) => Some(without_backtrace(&e.to_string())),
+            bevy::asset::LoadState::Failed(e) => Some(load_failure(&e)),
             _ => None,
         }
     }
@@ -433,6 +433,18 @@ fn optional<'a, A: Asset>(
         Some(asset) => Some(Some(asset)),
         None => failed(handle.id().untyped()).map(|()| None),
     }
+}
+
+/// A failed load in words, without the backtrace Bevy's loader errors carry. A hair file's error
+/// is taken as the loader returned it, so the backtrace is never resolved: resolving one reads
+/// the program's debug information (tens of megabytes, kept for the rest of the process).
+pub(crate) fn load_failure(error: &bevy::asset::AssetLoadError) -> String {
+    if let bevy::asset::AssetLoadError::AssetLoaderError(e) = error
+        && let Some(hair) = e.error().downcast_ref::<crate::asset::HairAssetError>()
+    {
+        return format!("Failed to load asset '{}': {hair}", e.path());
+    }
+    without_backtrace(&error.to_string())
 }
 
 /// The message of a load error without the backtrace Bevy's errors may carry on their later

@@ -5,7 +5,7 @@
 use bevy::asset::{AssetLoadFailedEvent, UntypedAssetId};
 use bevy::prelude::*;
 
-use super::attach::{Hair, HairAssets, HairStatus, report_failure, without_backtrace};
+use super::attach::{Hair, HairAssets, HairStatus, load_failure, report_failure};
 use super::events::HairAssetKind;
 use crate::asset::{HairAnimation, HairGroom, HeadCollision};
 
@@ -62,7 +62,7 @@ fn failed<A: Asset>(
     out.extend(
         events
             .read()
-            .map(|e| (e.id.untyped(), without_backtrace(&e.error.to_string()))),
+            .map(|e| (e.id.untyped(), load_failure(&e.error))),
     );
 }
 

@@ -204,8 +204,16 @@ pub(crate) fn report_failed_vrm_loads(
             continue;
         }
         let file = event.path.without_label().to_string();
-        // The loader's reason, without a backtrace Bevy may have attached.
-        let reason = event.error.to_string();
+        // The loader's reason, without the backtrace Bevy attaches (never resolved for a glTF
+        // error: resolving one reads the program's debug information).
+        let reason = match &event.error {
+            bevy::asset::AssetLoadError::AssetLoaderError(e) => e
+                .error()
+                .downcast_ref::<bevy::gltf::GltfError>()
+                .map(ToString::to_string),
+            _ => None,
+        }
+        .unwrap_or_else(|| super::attach::load_failure(&event.error));
         let reason = reason.lines().next().unwrap_or_default();
         let error = format!(
             "{file}: the VRM file did not load, so its character and springs are missing: {reason} \
