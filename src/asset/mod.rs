@@ -52,9 +52,9 @@ pub use groom::{
 #[cfg(not(target_arch = "wasm32"))]
 pub use source::{RegularFileReader, regular_file_source};
 pub use vrm::{
-    MAX_VRM_COLLIDERS, MAX_VRM_COORDINATE, MAX_VRM_FORCE, MAX_VRM_GROUPS, MAX_VRM_JOINTS,
-    MAX_VRM_NAME, MAX_VRM_SPRINGS, VrmCollider, VrmError, VrmJoint, VrmShape, VrmSpring,
-    VrmSprings, VrmVersion, parse_vrm_springs,
+    JointLimit, JointLimitShape, MAX_VRM_COLLIDERS, MAX_VRM_COORDINATE, MAX_VRM_FORCE,
+    MAX_VRM_GROUPS, MAX_VRM_JOINTS, MAX_VRM_NAME, MAX_VRM_SPRINGS, VrmCollider, VrmError, VrmJoint,
+    VrmShape, VrmSpring, VrmSprings, VrmVersion, parse_vrm_springs,
 };
 pub use vrm_gltf::{VrmLoader, VrmNode, VrmSpringBones};
 pub use xml::{MAX_ATTRIBUTES, MAX_DEPTH};

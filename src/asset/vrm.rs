@@ -14,7 +14,10 @@
 //! UniVRM and three-vrm do). The simulation side (`sim::vrm`) turns it into bone chains and
 //! colliders.
 
+use std::f32::consts::{FRAC_PI_2, PI};
+
 use bevy::gltf::gltf;
+
 use bevy::prelude::*;
 use serde_json::Value;
 
@@ -85,6 +88,41 @@ pub struct VrmCollider {
     pub shape: VrmShape,
 }
 
+/// The shape of a [`JointLimit`], in the limit's own frame, where the joint's bone points along
+/// `+Y` at rest (`VRMC_springBone_limit` 1.0 draft). Angles in radians.
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub enum JointLimitShape {
+    /// The bone stays within `angle` of `+Y` (`[0, pi]`).
+    Cone {
+        /// Half the cone's opening.
+        angle: f32,
+    },
+    /// The bone turns only about `X`, within `angle` of `+Y` (`[0, pi]`).
+    Hinge {
+        /// The largest turn either way.
+        angle: f32,
+    },
+    /// The bone's pitch (about `X`, toward `+Z`) stays within `pitch` (`[0, pi]`) and its yaw
+    /// (toward `+X`) within `yaw` (`[0, pi/2]`).
+    Spherical {
+        /// The largest pitch either way.
+        pitch: f32,
+        /// The largest yaw either way.
+        yaw: f32,
+    },
+}
+
+/// An angle limit on a joint: the direction from the joint to its child stays inside
+/// [`JointLimit::shape`], whose frame is the joint's bind rotation under its posed parent, turned
+/// so `+Y` runs along the bone, then by [`JointLimit::rotation`].
+#[derive(Clone, Copy, Debug, PartialEq, Reflect)]
+pub struct JointLimit {
+    /// The allowed directions.
+    pub shape: JointLimitShape,
+    /// The shape's turn from its default orientation (unit length).
+    pub rotation: Quat,
+}
+
 /// A joint's parameters, as the file gives them (defaults where it is silent).
 #[derive(Clone, Copy, Debug, PartialEq, Reflect)]
 pub struct VrmJoint {
@@ -99,6 +137,8 @@ pub struct VrmJoint {
     /// Share of the velocity lost per update, `[0, 1]`. Default `0.5` (VRM 1.0) or `0.4`
     /// (VRM 0.x, as UniVRM).
     pub drag_force: f32,
+    /// Its angle limit (`VRMC_springBone_limit` on a VRM 1.0 joint), if any.
+    pub limit: Option<JointLimit>,
 }
 
 impl VrmJoint {
@@ -112,6 +152,7 @@ impl VrmJoint {
                 VrmVersion::V1 => 0.5,
                 VrmVersion::V0 => 0.4,
             },
+            limit: None,
         }
     }
 }
@@ -551,7 +592,101 @@ impl Reader<'_> {
             )?,
             gravity_dir: self.direction(j, "gravityDir", p, d.gravity_dir)?,
             drag_force: self.number(j, "dragForce", p, (0.0, 1.0), d.drag_force)?,
+            limit: match version {
+                VrmVersion::V1 => self.limit(j, p)?,
+                VrmVersion::V0 => None,
+            },
         })
+    }
+
+    /// A joint's `extensions.VRMC_springBone_limit`, if present: `specVersion` "1.0-draft" (or
+    /// "1.0"), `limit` with exactly one of `cone`, `hinge`, `spherical`, angles in radians (`>= 0`;
+    /// larger than the shape allows are read as the largest, as the draft says), `rotation` a
+    /// non-zero quaternion `[x, y, z, w]`.
+    fn limit(&self, j: &serde_map::Map, p: &str) -> Res<Option<JointLimit>> {
+        let Some(ext) = j
+            .get("extensions")
+            .and_then(|e| e.get("VRMC_springBone_limit"))
+        else {
+            return Ok(None);
+        };
+        let p = format!("{p}.extensions.VRMC_springBone_limit");
+        let ext = self.object(ext, &p)?;
+        match ext.get("specVersion") {
+            Some(Value::String(v)) if v == "1.0-draft" || v == "1.0" => {}
+            Some(v) => {
+                return self.err(
+                    &format!("{p}.specVersion"),
+                    format!("{v} is not a version this crate reads (\"1.0-draft\")"),
+                );
+            }
+            None => return self.err(&p, "no specVersion (\"1.0-draft\")"),
+        }
+        let Some(limit) = ext.get("limit") else {
+            return self.err(&p, "no `limit`");
+        };
+        let p = format!("{p}.limit");
+        let limit = self.object(limit, &p)?;
+        let kinds = ["cone", "hinge", "spherical"];
+        let present: Vec<&str> = kinds
+            .iter()
+            .copied()
+            .filter(|k| limit.contains_key(*k))
+            .collect();
+        let [which] = present[..] else {
+            return self.err(
+                &p,
+                format!("needs exactly one of {kinds:?}, has {present:?}"),
+            );
+        };
+        let sp = format!("{p}.{which}");
+        let o = self.object(&limit[which], &sp)?;
+        let angle = |key: &str, most: f32| -> Res<f32> {
+            if !o.contains_key(key) {
+                return self.err(&sp, format!("no `{key}` (radians)"));
+            }
+            Ok(self.number(o, key, &sp, (0.0, f32::MAX), 0.0)?.min(most))
+        };
+        let shape = match which {
+            "cone" => JointLimitShape::Cone {
+                angle: angle("angle", PI)?,
+            },
+            "hinge" => JointLimitShape::Hinge {
+                angle: angle("angle", PI)?,
+            },
+            _ => JointLimitShape::Spherical {
+                pitch: angle("pitch", PI)?,
+                yaw: angle("yaw", FRAC_PI_2)?,
+            },
+        };
+        let rotation = match o.get("rotation") {
+            None => Quat::IDENTITY,
+            Some(v) => {
+                let rp = format!("{sp}.rotation");
+                let parts: Option<Vec<f32>> = v.as_array().filter(|a| a.len() == 4).map(|a| {
+                    a.iter()
+                        .filter_map(|x| x.as_f64().map(|x| x as f32))
+                        .collect()
+                });
+                match parts {
+                    Some(q) if q.len() == 4 && q.iter().all(|x| x.is_finite()) => {
+                        let q = Quat::from_xyzw(q[0], q[1], q[2], q[3]);
+                        if q.length_squared() < 1e-12 {
+                            return self
+                                .err(&rp, "a rotation of zero length; give a unit quaternion");
+                        }
+                        q.normalize()
+                    }
+                    _ => {
+                        return self.err(
+                            &rp,
+                            format!("expected 4 finite numbers [x, y, z, w], found {}", kind(v)),
+                        );
+                    }
+                }
+            }
+        };
+        Ok(Some(JointLimit { shape, rotation }))
     }
 
     /// A `shape` object: exactly one of sphere, capsule (and, extended, plane).

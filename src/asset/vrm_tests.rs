@@ -303,3 +303,84 @@ fn oversized_lists_are_refused_before_they_are_read() {
         "extensions.VRM.secondaryAnimation.boneGroups[0].dragForce"
     );
 }
+
+/// `V1` with `limit` as the `VRMC_springBone_limit` extension of spring 0's second joint.
+fn with_limit(limit: &str) -> Result<VrmSprings, VrmError> {
+    let json = V1.replacen(
+        r#"{"node":2,"stiffness":1}"#,
+        &format!(r#"{{"node":2,"stiffness":1,"extensions":{{"VRMC_springBone_limit":{limit}}}}}"#),
+        1,
+    );
+    parse_vrm_springs("l.vrm", &document(&json)).map(|s| s.expect("springs"))
+}
+
+#[test]
+fn joint_angle_limits_are_read_clamped_and_checked() {
+    let s = with_limit(
+        r#"{"specVersion":"1.0-draft","limit":{"cone":{"angle":0.5,"rotation":[0,0,2,0]}}}"#,
+    )
+    .unwrap();
+    let limit = s.springs[0].joints[1].limit.expect("a limit");
+    assert_eq!(limit.shape, JointLimitShape::Cone { angle: 0.5 });
+    // The quaternion is normalised.
+    assert!(
+        limit
+            .rotation
+            .abs_diff_eq(Quat::from_xyzw(0.0, 0.0, 1.0, 0.0), 1e-6)
+    );
+    assert_eq!(s.springs[0].joints[0].limit, None);
+    // Angles past what a shape allows are read as the largest (the draft's rule).
+    let s = with_limit(r#"{"specVersion":"1.0-draft","limit":{"spherical":{"pitch":4,"yaw":3}}}"#)
+        .unwrap();
+    assert_eq!(
+        s.springs[0].joints[1].limit.map(|l| l.shape),
+        Some(JointLimitShape::Spherical {
+            pitch: std::f32::consts::PI,
+            yaw: std::f32::consts::FRAC_PI_2
+        })
+    );
+    let p = "extensions.VRMC_springBone.springs[0].joints[1].extensions.VRMC_springBone_limit";
+    for (limit, path, says) in [
+        (
+            r#"{"limit":{"cone":{"angle":1}}}"#.to_string(),
+            p.to_string(),
+            "no specVersion",
+        ),
+        (
+            r#"{"specVersion":"2.0","limit":{"cone":{"angle":1}}}"#.into(),
+            format!("{p}.specVersion"),
+            "not a version",
+        ),
+        (
+            r#"{"specVersion":"1.0-draft","limit":{"cone":{"angle":1},"hinge":{"angle":1}}}"#
+                .into(),
+            format!("{p}.limit"),
+            "exactly one of",
+        ),
+        (
+            r#"{"specVersion":"1.0-draft","limit":{"hinge":{}}}"#.into(),
+            format!("{p}.limit.hinge"),
+            "no `angle`",
+        ),
+        (
+            r#"{"specVersion":"1.0-draft","limit":{"cone":{"angle":-0.1}}}"#.into(),
+            format!("{p}.limit.cone.angle"),
+            "outside",
+        ),
+        (
+            r#"{"specVersion":"1.0-draft","limit":{"cone":{"angle":1,"rotation":[0,0,0,0]}}}"#
+                .into(),
+            format!("{p}.limit.cone.rotation"),
+            "zero length",
+        ),
+        (
+            r#"{"specVersion":"1.0-draft","limit":{"cone":{"angle":1,"rotation":[0,0,1]}}}"#.into(),
+            format!("{p}.limit.cone.rotation"),
+            "4 finite numbers",
+        ),
+    ] {
+        let err = with_limit(&limit).expect_err(&limit);
+        assert_eq!(err.path, path, "{err}");
+        assert!(err.message.contains(says), "{err}");
+    }
+}

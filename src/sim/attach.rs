@@ -187,6 +187,13 @@ impl ComputedHair {
         self.batches[b as usize].particle(l as usize, i)
     }
 
+    /// Moves particle `i` of strand `s` to `p` (a limit that cut its step short).
+    pub(crate) fn set_particle(&mut self, s: usize, i: usize, p: Vec3) {
+        if let Some(&(b, l)) = self.lane_of.get(s) {
+            self.batches[b as usize].set_particle(l as usize, i, p);
+        }
+    }
+
     /// Puts every strand back on its styled (base) pose under the hair entity's current
     /// transform `bone`, at rest, as when the strands were built. The clip recorder does this
     /// before its first frame so a clip never depends on when assets finished loading.

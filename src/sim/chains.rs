@@ -16,13 +16,14 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 use bevy::world_serialization::WorldAssetRoot;
 
-use super::attach::{Hair, HairStrands, Strand, StrandParticles};
+use super::attach::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use super::attach_work::AttachWork;
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
 use super::collider::HairCollidesOnly;
 use super::events::BoneNotFound;
+use super::limits::{ChainJointLimits, limit_frame, limit_offset};
 use super::settings::HairSimSettings;
-use crate::asset::HairGroom;
+use crate::asset::{HairGroom, JointLimit};
 
 /// Shortest tail, in metres at the character's size, whatever [`HairBoneChains::tail`] says.
 pub const MIN_TAIL: f32 = 0.005;
@@ -117,6 +118,8 @@ pub struct BoneChainHair {
     tail: Vec<Vec3>,
     /// Per strand: its last joint is the tail (moved, not turned).
     tail_joint: Vec<bool>,
+    /// Per strand: each joint's angle limit ([`ChainJointLimits`]), if any.
+    limits: Vec<Vec<Option<JointLimit>>>,
 }
 
 /// A chain found under the character: the bone it hangs from and its joints, root first.
@@ -191,6 +194,7 @@ fn walk_chain(
 /// Builds the hairs of every [`HairBoneChains`] whose character's bones exist.
 #[expect(
     clippy::too_many_arguments,
+    clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
 )]
 pub(crate) fn build_bone_chains(
@@ -201,6 +205,7 @@ pub(crate) fn build_bone_chains(
             &HairBoneChains,
             &HairSimSettings,
             Option<&HairCollidesOnly>,
+            Option<&ChainJointLimits>,
         ),
         Without<BoneChainHairs>,
     >,
@@ -212,7 +217,7 @@ pub(crate) fn build_bone_chains(
     helper: TransformHelper,
     (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
 ) {
-    for (set, chains, settings, only) in &sets {
+    for (set, chains, settings, only, limits) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
             // A glTF character whose scene has not spawned yet: wait for it, as a bone search
@@ -294,6 +299,7 @@ pub(crate) fn build_bone_chains(
                 rest: Vec::new(),
                 tail: Vec::new(),
                 tail_joint: Vec::new(),
+                limits: Vec::new(),
             };
             for chain in found {
                 let Some(built) = chain_strand(&chain, chains.tail, &helper, &locals) else {
@@ -312,6 +318,13 @@ pub(crate) fn build_bone_chains(
                         .collect(),
                 );
                 driven.tail_joint.push(chain.tail_joint);
+                driven.limits.push(
+                    chain
+                        .joints
+                        .iter()
+                        .map(|j| limits.and_then(|l| l.of(*j)))
+                        .collect(),
+                );
                 driven.joints.push(chain.joints);
                 driven.rest.push(rest);
                 driven.tail.push(tail);
@@ -394,16 +407,22 @@ fn chain_strand(
     Some((world, rest, tail_local))
 }
 
-/// Turns each chain's joints, root to tip, so each points at its next particle, and writes their
-/// local and global transforms (the skinned mesh is drawn from these this frame).
+/// Turns each chain's joints, root to tip, so each points at its next particle (kept inside the
+/// joint's angle limit, if it has one: [`ChainJointLimits`]), and writes their local and global
+/// transforms (the skinned mesh is drawn from these this frame).
 pub(crate) fn pose_bone_chains(
-    hairs: Query<(&BoneChainHair, &GlobalTransform, &HairStrands)>,
-    strands: Query<(&Strand, &StrandParticles)>,
+    mut hairs: Query<(
+        &BoneChainHair,
+        &GlobalTransform,
+        &HairStrands,
+        &mut ComputedHair,
+    )>,
+    mut strands: Query<(&Strand, &mut StrandParticles)>,
     mut joints: Query<(&mut Transform, &mut GlobalTransform), Without<BoneChainHair>>,
 ) {
-    for (driven, hair_world, strand_list) in &hairs {
+    for (driven, hair_world, strand_list, mut computed) in &mut hairs {
         for strand in strand_list.iter() {
-            let Ok((strand, particles)) = strands.get(strand) else {
+            let Ok((strand, mut particles)) = strands.get_mut(strand) else {
                 continue;
             };
             let s = strand.index as usize;
@@ -437,7 +456,25 @@ pub(crate) fn pose_bone_chains(
                 let at_rest = parent.mul_transform(bind);
                 let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
                 let from = at_rest.affine().transform_vector3(child);
-                let to = particles.positions[k + 1] - at_rest.translation();
+                let mut to = particles.positions[k + 1] - at_rest.translation();
+                if let Some(limit) = driven
+                    .limits
+                    .get(s)
+                    .and_then(|l| l.get(k))
+                    .copied()
+                    .flatten()
+                {
+                    let (_, rest_rotation, _) = at_rest.to_scale_rotation_translation();
+                    let frame = limit_frame(rest_rotation, child, &limit);
+                    let limited = limit_offset(frame, &limit, to);
+                    if limited != to {
+                        // The simulation goes on from the limited joint, as VRM's step does.
+                        let moved = at_rest.translation() + limited;
+                        particles.positions[k + 1] = moved;
+                        computed.set_particle(s, k + 1, moved);
+                        to = limited;
+                    }
+                }
                 let rotation = match (from.try_normalize(), to.try_normalize()) {
                     (Some(a), Some(b)) => {
                         let (_, parent_rotation, _) = parent.to_scale_rotation_translation();

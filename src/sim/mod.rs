@@ -35,6 +35,7 @@ mod collider_tests;
 mod contact;
 mod culling;
 mod events;
+mod limits;
 mod physics;
 mod reload;
 mod scratch;
@@ -60,6 +61,7 @@ pub use events::{
     BoneMismatch, BoneNotFound, BoneScaleMismatch, HairAnimationMismatch, HairAssetFailed,
     HairAssetKind, HairReady, HairRebuilt, RebuildReason, VrmSpringsFailed,
 };
+pub use limits::{ChainJointLimits, axis_rotation, limit_direction, limit_frame, limit_offset};
 #[cfg(feature = "rapier")]
 pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
@@ -118,6 +120,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairBoneChains>()
             .register_type::<BoneChainHairs>()
             .register_type::<BoneChainHair>()
+            .register_type::<ChainJointLimits>()
             .register_type::<VrmSpringChains>()
             .add_observer(attach::detach_hair)
             .add_observer(bone::mark_spawned_characters)

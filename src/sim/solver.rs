@@ -379,6 +379,12 @@ impl Batch {
         get3(&self.nodes[2 * i + 1].x, l)
     }
 
+    /// Moves particle `i` of lane `l` to `p` (its previous position stays: the move is motion
+    /// the solver sees, as a limit that cuts a step short).
+    pub fn set_particle(&mut self, l: usize, i: usize, p: Vec3) {
+        set3(&mut self.nodes[2 * i + 1].x, l, p);
+    }
+
     /// Anchor (keyframe target) of chain node `k` of lane `l`, bone space.
     pub fn anchor(&self, l: usize, k: usize) -> Vec3 {
         get3(&self.nodes[k].anchor, l)

@@ -24,6 +24,12 @@
 //! rate at which a displaced joint returns. Edit the spawned
 //! [`HairBoneChains`]' [`HairSimSettings`] to tune further.
 //!
+//! ## Angle limits
+//!
+//! A VRM 1.0 joint's `VRMC_springBone_limit` (cone, hinge or spherical, 1.0 draft) becomes an
+//! entry of the spring's [`ChainJointLimits`]; the chains keep each limited bone inside its limit
+//! as they are posed (see `sim::limits`).
+//!
 //! ## Colliders
 //!
 //! Each collider becomes a child entity of its node with one [`HairCollider`] shape, so it
@@ -53,6 +59,7 @@ use crate::curve::QuadraticCurve;
 use super::chains::{ChainSelect, HairBoneChains};
 use super::collider::{HairCollider, HairColliderMode, HairCollidesOnly};
 use super::events::VrmSpringsFailed;
+use super::limits::ChainJointLimits;
 use super::settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN};
 
 /// VRM 0.x's tail past a leaf bone, in the leaf's units.
@@ -350,6 +357,16 @@ pub(crate) fn build_vrm_springs(
                     }
                 }
             }
+            // Angle limits (VRM 1.0 joints), by joint entity.
+            let limits: Vec<(Entity, crate::asset::JointLimit)> = match springs.version {
+                VrmVersion::V1 => spring
+                    .nodes
+                    .iter()
+                    .zip(&spring.joints)
+                    .filter_map(|(&n, j)| Some((entity_of(n)?, j.limit?)))
+                    .collect(),
+                VrmVersion::V0 => Vec::new(),
+            };
             let bone_length = mean_bone_length(&chains, &helper);
             let name = if spring.name.is_empty() {
                 format!("VRM spring {s}")
@@ -366,6 +383,7 @@ pub(crate) fn build_vrm_springs(
                     },
                     vrm_sim_settings(spring, springs.version, bone_length),
                     HairCollidesOnly(only),
+                    ChainJointLimits(limits),
                     // Under the scene root: despawning the character despawns its springs.
                     Transform::IDENTITY,
                     ChildOf(root),

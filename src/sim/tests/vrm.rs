@@ -7,7 +7,8 @@ use bevy::prelude::*;
 use super::chains::{ShakeRun, farthest, shake_run, turn};
 use super::*;
 use crate::asset::{
-    VrmCollider, VrmJoint, VrmNode, VrmShape, VrmSpring, VrmSpringBones, VrmSprings, VrmVersion,
+    JointLimit, JointLimitShape, VrmCollider, VrmJoint, VrmNode, VrmShape, VrmSpring,
+    VrmSpringBones, VrmSprings, VrmVersion,
 };
 use crate::sim::{
     HairCollidesOnly, VRM0_TAIL, VrmSpringChains, VrmSpringsFailed, anchor_for_rate,
@@ -21,6 +22,7 @@ fn joint(stiffness: f32, drag_force: f32, gravity_power: f32) -> VrmJoint {
         gravity_power,
         gravity_dir: Vec3::NEG_Y,
         drag_force,
+        limit: None,
     }
 }
 
@@ -275,6 +277,80 @@ fn vrm_springs_become_chains_that_collide_only_with_their_groups() {
     );
     let other = farthest(&now[4..], &bind[4..]);
     assert!(other < 1e-4, "B moved {other} m");
+}
+
+/// Chain A blown sideways (gravity along +X, no stiffness) for two seconds, its first two joints
+/// with `limit`; returns each turned bone's angle from the bone before it (the first from its
+/// bind direction, straight down), in degrees.
+fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
+    let mut app = event_app();
+    let mut springs = crossed(vec![]);
+    springs.springs[0].joints = vec![
+        VrmJoint {
+            gravity_dir: Vec3::X,
+            limit,
+            ..joint(0.0, 0.2, 0.5)
+        };
+        3
+    ];
+    let (_, nodes) = vrm_scene(&mut app, springs);
+    for _ in 0..120 {
+        app.update();
+    }
+    let p = positions(&app, &nodes);
+    let first = (p[2] - p[1]).normalize();
+    let second = (p[3] - p[2]).normalize();
+    let angles = [
+        first.angle_between(Vec3::NEG_Y).to_degrees(),
+        second.angle_between(first).to_degrees(),
+    ];
+    eprintln!("limit {limit:?}: bones at {angles:?} degrees");
+    angles
+}
+
+#[test]
+fn a_vrm_angle_limit_keeps_each_posed_bone_inside_it() {
+    let free = swung_chain_angles(None);
+    assert!(
+        free[0] > 45.0,
+        "without a limit the wind swings the first bone only {free:?} degrees: no test"
+    );
+    // Bones straight down: the draft's half turn about X makes the cone's axis the bone.
+    let cone = swung_chain_angles(Some(JointLimit {
+        shape: JointLimitShape::Cone {
+            angle: 20f32.to_radians(),
+        },
+        rotation: Quat::IDENTITY,
+    }));
+    for (k, a) in cone.iter().enumerate() {
+        assert!(
+            *a <= 20.05,
+            "bone {k}: {a} degrees in a 20 degree cone ({cone:?}, free {free:?})"
+        );
+    }
+    assert!(
+        cone[0].max(cone[1]) > 19.0,
+        "the limited chain did not swing to its limit: {cone:?}"
+    );
+    // A hinge about X lets the bones swing only in the Y-Z plane: the +X wind cannot turn them.
+    let hinge = swung_chain_angles(Some(JointLimit {
+        shape: JointLimitShape::Hinge {
+            angle: 60f32.to_radians(),
+        },
+        rotation: Quat::IDENTITY,
+    }));
+    assert!(hinge[0] < 0.5 && hinge[1] < 0.5, "hinge {hinge:?}");
+    // The same hinge turned a quarter about Y hinges about Z: the wind turns the bones up to 60.
+    let turned = swung_chain_angles(Some(JointLimit {
+        shape: JointLimitShape::Hinge {
+            angle: 60f32.to_radians(),
+        },
+        rotation: Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+    }));
+    assert!(
+        turned[0] > 40.0 && turned[0] <= 60.05,
+        "turned hinge {turned:?}"
+    );
 }
 
 #[test]
