@@ -541,3 +541,109 @@ fn despawning_a_vrm_character_leaves_no_springs_hairs_or_colliders() {
     assert_eq!((chains, colliders, hairs), (0, 0, 0));
     assert_eq!(strand_count(&mut app), 0);
 }
+
+/// Chain A (joints 5 cm apart, hanging from the head) pushed along `wind` against a capsule on
+/// the head, the head scaled by 1.5 and turned 0.4 rad about Z and 0.3 about Y; returns the capsule's world axis
+/// and radius and, after two seconds, chain A's particles and its posed joints 2 and 3.
+fn capsule_run(inside: bool, radius: f32, wind: Vec3) -> ((Vec3, Vec3, f32), Vec<Vec3>, [Vec3; 2]) {
+    let mut app = event_app();
+    let (a, b) = (
+        Vec3::new(0.05, -0.075, -0.05),
+        Vec3::new(0.05, -0.075, 0.05),
+    );
+    let mut springs = crossed(vec![0]);
+    springs.colliders[0] = VrmCollider {
+        node: 0,
+        shape: VrmShape::Capsule {
+            offset: a,
+            tail: b,
+            radius,
+            inside,
+        },
+    };
+    // No stiffness, so the collider is what holds the chain against `wind`.
+    springs.springs[0].joints = vec![
+        VrmJoint {
+            gravity_dir: wind,
+            hit_radius: 0.0,
+            ..joint(0.0, 0.3, 0.3)
+        };
+        3
+    ];
+    let (root, nodes) = vrm_scene(&mut app, springs);
+    *app.world_mut().get_mut::<Transform>(nodes[0]).unwrap() = Transform::from_xyz(0.0, 1.6, 0.0)
+        .with_scale(Vec3::splat(1.5))
+        .with_rotation(Quat::from_rotation_z(0.4) * Quat::from_rotation_y(0.3));
+    for _ in 0..120 {
+        app.update();
+    }
+    let head = *app.world().get::<GlobalTransform>(nodes[0]).unwrap();
+    let axis = (
+        head.transform_point(a),
+        head.transform_point(b),
+        radius * 1.5,
+    );
+    let hair = app
+        .world()
+        .get::<VrmSpringChains>(root)
+        .map(|c| c.springs[0]);
+    let particles = hair
+        .and_then(|s| app.world().get::<BoneChainHairs>(s))
+        .map(|h| {
+            let strands = app.world().get::<HairStrands>(h.0[0]).unwrap();
+            strands
+                .iter()
+                .flat_map(|s| {
+                    app.world()
+                        .get::<StrandParticles>(s)
+                        .unwrap()
+                        .positions
+                        .clone()
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let p = positions(&app, &nodes);
+    (axis, particles, [p[2], p[3]])
+}
+
+/// Distance from `p` to the segment `a`-`b`.
+fn to_segment(p: Vec3, (a, b): (Vec3, Vec3)) -> f32 {
+    let t = ((p - a).dot(b - a) / (b - a).length_squared()).clamp(0.0, 1.0);
+    p.distance(a + (b - a) * t)
+}
+
+#[test]
+fn a_vrm_capsule_holds_particles_and_posed_joints_on_a_scaled_turned_node() {
+    // Outside: the capsule lies across the chain's rest and the chain falls onto it.
+    let ((a, b, r), particles, joints) = capsule_run(false, 0.02, Vec3::NEG_Y);
+    assert_eq!(particles.len(), 3, "chain A's particles");
+    let gaps: Vec<f32> = particles
+        .iter()
+        .chain(&joints)
+        .map(|p| to_segment(*p, (a, b)) - r)
+        .collect();
+    eprintln!("outside a capsule of {r} m: particles then joints 2 and 3 lie {gaps:?} m out");
+    for (i, g) in gaps.iter().enumerate() {
+        assert!(
+            *g > -1e-3,
+            "point {i} is {g} m inside the capsule: {gaps:?}"
+        );
+    }
+    // Inside: a capsule around the chain keeps it in against a sideways wind (the root, pinned
+    // to its bone above the capsule, is not checked).
+    let ((a, b, r), particles, joints) = capsule_run(true, 0.06, Vec3::X);
+    let gaps: Vec<f32> = particles[1..]
+        .iter()
+        .chain(&joints)
+        .map(|p| r - to_segment(*p, (a, b)))
+        .collect();
+    eprintln!("inside a capsule of {r} m: particles 1, 2 then joints 2, 3 lie {gaps:?} m in");
+    for (i, g) in gaps.iter().enumerate() {
+        assert!(
+            *g > -1e-3,
+            "point {i} is {} m outside the capsule: {gaps:?}",
+            -g
+        );
+    }
+}
