@@ -108,6 +108,9 @@ pub struct ComputedHair {
     pub(crate) size: f32,
     /// Last frame's bone pose without its scale.
     pub(crate) last_bone: Option<Affine3A>,
+    /// Last frame's pose of the inertia frame ([`HairInertiaFrame`](super::HairInertiaFrame)),
+    /// without its scale.
+    pub(crate) last_frame: Option<Affine3A>,
     /// The rest shape's bounding box in the bone's rigid space (see [`ComputedHair::rest_bounds`]).
     pub(crate) rest_bounds: Option<(Vec3, Vec3)>,
     /// The longest strand's rest length, metres: how far from its root a particle can swing.

@@ -6,7 +6,8 @@
 //! chains by the bone they hang from (usually the head) and spawns one [`Hair`] per group as that
 //! bone's child, its groom made from the joints' bind pose: particle `k` of a strand is joint `k`
 //! of its chain, and one more particle, the tail, lies past the last joint (as VRM's spring bones
-//! do). A [`HairCollidesOnly`] on the [`HairBoneChains`] entity is copied to its hairs.
+//! do). A [`HairCollidesOnly`] or [`HairInertiaFrame`] on the [`HairBoneChains`] entity is
+//! copied to its hairs.
 //! Everything the solver does for groomed hair applies: [`HairSimSettings`] (copied from the
 //! [`HairBoneChains`] entity), colliders, wind and force fields, volume, style limits, teleports,
 //! any rig scale. After each step the joints are turned, root to tip, so each points at the next
@@ -22,7 +23,7 @@ use super::bone::{BonePredicate, CharacterSpawned, names_under};
 use super::collider::HairCollidesOnly;
 use super::events::BoneNotFound;
 use super::limits::{ChainJointLimits, limit_frame, limit_offset};
-use super::settings::HairSimSettings;
+use super::settings::{HairInertiaFrame, HairSimSettings};
 use crate::asset::{HairGroom, JointLimit};
 
 /// Shortest tail, in metres at the character's size, whatever [`HairBoneChains::tail`] says.
@@ -205,7 +206,7 @@ pub(crate) fn build_bone_chains(
             &HairBoneChains,
             &HairSimSettings,
             Option<&HairCollidesOnly>,
-            Option<&ChainJointLimits>,
+            (Option<&ChainJointLimits>, Option<&HairInertiaFrame>),
         ),
         Without<BoneChainHairs>,
     >,
@@ -217,7 +218,7 @@ pub(crate) fn build_bone_chains(
     helper: TransformHelper,
     (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
 ) {
-    for (set, chains, settings, only, limits) in &sets {
+    for (set, chains, settings, only, (limits, inertia)) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
             // A glTF character whose scene has not spawned yet: wait for it, as a bone search
@@ -355,6 +356,9 @@ pub(crate) fn build_bone_chains(
             ));
             if let Some(only) = only {
                 hair.insert(only.clone());
+            }
+            if let Some(inertia) = inertia {
+                hair.insert(*inertia);
             }
             hairs.push(hair.id());
         }

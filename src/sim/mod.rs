@@ -66,7 +66,9 @@ pub use limits::{ChainJointLimits, axis_rotation, limit_direction, limit_frame, 
 pub use physics::HairCollisionGroups;
 #[cfg(feature = "avian")]
 pub use physics::HairCollisionLayers;
-pub use settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN, compliance_factor};
+pub use settings::{
+    HairDampingFrame, HairInertiaFrame, HairSimSettings, MAX_MARGIN, compliance_factor,
+};
 pub use volume::{DEFAULT_STRAND_RADIUS, HairStrandRadius, HairVolume};
 pub(crate) use volume::{VolumeScratch, keep_apart};
 pub use vrm::{VRM0_TAIL, VrmSpringChains, anchor_for_rate, vrm_sim_settings};
@@ -121,6 +123,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<BoneChainHairs>()
             .register_type::<BoneChainHair>()
             .register_type::<ChainJointLimits>()
+            .register_type::<HairInertiaFrame>()
             .register_type::<VrmSpringChains>()
             .add_observer(attach::detach_hair)
             .add_observer(bone::mark_spawned_characters)

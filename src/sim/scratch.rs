@@ -38,6 +38,7 @@ impl StepScratch {
             of(&i.contacts),
             of(&i.fields),
             of(&i.bone_motion),
+            of(&i.carry),
             of(&self.templates),
             of(&self.fields),
             of(&self.origins),

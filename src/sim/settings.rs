@@ -186,6 +186,16 @@ pub enum HairDampingFrame {
     Bone,
 }
 
+/// Simulates a hair in the frame of another entity (VRM's spring `center`): each substep its
+/// particles, and their velocities, are carried by that entity's motion, so moving it (a
+/// character's root or hips running, jumping, riding) gives the hair no inertia, while motion
+/// relative to it (a head turn) still swings the hair. On the [`Hair`](super::Hair) entity, or
+/// on a [`HairBoneChains`](super::HairBoneChains) entity, whose hairs get a copy. An entity
+/// without a usable transform leaves the hair in the world frame.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Reflect)]
+#[reflect(Component, Debug, PartialEq)]
+pub struct HairInertiaFrame(pub Entity);
+
 /// The largest collision margin (metres, at the character's built size): a margin is a gap of
 /// air between the hair and a collider, and a huge one (a typo, a slider dragged off) would
 /// throw the hair off the head.

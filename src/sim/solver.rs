@@ -204,6 +204,10 @@ pub struct StepInput {
     /// at the substep's end times the inverse of its pose at the start), one per entry of
     /// `bones`; empty = damping in the world frame.
     pub bone_motion: Vec<Affine3A>,
+    /// With an inertia frame ([`HairInertiaFrame`](super::HairInertiaFrame)): that frame's
+    /// rigid motion over each substep, which carries every node and its previous position;
+    /// empty = none.
+    pub carry: Vec<Affine3A>,
     /// Wind, when there is any.
     pub wind: Option<WindInput>,
     /// Local force fields at each substep: `fields[s * field_count + i]`.
@@ -437,6 +441,9 @@ impl Batch {
             .as_ref()
             .map(|w| self.strands.map(|strand| w.wind.phase(strand)));
         for (s, bone) in input.bones.iter().enumerate() {
+            if let Some(m) = input.carry.get(s) {
+                self.carry(m);
+            }
             // Pinned nodes follow the bone.
             for k in 0..PINNED.min(n) {
                 let x = transform(bone, &self.local[k]);

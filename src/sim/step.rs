@@ -65,10 +65,12 @@ pub(crate) fn step_hair_strands(
         &mut ComputedHair,
         Option<&super::HairStrandRadius>,
         Option<(&super::HairCulling, &super::HairInView)>,
+        Option<&super::HairInertiaFrame>,
     )>,
-    (own, only_colliders): (
+    (own, only_colliders, frames): (
         Query<(Entity, &HairCollider, &GlobalTransform)>,
         Query<&HairCollidesOnly>,
+        Query<&GlobalTransform>,
     ),
     animations: Res<Assets<crate::asset::HairAnimation>>,
     (global_wind, own_wind, fields): (
@@ -111,7 +113,9 @@ pub(crate) fn step_hair_strands(
         .fields
         .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = parallel::compute_pool();
-    for (hair_entity, hair, global, settings, mut computed, mesh_settings, culling) in &mut hairs {
+    for (hair_entity, hair, global, settings, mut computed, mesh_settings, culling, inertia) in
+        &mut hairs
+    {
         let computed = &mut *computed;
         let full = global.affine();
         if !usable_frame(&full) {
@@ -155,7 +159,19 @@ pub(crate) fn step_hair_strands(
         } else {
             last
         };
+        let teleported = computed.last_bone.is_some() && from == bone && last != bone;
         computed.last_bone = Some(bone);
+        // The inertia frame's pose last frame and now (none after a teleport: the carry did it).
+        let frame_now = inertia
+            .and_then(|f| frames.get(f.0).ok())
+            .map(|g| g.affine())
+            .filter(|a| usable_frame(a))
+            .map(|a| super::attach::split_bone(&a).0);
+        let frame_from = match (computed.last_frame, frame_now) {
+            (Some(prev), Some(_)) if !teleported => Some(prev),
+            (_, now) => now,
+        };
+        computed.last_frame = frame_now;
 
         // Hair no camera saw last frame simulates coarser (see `HairCulling`).
         let h = match culling {
@@ -206,6 +222,7 @@ pub(crate) fn step_hair_strands(
         };
         input.bones.clear();
         input.bone_motion.clear();
+        input.carry.clear();
         input.spheres.clear();
         input.sphere_shift.clear();
         input.contacts.clear();
@@ -248,6 +265,16 @@ pub(crate) fn step_hair_strands(
         } else {
             1.0
         };
+        if let (Some(a), Some(b)) = (frame_from, frame_now)
+            && a != b
+        {
+            let mut prev = interpolate(&a, &b, start_t);
+            for j in 0..substeps {
+                let now = interpolate(&a, &b, substep_t(j));
+                input.carry.push(now * prev.inverse());
+                prev = now;
+            }
+        }
         if settings.damping_frame == HairDampingFrame::Bone {
             let mut prev = interpolate(&from, &bone, start_t);
             for now in &input.bones {

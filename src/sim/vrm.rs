@@ -17,7 +17,7 @@
 //! | `stiffness` `s` (per joint) | [`HairSimSettings::anchor_stiffness`] | VRM moves a tail back toward its bind direction at `s` metres a second; a bone of length `L` so returns at a rate `s / L` a second, and each joint gets the anchor whose pull removes that rate ([`anchor_for_rate`]), root `x = 0` to last `x = 1`, fitted by a least-squares quadratic. `L` is the spring's mean bone length at the character's size |
 //! | `stiffness` | [`HairSimSettings::bend_stiffness`], `torsion_stiffness` | half the mean anchor (VRM has no bending springs) |
 //! | `hitRadius` | [`HairSimSettings::margin_min`], `margin_max` | the spring's largest, capped at [`MAX_MARGIN`](super::MAX_MARGIN) |
-//! | `center` | [`HairSimSettings::damping_frame`] | [`HairDampingFrame::Bone`]: motion is damped relative to the bone the chain hangs from, not the world |
+//! | `center` | [`HairInertiaFrame`] | the spring's particles are carried by the center node's motion each substep: moving that node gives them no inertia, as in VRM's step |
 //!
 //! Averages are over the spring's joints. Stiffness has no exact counterpart (VRM pushes the
 //! tail back at a constant speed, the solver pulls it with a spring): the mapping matches the
@@ -60,7 +60,7 @@ use super::chains::{ChainSelect, HairBoneChains};
 use super::collider::{HairCollider, HairColliderMode, HairCollidesOnly};
 use super::events::VrmSpringsFailed;
 use super::limits::ChainJointLimits;
-use super::settings::{HairDampingFrame, HairSimSettings, MAX_MARGIN};
+use super::settings::{HairInertiaFrame, HairSimSettings, MAX_MARGIN};
 
 /// VRM 0.x's tail past a leaf bone, in the leaf's units.
 pub const VRM0_TAIL: f32 = 0.07;
@@ -142,9 +142,6 @@ pub fn vrm_sim_settings(
     settings.torsion_stiffness = 0.5 * mean_anchor;
     settings.margin_min = hit.min(MAX_MARGIN);
     settings.margin_max = settings.margin_min;
-    if spring.center.is_some() {
-        settings.damping_frame = HairDampingFrame::Bone;
-    }
     settings
 }
 
@@ -389,6 +386,10 @@ pub(crate) fn build_vrm_springs(
                     ChildOf(root),
                 ))
                 .id();
+            // VRM's `center`: the spring moves in that node's frame.
+            if let Some(center) = spring.center.and_then(entity_of) {
+                commands.entity(e).insert(HairInertiaFrame(center));
+            }
             built.springs.push(e);
         }
         if built.springs.is_empty() {

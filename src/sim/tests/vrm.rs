@@ -68,7 +68,8 @@ fn vrm_parameters_map_to_per_second_settings() {
     assert!((s.bend_stiffness - 0.5 * (a0 + a1) / 2.0).abs() < 1e-5);
     assert_eq!(s.torsion_stiffness, s.bend_stiffness);
     assert_eq!((s.margin_min, s.margin_max), (0.01, 0.01));
-    assert_eq!(s.damping_frame, HairDampingFrame::Bone);
+    // `center` is an inertia frame on the spawned chains, not a damping frame.
+    assert_eq!(s.damping_frame, HairDampingFrame::World);
     // Without drag gravity is g a frame at 60 fps; VRM 0.x uses its one entry.
     let free = VrmSpring {
         joints: vec![joint(0.0, 0.0, 0.2)],
@@ -646,4 +647,50 @@ fn a_vrm_capsule_holds_particles_and_posed_joints_on_a_scaled_turned_node() {
             -g
         );
     }
+}
+
+/// Chain A's tip relative to the head, farthest from where it rested, while the character
+/// (the scene root) jumps from standing to 6 m/s and runs for half a second; spring A with
+/// `center` set to node `center`.
+fn tip_swing_while_running(center: Option<u32>) -> f32 {
+    let mut app = event_app();
+    let mut springs = crossed(vec![]);
+    springs.springs[0].joints = vec![joint(0.2, 0.2, 0.0); 3];
+    springs.springs[0].center = center;
+    let (root, nodes) = vrm_scene(&mut app, springs);
+    for _ in 0..30 {
+        app.update();
+    }
+    let relative = |app: &App| {
+        let head = app.world().get::<GlobalTransform>(nodes[0]).unwrap();
+        let tip = app.world().get::<GlobalTransform>(nodes[3]).unwrap();
+        head.affine().inverse().transform_point3(tip.translation())
+    };
+    let rest = relative(&app);
+    let mut farthest = 0.0f32;
+    for f in 1..=30 {
+        app.world_mut()
+            .get_mut::<Transform>(root)
+            .unwrap()
+            .translation
+            .x = 0.1 * f as f32;
+        app.update();
+        farthest = farthest.max(relative(&app).distance(rest));
+    }
+    farthest
+}
+
+#[test]
+fn a_vrm_center_carries_its_spring_with_it() {
+    let world = tip_swing_while_running(None);
+    let centred = tip_swing_while_running(Some(0));
+    eprintln!("tip swing while running: {world} m in the world frame, {centred} m with center");
+    assert!(
+        world > 0.01,
+        "without a center the run swings the tip only {world} m"
+    );
+    assert!(
+        centred < 1e-3,
+        "with the head as center the tip still swings {centred} m"
+    );
 }
