@@ -627,20 +627,7 @@ impl Reader<'_> {
         };
         let p = format!("{p}.limit");
         let limit = self.object(limit, &p)?;
-        let kinds = ["cone", "hinge", "spherical"];
-        let present: Vec<&str> = kinds
-            .iter()
-            .copied()
-            .filter(|k| limit.contains_key(*k))
-            .collect();
-        let [which] = present[..] else {
-            return self.err(
-                &p,
-                format!("needs exactly one of {kinds:?}, has {present:?}"),
-            );
-        };
-        let sp = format!("{p}.{which}");
-        let o = self.object(&limit[which], &sp)?;
+        let (which, o, sp) = self.one_of(limit, &["cone", "hinge", "spherical"], &p)?;
         let angle = |key: &str, most: f32| -> Res<f32> {
             if !o.contains_key(key) {
                 return self.err(&sp, format!("no `{key}` (radians)"));
@@ -689,6 +676,28 @@ impl Reader<'_> {
         Ok(Some(JointLimit { shape, rotation }))
     }
 
+    /// The one key of `kinds` that `o` has (an error unless exactly one), its object and path.
+    fn one_of<'v>(
+        &self,
+        o: &'v serde_map::Map,
+        kinds: &[&'static str],
+        p: &str,
+    ) -> Res<(&'static str, &'v serde_map::Map, String)> {
+        let present: Vec<&'static str> = kinds
+            .iter()
+            .copied()
+            .filter(|k| o.contains_key(*k))
+            .collect();
+        let [which] = present[..] else {
+            return self.err(
+                p,
+                format!("needs exactly one of {kinds:?}, has {present:?}"),
+            );
+        };
+        let sp = format!("{p}.{which}");
+        Ok((which, self.object(&o[which], &sp)?, sp))
+    }
+
     /// A `shape` object: exactly one of sphere, capsule (and, extended, plane).
     fn shape(&self, o: &serde_map::Map, p: &str, extended: bool) -> Res<VrmShape> {
         let Some(shape) = o.get("shape") else {
@@ -701,19 +710,7 @@ impl Reader<'_> {
         } else {
             &["sphere", "capsule"]
         };
-        let present: Vec<&str> = kinds
-            .iter()
-            .copied()
-            .filter(|k| shape.contains_key(*k))
-            .collect();
-        let [which] = present[..] else {
-            return self.err(
-                &p,
-                format!("needs exactly one of {kinds:?}, has {present:?}"),
-            );
-        };
-        let sp = format!("{p}.{which}");
-        let s = self.object(&shape[which], &sp)?;
+        let (which, s, sp) = self.one_of(shape, kinds, &p)?;
         let radius = || self.number(s, "radius", &sp, (0.0, MAX_VRM_COORDINATE), 0.0);
         let offset = self.vec3(s, "offset", &sp, Vec3::ZERO, MAX_VRM_COORDINATE)?;
         let inside = extended && self.boolean(s, "inside", &sp)?;

@@ -164,8 +164,8 @@ pub(crate) fn step_hair_strands(
         // The inertia frame's pose last frame and now (none after a teleport: the carry did it).
         let frame_now = inertia
             .and_then(|f| frames.get(f.0).ok())
-            .map(|g| g.affine())
-            .filter(|a| usable_frame(a))
+            .map(GlobalTransform::affine)
+            .filter(usable_frame)
             .map(|a| super::attach::split_bone(&a).0);
         let frame_from = match (computed.last_frame, frame_now) {
             (Some(prev), Some(_)) if !teleported => Some(prev),
