@@ -20,7 +20,8 @@ use bevy::world_serialization::WorldAssetRoot;
 use super::attach::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 use super::attach_work::AttachWork;
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
-use super::collider::HairCollidesOnly;
+use super::collider::{HairCollider, HairCollidesOnly};
+use super::contact::ContactShape;
 use super::events::BoneNotFound;
 use super::limits::{ChainJointLimits, limit_frame, limit_offset};
 use super::settings::{HairInertiaFrame, HairSimSettings};
@@ -411,20 +412,42 @@ fn chain_strand(
     Some((world, rest, tail_local))
 }
 
-/// Turns each chain's joints, root to tip, so each points at its next particle (kept inside the
-/// joint's angle limit, if it has one: [`ChainJointLimits`]), and writes their local and global
+/// Turns each chain's joints, root to tip, so each points at its next particle (its child, at
+/// the bone's length, kept off the hair's colliders and inside the joint's angle limit, if it
+/// has one: [`ChainJointLimits`]; the particle follows), and writes their local and global
 /// transforms (the skinned mesh is drawn from these this frame).
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
 pub(crate) fn pose_bone_chains(
     mut hairs: Query<(
         &BoneChainHair,
         &GlobalTransform,
         &HairStrands,
         &mut ComputedHair,
+        (&HairSimSettings, Option<&HairCollidesOnly>),
     )>,
     mut strands: Query<(&Strand, &mut StrandParticles)>,
-    mut joints: Query<(&mut Transform, &mut GlobalTransform), Without<BoneChainHair>>,
+    mut joints: Query<
+        (&mut Transform, &mut GlobalTransform),
+        (Without<BoneChainHair>, Without<HairCollider>),
+    >,
+    colliders: Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
+    mut shapes: Local<Vec<(ContactShape, bool)>>,
 ) {
-    for (driven, hair_world, strand_list, mut computed) in &mut hairs {
+    for (driven, hair_world, strand_list, mut computed, (settings, only)) in &mut hairs {
+        // The colliders this hair meets, where they are now.
+        shapes.clear();
+        for (e, collider, g) in &colliders {
+            if only.is_some_and(|o| !o.0.contains(&e)) {
+                continue;
+            }
+            let pose = g.affine();
+            let inside = collider.inside();
+            shapes.extend(collider.shapes().map(|s| (s.at(&pose), inside)));
+        }
+        let margin = settings.margins().0 * computed.size;
         for strand in strand_list.iter() {
             let Ok((strand, mut particles)) = strands.get_mut(strand) else {
                 continue;
@@ -461,6 +484,14 @@ pub(crate) fn pose_bone_chains(
                 let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
                 let from = at_rest.affine().transform_vector3(child);
                 let mut to = particles.positions[k + 1] - at_rest.translation();
+                // The posed child sits at its bone's length: keep it off the colliders the
+                // particle was kept off (a collider can hold a particle nearer than a bone).
+                if let Some(kept) = keep_off(&shapes, at_rest.translation(), to, from, margin) {
+                    let moved = at_rest.translation() + kept;
+                    particles.positions[k + 1] = moved;
+                    computed.set_particle(s, k + 1, moved);
+                    to = kept;
+                }
                 if let Some(limit) = driven
                     .limits
                     .get(s)
@@ -499,4 +530,43 @@ pub(crate) fn pose_bone_chains(
             }
         }
     }
+}
+
+/// Rounds of [`keep_off`]: each pushes the child onto a collider's margin and back to the bone's
+/// length, nearer the margin each time.
+const KEEP_OFF_ROUNDS: usize = 8;
+
+/// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
+/// length (`bone`'s), it would lie within `margin` of a collider in `shapes`: turned about the
+/// joint onto the collider's margin. `None` when it is
+/// clear.
+fn keep_off(
+    shapes: &[(ContactShape, bool)],
+    joint: Vec3,
+    to: Vec3,
+    bone: Vec3,
+    margin: f32,
+) -> Option<Vec3> {
+    let length = bone.length();
+    let mut dir = to.try_normalize()?;
+    let mut moved = false;
+    for _ in 0..KEEP_OFF_ROUNDS {
+        let mut clear = true;
+        for (shape, inside) in shapes {
+            let q = Vec3A::from(joint + dir * length);
+            if let Some(out) = shape.resolve(q, margin, *inside)
+                && let Some(d) = (Vec3::from(out) - joint).try_normalize()
+            {
+                dir = d;
+                clear = false;
+                moved = true;
+            }
+        }
+        if clear {
+            break;
+        }
+    }
+    // At the bone's length: the particle goes where the posed joint is.
+    let kept = dir * length;
+    (moved && kept.is_finite()).then_some(kept)
 }

@@ -694,3 +694,81 @@ fn a_vrm_center_carries_its_spring_with_it() {
         "with the head as center the tip still swings {centred} m"
     );
 }
+
+/// A 3 cm sphere on a node of its own swept at 0.5 m/s through chain A's middle; the deepest
+/// any of chain A's particles and any of its posed joints gets inside it over the sweep.
+fn swept_sphere_depths() -> (f32, f32) {
+    let mut app = event_app();
+    let mut springs = crossed(vec![0]);
+    springs.colliders[0] = VrmCollider {
+        node: 7,
+        shape: VrmShape::Sphere {
+            offset: Vec3::ZERO,
+            radius: 0.03,
+            inside: false,
+        },
+    };
+    springs.springs[0].joints = vec![
+        VrmJoint {
+            hit_radius: 0.0,
+            ..joint(0.5, 0.4, 0.1)
+        };
+        3
+    ];
+    let (root, nodes) = vrm_scene(&mut app, springs);
+    let start = Vec3::new(-0.15, 1.6 - 0.07, 0.0);
+    let ball = app
+        .world_mut()
+        .spawn((
+            VrmNode(7),
+            Transform::from_translation(start),
+            ChildOf(root),
+        ))
+        .id();
+    for _ in 0..30 {
+        app.update();
+    }
+    let (mut particles_deepest, mut joints_deepest) = (0.0f32, 0.0f32);
+    for f in 0..60 {
+        app.world_mut()
+            .get_mut::<Transform>(ball)
+            .unwrap()
+            .translation = start + Vec3::X * (0.5 * f as f32 / 60.0);
+        app.update();
+        let centre = app
+            .world()
+            .get::<GlobalTransform>(ball)
+            .unwrap()
+            .translation();
+        let hairs = app.world().get::<VrmSpringChains>(root).unwrap().springs[0];
+        let hair = app.world().get::<BoneChainHairs>(hairs).unwrap().0[0];
+        for s in app.world().get::<HairStrands>(hair).unwrap().iter() {
+            for p in &app.world().get::<StrandParticles>(s).unwrap().positions {
+                particles_deepest = particles_deepest.max(0.03 - p.distance(centre));
+            }
+        }
+        for p in &positions(&app, &nodes)[2..4] {
+            joints_deepest = joints_deepest.max(0.03 - p.distance(centre));
+        }
+    }
+    (particles_deepest, joints_deepest)
+}
+
+#[test]
+fn a_sphere_swept_through_a_vrm_chain_leaves_its_posed_joints_out() {
+    let (particles, joints) = swept_sphere_depths();
+    eprintln!(
+        "sphere swept through the chain: particles at most {:.2} mm inside, posed joints {:.2} mm",
+        particles * 1000.0,
+        joints * 1000.0
+    );
+    // A collider may hold a particle nearer its joint than the bone is long; posed at the
+    // bone's length, the middle joint went 9.0 mm into the sphere before the posed joints were
+    // kept off the colliders too.
+    assert!(
+        particles < 1e-3,
+        "particles {} mm inside",
+        particles * 1000.0
+    );
+    assert!(joints < 1e-3, "posed joints {} mm inside", joints * 1000.0);
+}
