@@ -242,6 +242,7 @@ fn prepare_gpu_batches(
     let hairs: Vec<TubeHairInput> = inputs
         .iter()
         .map(|input| TubeHairInput {
+            mesh: input.mesh,
             hair: input.hair,
             strands: &input.strands,
             particles: &input.particles,
@@ -305,8 +306,22 @@ fn prepare_gpu_batches(
             }
         }
         // The device binds a hair's stroke or highlight mesh when it binds its tubes
-        // (`HairGpuMeshSupport::fits`); one it refuses draws nothing this frame.
-        let (groups, _) = group_by_slab(stroke_spans, Buffer::id, limits);
+        // (`HairGpuMeshSupport::fits`); should it refuse one, the hair goes back to the CPU
+        // rather than lose its strokes.
+        let (groups, refused) = group_by_slab(stroke_spans, Buffer::id, limits);
+        let (highlight_groups, refused_highlights) =
+            group_by_slab(highlight_spans, Buffer::id, limits);
+        let refused_hairs = refused.iter().map(|(_, h)| h);
+        for hair in refused_hairs.chain(refused_highlights.iter().map(|(_, h)| h)) {
+            passes.refuse(
+                hair.hair_mesh,
+                format!(
+                    "its stroke or highlight mesh is larger than this device binds as storage \
+                     ({} bytes); it is built on the CPU",
+                    limits.max_bytes
+                ),
+            );
+        }
         for group in &groups {
             if strokes.len() <= used[1] {
                 strokes.push(StrokeBatch::default());
@@ -320,8 +335,7 @@ fn prepare_gpu_batches(
             );
             used[1] += 1;
         }
-        let (groups, _) = group_by_slab(highlight_spans, Buffer::id, limits);
-        for group in &groups {
+        for group in &highlight_groups {
             if highlights.len() <= used[2] {
                 highlights.push(HighlightBatch::default());
             }

@@ -24,8 +24,6 @@ pub const WORKGROUP_SIZE: u32 = 64;
 /// Vec4s in a ring's frame as the tube pass leaves it (`constants::RING_FRAME_VEC4S`): centre
 /// and radius; normal and radial weight; binormal and axial part.
 pub const RING_FRAME_VEC4S: u32 = 3;
-/// Bytes of a ring's frame.
-pub const RING_FRAME_BYTES: u64 = RING_FRAME_VEC4S as u64 * 16;
 /// Vertices of a stroke or highlight quad (`constants::QUAD_VERTICES`).
 pub const QUAD_VERTICES: u32 = 4;
 
@@ -221,8 +219,11 @@ pub fn group_by_slab<B: Copy, K: Ord, T>(
 
 /// Where a hair of a tube batch lies in the batch's buffers, for the passes that read the frames
 /// its tube pass leaves.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct HairPlacement {
+    /// Its hair mesh (a stroke or highlight mesh the device refuses puts this hair back on the
+    /// CPU).
+    pub hair_mesh: AssetId<Mesh>,
     /// Its tube batch.
     pub batch: usize,
     /// Its first strand in the batch's strands.

@@ -15,8 +15,8 @@ use bevy::render::render_resource::{
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::toolbox::{
-    ComputePass, GpuBatch, HairPlacement, PreparedBatch, RING_FRAME_BYTES, RING_FRAME_VEC4S,
-    RecordBuffers, SlabGroup, TubeBatchBuffers,
+    ComputePass, GpuBatch, HairPlacement, PreparedBatch, RING_FRAME_VEC4S, RecordBuffers,
+    SlabGroup, TubeBatchBuffers,
 };
 
 /// One hair of a tube batch (`tubes.wesl`'s `Hair`).
@@ -81,6 +81,8 @@ pub(crate) struct GpuStrand {
 pub(crate) struct TubeHairInput<'a> {
     /// Its record (`vertex_base`, `first_strand` and `frame_base` are filled here).
     pub hair: GpuTubeHair,
+    /// Its mesh.
+    pub mesh: AssetId<Mesh>,
     /// Its strands: `first` into `particles`, `section` into `sections`.
     pub strands: &'a [GpuStrand],
     /// Its particles.
@@ -163,6 +165,7 @@ impl TubeBatch {
         for &(i, vertex_base) in &group.members {
             let input = &hairs[i];
             let placement = HairPlacement {
+                hair_mesh: input.mesh,
                 batch: index,
                 first_strand: strands.len() as u32,
                 frame_base: frames,
@@ -191,7 +194,8 @@ impl TubeBatch {
         if invocations == 0 {
             return Vec::new();
         }
-        let frame_bytes = u64::from(frames) / u64::from(RING_FRAME_VEC4S) * RING_FRAME_BYTES;
+        // `frames` counts vec4s.
+        let frame_bytes = u64::from(frames) * 16;
         if self.frames.as_ref().is_none_or(|b| b.size() < frame_bytes) {
             self.frames = Some(device.create_buffer(&BufferDescriptor {
                 label: Some("hair_gpu_tube_frames"),
