@@ -9,16 +9,21 @@
 //! Workloads (those of `benches/`): `w1` (100 x 6 strands), `w6` (16 heads of 160 x 7), `w2`
 //! (10,000 x 16), `w40k` (40,000 x 16). Options: `--size WxH` (default 1920x1080), `--msaa N`
 //! (1 or 4, default 4), `--frames N` (default 200; frames measured after the warm-up),
-//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU).
+//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--rings N` and
+//! `--sides N` (every hair's tube resolution in place of the workload's), `--reverse-strands`
+//! (the strands drawn in the opposite order: how much a pass's overdraw depends on it).
 //!
 //! The scene: one directional light with shadow cascades, a grey ground and a head-sized sphere
 //! under every hair, the default look. Each pass is timed with Bevy's `RenderDiagnosticsPlugin`
 //! (GPU timestamps) and counted with pipeline statistics; the crate's passes
-//! (`hair_gpu_tubes`, `hair_gpu_strokes`, `hair_gpu_highlights`, `outline_*`) have spans of
+//! (`hair_gpu_tubes`, `hair_gpu_strokes`, `hair_gpu_highlights`, `hair_gpu_draw_order`,
+//! `outline_*`) have spans of
 //! their own, and each compute pass's dispatches and strands built a frame
 //! (`HairGpuPasses::dispatches`) are printed beside them. The hair's share of a pass is the
-//! pass with hair minus the same scene without (both with the depth and normal prepasses the
-//! hair's outline uses).
+//! pass with hair minus the same scene without. The hair turns on Bevy's depth and normal
+//! prepasses (its strokes and outline read them), which then draw the whole scene a second time;
+//! a third scene, without hair but with those prepasses, gives the hair's share in a game that
+//! has them already.
 //!
 //! Bevy 0.20 records the shadow passes as one time span (`per_view_shadow_pass`), without
 //! pipeline statistics.
@@ -50,6 +55,9 @@ struct Args {
     frames: u32,
     shadows: bool,
     cpu: bool,
+    reverse_strands: bool,
+    rings: Option<u32>,
+    sides: Option<u32>,
 }
 
 fn args() -> Result<Args, String> {
@@ -61,6 +69,9 @@ fn args() -> Result<Args, String> {
         frames: 200,
         shadows: true,
         cpu: false,
+        reverse_strands: false,
+        rings: None,
+        sides: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -85,6 +96,21 @@ fn args() -> Result<Args, String> {
             }
             "--no-shadows" => out.shadows = false,
             "--cpu" => out.cpu = true,
+            "--reverse-strands" => out.reverse_strands = true,
+            "--rings" | "--sides" => {
+                let n: u32 = value(&a)?
+                    .parse()
+                    .map_err(|_| format!("{a} is a count"))?;
+                let limit = if a == "--rings" { 2..=64 } else { 3..=32 };
+                if !limit.contains(&n) {
+                    return Err(format!("{a} is from {} to {}", limit.start(), limit.end()));
+                }
+                if a == "--rings" {
+                    out.rings = Some(n);
+                } else {
+                    out.sides = Some(n);
+                }
+            }
             w if !w.starts_with('-') && out.workload.is_empty() => out.workload = w.to_string(),
             other => return Err(format!("unknown argument {other}")),
         }
@@ -112,9 +138,22 @@ fn heads(workload: &str) -> Result<Vec<common::Head>, String> {
 /// Mean of each `render/...` diagnostic over the measured frames, by path.
 type Figures = BTreeMap<String, f64>;
 
-/// Renders the scene (with or without its hair) and returns the mean of every render
-/// diagnostic over `args.frames` frames.
-fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, String> {
+/// What a measured scene holds besides the ground, the spheres and the light.
+#[derive(Clone, Copy, PartialEq)]
+enum Scene {
+    /// Nothing more: no prepass either.
+    Bare,
+    /// The depth and normal prepasses the hair's outline and strokes turn on, without hair: a
+    /// game with a prepass of its own (for SSAO, TAA ...) pays these already.
+    Prepass,
+    /// The hair (which turns the prepasses on).
+    Hair,
+}
+
+/// Renders the scene and returns the mean of every render diagnostic over `args.frames`
+/// frames.
+fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures, String> {
+    let hair = scene == Scene::Hair;
     let mut r = HeadlessRenderer::new(CaptureSettings {
         width: args.width,
         height: args.height,
@@ -137,7 +176,8 @@ fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, S
         },
         Transform::from_xyz(1.0, 2.0, 1.5).looking_at(Vec3::ZERO, Vec3::Y),
     ));
-    world.spawn((
+    let camera = world
+        .spawn((
         Camera3d::default(),
         if args.msaa == 4 {
             Msaa::Sample4
@@ -146,7 +186,14 @@ fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, S
         },
         RenderTarget::Image(target.into()),
         Transform::IDENTITY,
-    ));
+    ))
+        .id();
+    if scene == Scene::Prepass {
+        world.entity_mut(camera).insert((
+            bevy::core_pipeline::prepass::DepthPrepass,
+            bevy::core_pipeline::prepass::NormalPrepass,
+        ));
+    }
     let grey = world
         .resource_mut::<Assets<StandardMaterial>>()
         .add(Color::srgb(0.6, 0.6, 0.6));
@@ -168,7 +215,14 @@ fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, S
             Transform::from_translation(head.at),
         ));
         if hair {
-            common::spawn_head(world, head);
+            let mut head = *head;
+            head.rings = args.rings.unwrap_or(head.rings);
+            head.sides = args.sides.unwrap_or(head.sides);
+            let mut strands = common::strands(head.strands, head.particles);
+            if args.reverse_strands {
+                strands.reverse();
+            }
+            common::spawn_head_with(world, &head, strands);
         }
     }
     r.warm_up(|_| true).map_err(|e| e.to_string())?;
@@ -193,15 +247,13 @@ fn measure(args: &Args, heads: &[common::Head], hair: bool) -> Result<Figures, S
         }
         // The crate's own count of its compute work: dispatches and strands built.
         let built = r.app.world().resource::<HairGpuPasses>().dispatches();
-        for (pass, work) in [
-            ("hair_gpu_tubes", built.tubes),
-            ("hair_gpu_strokes", built.strokes),
-            ("hair_gpu_highlights", built.highlights),
+        for (pass, work, what) in [
+            ("hair_gpu_tubes", built.tubes, "strands_built"),
+            ("hair_gpu_strokes", built.strokes, "strands_built"),
+            ("hair_gpu_highlights", built.highlights, "strands_built"),
+            ("hair_gpu_draw_order", built.draw_order, "indices_ordered"),
         ] {
-            for (figure, v) in [
-                ("dispatches", work.dispatches),
-                ("strands_built", work.invocations),
-            ] {
+            for (figure, v) in [("dispatches", work.dispatches), (what, work.invocations)] {
                 let e = sums.entry(format!("render/{pass}/{figure}")).or_default();
                 e.0 += f64::from(v);
                 e.1 += 1;
@@ -236,19 +288,26 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    let (without, with) = match (measure(&args, &heads, false), measure(&args, &heads, true)) {
-        (Ok(a), Ok(b)) => (a, b),
-        (Err(e), _) | (_, Err(e)) => {
-            eprintln!("gpu_timing: {e}");
-            return ExitCode::FAILURE;
+    let mut figures = Vec::new();
+    for scene in [Scene::Bare, Scene::Prepass, Scene::Hair] {
+        match measure(&args, &heads, scene) {
+            Ok(f) => figures.push(f),
+            Err(e) => {
+                eprintln!("gpu_timing: {e}");
+                return ExitCode::FAILURE;
+            }
         }
-    };
+    }
+    let [without, prepass, with] = <[Figures; 3]>::try_from(figures).expect("three scenes");
     let strands: usize = heads.iter().map(|h| h.strands).sum();
     println!(
-        "gpu_timing: {} ({} heads, {strands} strands), {}x{}, MSAA {}, shadows {}, built on the \
-         {}; adapter: {adapter}; {} frames",
+        "gpu_timing: {} ({} heads, {strands} strands{}{}{}), {}x{}, MSAA {}, shadows {}, built on \
+         the {}; adapter: {adapter}; {} frames",
         args.workload,
         heads.len(),
+        args.rings.map_or(String::new(), |n| format!(", {n} rings")),
+        args.sides.map_or(String::new(), |n| format!(", {n} sides")),
+        if args.reverse_strands { ", strands reversed" } else { "" },
         args.width,
         args.height,
         args.msaa,
@@ -263,13 +322,19 @@ fn main() -> ExitCode {
         );
     }
     println!(
-        "{:<44} {:>14} {:>14} {:>14}",
-        "pass / figure", "with hair", "without", "hair's share"
+        "columns: the scene with hair; without hair; without hair but with the depth and normal \
+         prepasses the hair turns on; the hair's share (with - without); its share over a scene \
+         that has those prepasses already (with - prepassed)"
     );
-    let mut total = (0.0, 0.0);
+    println!(
+        "{:<44} {:>12} {:>12} {:>12} {:>12} {:>12}",
+        "pass / figure", "with hair", "without", "prepassed", "hair", "hair/prepass"
+    );
+    let mut total = [0.0; 3];
     let mut seen_gpu = false;
     for (path, value) in &with {
         let base = without.get(path).copied().unwrap_or(0.0);
+        let pre = prepass.get(path).copied().unwrap_or(0.0);
         let name = path.trim_start_matches("render/");
         if name.ends_with("elapsed_cpu") {
             continue;
@@ -278,27 +343,30 @@ fn main() -> ExitCode {
             seen_gpu = true;
             // Only the outermost spans: nested ones are inside their parents.
             if name.matches('/').count() == 1 {
-                total.0 += value;
-                total.1 += base;
+                total[0] += value;
+                total[1] += base;
+                total[2] += pre;
             }
             println!(
-                "{name:<44} {value:>11.3} ms {base:>11.3} ms {:>11.3} ms",
-                value - base
+                "{name:<44} {value:>9.3} ms {base:>9.3} ms {pre:>9.3} ms {:>9.3} ms {:>9.3} ms",
+                value - base,
+                value - pre
             );
         } else {
             println!(
-                "{name:<44} {value:>14.0} {base:>14.0} {:>14.0}",
-                value - base
+                "{name:<44} {value:>12.0} {base:>12.0} {pre:>12.0} {:>12.0} {:>12.0}",
+                value - base,
+                value - pre
             );
         }
     }
     if seen_gpu {
+        let [value, base, pre] = total;
         println!(
-            "{:<44} {:>11.3} ms {:>11.3} ms {:>11.3} ms",
+            "{:<44} {value:>9.3} ms {base:>9.3} ms {pre:>9.3} ms {:>9.3} ms {:>9.3} ms",
             "all passes (outermost spans)",
-            total.0,
-            total.1,
-            total.0 - total.1
+            value - base,
+            value - pre
         );
     } else {
         println!("no GPU timestamps: the adapter has no timestamp queries (counts above only)");

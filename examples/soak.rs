@@ -29,7 +29,7 @@
 //! - as many hairs and meshes as at the start.
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -305,7 +305,7 @@ fn args() -> Result<Args, String> {
 fn scratch_assets() -> std::io::Result<PathBuf> {
     let dir = std::env::temp_dir().join(format!("hair_soak_{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let assets = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets");
+    let assets = bevy::asset::io::file::FileAssetReader::get_base_path().join("assets");
     for (name, from) in FILES {
         std::fs::copy(assets.join(from), dir.join(name))?;
     }

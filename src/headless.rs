@@ -54,7 +54,8 @@ pub enum HeadlessError {
     /// Some render pipeline failed to compile (usually a shader error).
     #[error("a render pipeline failed: {0}")]
     PipelineFailed(String),
-    /// Pipelines were still compiling, or the capture never arrived, after this many frames.
+    /// Pipelines were still compiling, or the capture never arrived, after this many frames
+    /// (and at least [`CaptureSettings::min_wait`]).
     #[error("no frame captured after {0} frames")]
     Timeout(u32),
     /// A captured frame could not be written as a PNG file.
@@ -65,6 +66,18 @@ pub enum HeadlessError {
         /// What went wrong.
         message: String,
     },
+}
+
+/// A frame count and a moment that must both have passed before a wait gives up.
+struct Deadline {
+    frame: u32,
+    not_before: std::time::Instant,
+}
+
+impl Deadline {
+    fn passed(&self, frames: u32) -> bool {
+        frames >= self.frame && std::time::Instant::now() >= self.not_before
+    }
 }
 
 /// The process's one GPU context: a `wgpu` instance, its adapter, device and queue, created on
@@ -157,6 +170,10 @@ pub struct CaptureSettings {
     pub settle_frames: u32,
     /// Give up after this many frames. Default: `600`.
     pub max_frames: u32,
+    /// ... but not before this much wall-clock time has passed: files load and shaders compile at
+    /// the disk's and the driver's pace, and a fast GPU runs hundreds of small frames a second.
+    /// Default: 30 s.
+    pub min_wait: std::time::Duration,
     /// Render on a thread of its own, one frame behind the app, as a game does
     /// (`PipelinedRenderingPlugin`). Default: `false` (each frame drawn in its own update).
     pub pipelined_rendering: bool,
@@ -173,6 +190,7 @@ impl Default for CaptureSettings {
             min_frames: 3,
             settle_frames: 4,
             max_frames: 600,
+            min_wait: std::time::Duration::from_secs(30),
             pipelined_rendering: false,
             asset_folder: None,
         }
@@ -351,13 +369,13 @@ impl HeadlessRenderer {
     /// Runs frames until every render pipeline has compiled and stayed settled, then captures the
     /// target image and returns its pixels.
     pub fn capture(&mut self) -> Result<CapturedFrame, HeadlessError> {
-        let deadline = self.frames + self.settings.max_frames;
+        let deadline = self.deadline();
         let mut settled = 0;
         for _ in 0..self.settings.min_frames {
             self.update();
         }
         while settled < self.settings.settle_frames {
-            if self.frames >= deadline {
+            if deadline.passed(self.frames) {
                 return Err(HeadlessError::Timeout(self.settings.max_frames));
             }
             self.update();
@@ -374,7 +392,7 @@ impl HeadlessRenderer {
             .observe(move |captured: On<ScreenshotCaptured>| {
                 *sink.lock().unwrap() = Some(captured.image.clone());
             });
-        while self.frames < deadline {
+        while !deadline.passed(self.frames) {
             self.update();
             if let Some(image) = slot.lock().unwrap().take() {
                 let width = image.width();
@@ -402,10 +420,10 @@ impl HeadlessRenderer {
         &mut self,
         mut ready: impl FnMut(&mut World) -> bool,
     ) -> Result<(), HeadlessError> {
-        let deadline = self.frames + self.settings.max_frames;
+        let deadline = self.deadline();
         let mut settled = 0;
         while settled < self.settings.settle_frames.max(1) {
-            if self.frames >= deadline {
+            if deadline.passed(self.frames) {
                 return Err(HeadlessError::Timeout(self.settings.max_frames));
             }
             self.update();
@@ -463,15 +481,24 @@ impl HeadlessRenderer {
             self.update();
             deliver(&arrived, &mut next);
         }
-        let deadline = self.frames + self.settings.max_frames;
+        let deadline = self.deadline();
         while next < count {
-            if self.frames >= deadline {
+            if deadline.passed(self.frames) {
                 return Err(HeadlessError::Timeout(self.settings.max_frames));
             }
             self.update();
             deliver(&arrived, &mut next);
         }
         Ok(())
+    }
+
+    /// When the calls that wait give up: [`CaptureSettings::max_frames`] frames from now, and
+    /// no sooner than [`CaptureSettings::min_wait`].
+    fn deadline(&self) -> Deadline {
+        Deadline {
+            frame: self.frames.saturating_add(self.settings.max_frames),
+            not_before: std::time::Instant::now() + self.settings.min_wait,
+        }
     }
 
     /// `Ok(true)` when no pipeline was queued or compiling in the last frame the render world

@@ -133,10 +133,15 @@ pub fn w2() -> Vec<Head> {
 /// Spawns `head`'s hair (its strands, default simulation, its tube resolution) on a bone of its
 /// own; returns the hair entity, for the caller's other settings.
 pub fn spawn_head(world: &mut World, head: &Head) -> Entity {
+    spawn_head_with(world, head, strands(head.strands, head.particles))
+}
+
+/// [`spawn_head`] with the given strands in place of [`strands`]'s.
+pub fn spawn_head_with(world: &mut World, head: &Head, strands: Vec<Vec<Vec3>>) -> Entity {
     use bevy_cartoon_hair::asset::HairGroom;
     use bevy_cartoon_hair::mesh::HairMeshSettings;
     use bevy_cartoon_hair::sim::{Hair, HairSimSettings};
-    let groom = HairGroom::from_strands("head", strands(head.strands, head.particles)).unwrap();
+    let groom = HairGroom::from_strands("head", strands).unwrap();
     let groom = world.resource_mut::<Assets<HairGroom>>().add(groom);
     let bone = world.spawn(Transform::from_translation(head.at)).id();
     world

@@ -69,9 +69,7 @@ fn wait(app: &mut App, id: impl Into<bevy::asset::UntypedAssetId> + Copy) -> Loa
     LoadState::NotLoaded
 }
 
-fn repo() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
+use crate::repo;
 
 fn ninja_assets_load_through_the_asset_server() -> Result<(), Failed> {
     let mut app = asset_app(&repo().join("assets"));

@@ -81,7 +81,7 @@ fn clip_recorder_names_every_broken_file_and_writes_no_clip() -> Result<(), Fail
     let assets = temp_dir("broken_assets");
     let ninja = assets.join("ninja");
     std::fs::create_dir_all(&ninja)?;
-    let source = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/ninja");
+    let source = crate::repo().join("assets/ninja");
     for entry in std::fs::read_dir(&source)? {
         let entry = entry?;
         std::fs::copy(entry.path(), ninja.join(entry.file_name()))?;

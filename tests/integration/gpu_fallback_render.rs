@@ -1,8 +1,8 @@
 //! Render tests of the GPU path where it can go wrong on a player's machine: hair is built on the
 //! CPU until the passes compile, goes back to the CPU (with an event) when a pass fails or a
 //! binding is refused, is built in the frame it comes back into view, writes no NaN vertex from
-//! a NaN particle, and draws right with several hairs in one vertex slab and with pipelined
-//! rendering.
+//! a NaN particle, draws right with several hairs in one vertex slab and with pipelined
+//! rendering, and draws its strands nearest the camera first.
 
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
@@ -51,6 +51,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "gpu_hair_draws_with_pipelined_rendering",
         gpu_hair_draws_with_pipelined_rendering,
+    ),
+    (
+        "gpu_hair_is_drawn_nearest_strand_first",
+        gpu_hair_is_drawn_nearest_strand_first,
     ),
 ];
 
@@ -292,7 +296,15 @@ fn a_refused_binding_puts_hair_back_on_the_cpu() -> Result<(), Failed> {
 /// A GPU-built hair leaves the view (the camera turns away), turns while no camera sees it, and
 /// the frame the camera turns back draws it turned, as the CPU draws it, not where it left.
 fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
+    use bevy::time::TimeUpdateStrategy;
+    use std::time::Duration;
     let (mut r, camera) = scene(false)?;
+    // Every frame steps 1/60 s, whatever the machine's frame rate, so the hair is in the same
+    // place on a fast GPU as on a CPU rasteriser.
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
+            1.0 / 60.0,
+        )));
     let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
     let left = r.capture()?;
     if !on_gpu(&r, hair) {
@@ -317,6 +329,9 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
     r.app.world_mut().entity_mut(camera).insert(front());
     let back = next_frame(&mut r)?;
     save(&back, "gpu_back_in_view")?;
+    // The CPU's picture of the particles that frame drew: time stands still while it is built.
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
     let cpu = cpu_reference(&mut r)?;
     same_picture(&cpu, &back, "the first frame back in view, against the CPU")?;
     if differing(&left, &back, 3) * 10 < left.count(|p| p != BACKGROUND) {
@@ -374,6 +389,125 @@ fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
     Ok(())
 }
 
+/// The hair's strands are drawn nearest the camera first, and the picture is the CPU's: its
+/// index buffer, read back from the GPU, holds each strand's block of indices once, untouched
+/// but for the strand it names, in the order of each strand's nearest particle's distance from
+/// the camera. Seen from behind, a frame later, the order is that view's.
+fn gpu_hair_is_drawn_nearest_strand_first() -> Result<(), Failed> {
+    use bevy::time::TimeUpdateStrategy;
+    let (mut r, camera) = scene(false)?;
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(std::time::Duration::ZERO));
+    // The index slabs can be read back.
+    r.update();
+    r.app
+        .sub_app_mut(RenderApp)
+        .world_mut()
+        .resource_mut::<MeshAllocatorSettings>()
+        .extra_buffer_usages |= BufferUsages::COPY_SRC;
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    let front_view = r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU".into());
+    }
+    let front = drawing_order(&r, hair, front().translation)?;
+    let cpu = cpu_reference(&mut r)?;
+    same_picture(&cpu, &front_view, "drawn nearest first, against the CPU")?;
+    let behind = Transform::from_xyz(0.2, 0.3, -3.0).looking_at(Vec3::ZERO, Vec3::Y);
+    r.app.world_mut().entity_mut(camera).insert(behind);
+    for _ in 0..3 {
+        r.update();
+    }
+    if !on_gpu(&r, hair) {
+        return Err("the hair went off the GPU".into());
+    }
+    let back = drawing_order(&r, hair, behind.translation)?;
+    let identity: Vec<u32> = (0..front.len() as u32).collect();
+    eprintln!(
+        "{} strands; first drawn from the front {:?}, from behind {:?}",
+        front.len(),
+        &front[..4],
+        &back[..4]
+    );
+    if front == identity || back == identity || front == back {
+        return Err("the drawing order is the groom's, or the same from both sides".into());
+    }
+    Ok(())
+}
+
+/// The strands of `hair` in the order its index buffer on the GPU draws them, checked to be
+/// each strand once, each block its strand's pattern, nearest `eye` first.
+fn drawing_order(r: &HeadlessRenderer, hair: Entity, eye: Vec3) -> Result<Vec<u32>, Failed> {
+    let world = r.app.world();
+    let computed = world.get::<ComputedHairMesh>(hair).ok_or("no hair mesh")?;
+    let (per, pattern) = (
+        computed.topology.vertex_count() as u32,
+        &computed.topology.indices,
+    );
+    let render = r.app.sub_app(RenderApp).world();
+    let slice = render
+        .resource::<MeshAllocator>()
+        .mesh_index_slice(&computed.mesh.id())
+        .ok_or("the hair mesh has no index slice")?;
+    let bytes = read_slab(
+        r,
+        slice.buffer,
+        u64::from(slice.range.start) * 4,
+        u64::from(slice.range.end - slice.range.start) * 4,
+    )?;
+    let indices: Vec<u32> = bytes
+        .chunks_exact(4)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    if indices.len() != pattern.len() * computed.strands {
+        return Err(format!("{} indices read back", indices.len()).into());
+    }
+    let mut order = Vec::with_capacity(computed.strands);
+    for (k, block) in indices.chunks_exact(pattern.len()).enumerate() {
+        let strand = block[0] / per;
+        if block
+            .iter()
+            .zip(pattern)
+            .any(|(i, p)| *i != p + strand * per)
+        {
+            return Err(format!("index block {k} is not one strand's pattern").into());
+        }
+        order.push(strand);
+    }
+    let mut seen = vec![false; computed.strands];
+    for &s in &order {
+        match seen.get_mut(s as usize) {
+            Some(seen @ false) => *seen = true,
+            _ => return Err(format!("strand {s} drawn twice or out of range").into()),
+        }
+    }
+    // Each strand's nearest particle, by its place in the mesh (the groom's index).
+    let mut nearest = vec![f32::INFINITY; computed.strands];
+    let list = world
+        .get::<bevy_cartoon_hair::sim::HairStrands>(hair)
+        .ok_or("no strands")?;
+    for e in list.iter() {
+        let strand = world.get::<bevy_cartoon_hair::sim::Strand>(e).ok_or("no strand")?;
+        let particles = world.get::<StrandParticles>(e).ok_or("no particles")?;
+        nearest[strand.index as usize] = particles
+            .positions
+            .iter()
+            .map(|p| p.distance(eye))
+            .fold(f32::INFINITY, f32::min);
+    }
+    for pair in order.windows(2) {
+        let (a, b) = (nearest[pair[0] as usize], nearest[pair[1] as usize]);
+        if a > b {
+            return Err(format!(
+                "strand {} ({a} m from the eye) is drawn before strand {} ({b} m)",
+                pair[0], pair[1]
+            )
+            .into());
+        }
+    }
+    Ok(order)
+}
+
 /// The floats of `mesh`'s vertices in its vertex slab, read back from the GPU.
 fn read_vertices(r: &HeadlessRenderer, mesh: AssetId<Mesh>) -> Result<Vec<f32>, Failed> {
     let stride = r
@@ -383,23 +517,39 @@ fn read_vertices(r: &HeadlessRenderer, mesh: AssetId<Mesh>) -> Result<Vec<f32>, 
         .get(mesh)
         .ok_or("no mesh asset")?
         .get_vertex_size();
-    let world = r.app.sub_app(RenderApp).world();
-    let slice = world
+    let slice = r
+        .app
+        .sub_app(RenderApp)
+        .world()
         .resource::<MeshAllocator>()
         .mesh_vertex_slice(&mesh)
         .ok_or("the hair mesh is not in a slab")?;
-    let device = world.resource::<RenderDevice>();
-    let queue = world.resource::<RenderQueue>();
     let offset = u64::from(slice.range.start) * stride;
     let size = u64::from(slice.range.end - slice.range.start) * stride;
+    Ok(read_slab(r, slice.buffer, offset, size)?
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
+}
+
+/// `size` bytes of `buffer` (a mesh slab, `COPY_SRC`) from `offset`, read back from the GPU.
+fn read_slab(
+    r: &HeadlessRenderer,
+    buffer: &bevy::render::render_resource::Buffer,
+    offset: u64,
+    size: u64,
+) -> Result<Vec<u8>, Failed> {
+    let world = r.app.sub_app(RenderApp).world();
+    let device = world.resource::<RenderDevice>();
+    let queue = world.resource::<RenderQueue>();
     let read = device.create_buffer(&BufferDescriptor {
-        label: Some("hair vertex readback"),
+        label: Some("hair slab readback"),
         size,
         usage: BufferUsages::MAP_READ | BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let mut encoder = device.create_command_encoder(&default());
-    encoder.copy_buffer_to_buffer(slice.buffer, offset, &read, 0, size);
+    encoder.copy_buffer_to_buffer(buffer, offset, &read, 0, size);
     queue.submit([encoder.finish()]);
     read.slice(..).map_async(MapMode::Read, |_| {});
     device
@@ -409,10 +559,7 @@ fn read_vertices(r: &HeadlessRenderer, mesh: AssetId<Mesh>) -> Result<Vec<f32>, 
         .slice(..)
         .get_mapped_range()
         .map_err(|e| format!("{e:?}"))?;
-    Ok(data
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect())
+    Ok(data.to_vec())
 }
 
 /// Three hairs of 24, 60 and 120 strands side by side, built on the GPU into one shared vertex

@@ -34,6 +34,13 @@ use std::sync::Mutex;
 /// A test's body: `Err` with a message fails it.
 pub type TestFn = fn() -> Result<(), Failed>;
 
+/// The repository root: `CARGO_MANIFEST_DIR` as the test runs (cargo sets it; a copied test
+/// binary run elsewhere is given it), else where the binary was built.
+pub fn repo() -> std::path::PathBuf {
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map_or_else(|| env!("CARGO_MANIFEST_DIR").into(), std::path::PathBuf::from)
+}
+
 /// Serialises render tests: two renderers at once only slow each other down on lavapipe.
 static RENDER_LOCK: Mutex<()> = Mutex::new(());
 

@@ -486,7 +486,7 @@ fn a_vrm_with_broken_spring_json_shows_the_character_and_says_where() -> Result<
     let dir = std::env::temp_dir().join(format!("hair_broken_vrm_{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let good = std::fs::read(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/chain_hair/chain_hair.vrm"),
+        crate::repo().join("assets/chain_hair/chain_hair.vrm"),
     )?;
     let (from, to) = (
         b"\"dragForce\":0.4".as_slice(),

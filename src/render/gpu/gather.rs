@@ -10,6 +10,7 @@ use bevy::render::extract_component::ExtractComponent;
 use bevy::render::sync_component::SyncComponent;
 
 use super::highlights::{GpuHighlightInput, highlight_input};
+use super::order::front_to_back;
 use super::strokes::{GpuStrokeInput, stroke_input};
 use super::toolbox::vertex_offsets;
 use super::tubes::{GpuStrand, GpuTubeHair};
@@ -41,6 +42,11 @@ pub(crate) struct GpuTubeInput {
     pub strokes: Vec<GpuStrokeInput>,
     /// The specular quads to build from the tubes.
     pub highlights: Option<GpuHighlightInput>,
+    /// The strands (by their place in the mesh) in the order to draw them, nearest the nearest
+    /// camera first; empty without a camera (the mesh's order stays).
+    pub draw_order: Vec<u32>,
+    /// Indices a strand in the mesh (every strand has the same).
+    pub indices_per_strand: u32,
 }
 
 impl SyncComponent<RenderApp> for GpuTubeInput {
@@ -79,12 +85,21 @@ pub(crate) fn gather_gpu_tube_inputs(
         With<Hair>,
     >,
     strands: Query<(&Strand, &StrandParticles)>,
+    cameras: Query<(&Camera, &GlobalTransform), With<Camera3d>>,
     meshes: Res<Assets<Mesh>>,
     mut inputs: Query<&mut GpuTubeInput>,
-    mut order: Local<Vec<(u32, Entity)>>,
-    mut tables: Local<(Vec<LockSection>, Vec<SectionSide>)>,
+    mut scratch: Local<(
+        Vec<(u32, Entity)>,
+        (Vec<LockSection>, Vec<SectionSide>),
+        Vec<(u32, u32)>,
+    )>,
 ) {
-    let (kinds, table) = &mut *tables;
+    let (order, (kinds, table), sort_keys) = &mut *scratch;
+    let eyes: Vec<Vec3> = cameras
+        .iter()
+        .filter(|(camera, _)| camera.is_active)
+        .map(|(_, at)| at.translation())
+        .collect();
     for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, (jobs, quads)) in
         &hairs
     {
@@ -125,6 +140,7 @@ pub(crate) fn gather_gpu_tube_inputs(
             input.particles = std::mem::take(&mut last.particles);
             input.sections = std::mem::take(&mut last.sections);
             input.strokes = std::mem::take(&mut last.strokes);
+            input.draw_order = std::mem::take(&mut last.draw_order);
         }
         input.strokes.clear();
         input.strokes.extend(
@@ -180,6 +196,23 @@ pub(crate) fn gather_gpu_tube_inputs(
                 .particles
                 .extend(particles.positions.iter().map(|p| p.extend(1.0)));
         }
+        // Drawn nearest first for the camera nearest the hair (the one it is largest in).
+        let here = global.translation();
+        let eye = eyes
+            .iter()
+            .copied()
+            .min_by(|a, b| a.distance_squared(here).total_cmp(&b.distance_squared(here)));
+        input.draw_order.clear();
+        if let Some(eye) = eye {
+            let particles = order.iter().filter_map(|&(_, e)| {
+                strands
+                    .get(e)
+                    .ok()
+                    .map(|(_, p)| p.positions.as_slice())
+            });
+            front_to_back(eye, particles, sort_keys, &mut input.draw_order);
+        }
+        input.indices_per_strand = computed.topology.indices.len() as u32;
         let (centre, metric, up, weight) = mass_field(settings, sim)
             .map_or((Vec3::ZERO, Mat3::IDENTITY, Vec3::Y, 0.0), |m| m.parts());
         let taper = settings.taper;

@@ -8,14 +8,18 @@
 //!   mesh's vertex buffer and leaves each ring's frame in a buffer;
 //! - the stroke pass ([`strokes`], `strokes.wesl`) finds each strand's contours for each camera
 //!   from those frames and writes the stroke strips into the cameras' stroke meshes;
-//! - the highlight pass ([`highlights`], `highlights.wesl`) writes the specular quads.
+//! - the highlight pass ([`highlights`], `highlights.wesl`) writes the specular quads;
+//! - the draw-order pass ([`order`], `order.wesl`) rewrites each hair mesh's index buffer so
+//!   that its strands are drawn nearest the camera first (the main world sorts them), which
+//!   spares the prepass shading the hair behind.
 //!
 //! The hair mesh stays an ordinary Bevy `Mesh` with its UVs and indices, so the main pass, the
 //! prepasses, the shadow passes, the image-space outline and the fringe shadow draw it as
-//! before; only its positions, normals and tangents come from the compute pass. Its vertex data
+//! before; only its positions, normals and tangents come from the compute pass, and the order
+//! of its strands' index blocks from the draw-order pass. Its vertex data
 //! is uploaded once, when the mesh is created; each frame the GPU gets the particles (16 bytes
 //! each), one 48-byte record per strand and one record per hair and job. The mesh allocator's
-//! vertex slabs are made usable as storage buffers (`MeshAllocatorSettings::extra_buffer_usages`)
+//! vertex and index slabs are made usable as storage buffers (`MeshAllocatorSettings::extra_buffer_usages`)
 //! so that the passes can write them, as Bevy's `compute_mesh` example does.
 //!
 //! A hair is built on the GPU when [`HairMeshBuilder::Gpu`] is chosen (the default) and the
@@ -36,6 +40,7 @@ use crate::schedule::HairSystems;
 
 mod gather;
 mod highlights;
+mod order;
 mod status;
 mod strokes;
 mod toolbox;
@@ -51,6 +56,7 @@ use highlights::{
     GpuHighlightPipeline, HighlightBatch, highlight_vertices, init_gpu_highlight_pipeline,
     prepare_highlight_batch,
 };
+use order::{GpuOrderPipeline, OrderBatch, OrderHairInput, init_gpu_order_pipeline};
 use status::{GpuPassIds, choose_mesh_builder, report_pass_state};
 pub use status::{
     GpuPassState, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback, HairGpuMeshSupport,
@@ -74,6 +80,7 @@ impl Plugin for GpuTubesPlugin {
         bevy::asset::embedded_asset!(app, "tubes.wesl");
         bevy::asset::embedded_asset!(app, "strokes.wesl");
         bevy::asset::embedded_asset!(app, "highlights.wesl");
+        bevy::asset::embedded_asset!(app, "order.wesl");
         let passes = HairGpuPasses::default();
         app.init_resource::<HairMeshBuilder>()
             .init_resource::<HairGpuMeshSupport>()
@@ -102,6 +109,7 @@ impl Plugin for GpuTubesPlugin {
                         init_gpu_tube_pipeline,
                         init_gpu_stroke_pipeline,
                         init_gpu_highlight_pipeline,
+                        init_gpu_order_pipeline,
                     ),
                     name_gpu_passes,
                 )
@@ -144,17 +152,19 @@ impl Plugin for GpuTubesPlugin {
     }
 }
 
-/// The three passes' pipelines, for [`report_pass_state`].
+/// The passes' pipelines, for [`report_pass_state`].
 fn name_gpu_passes(
     mut commands: Commands,
     tubes: Res<GpuTubePipeline>,
     strokes: Res<GpuStrokePipeline>,
     highlights: Res<GpuHighlightPipeline>,
+    order: Res<GpuOrderPipeline>,
 ) {
     commands.insert_resource(GpuPassIds([
         ("hair_gpu_tubes", tubes.0.pipeline),
         ("hair_gpu_strokes", strokes.0.pipeline),
         ("hair_gpu_highlights", highlights.0.pipeline),
+        ("hair_gpu_draw_order", order.0.pipeline),
     ]));
 }
 
@@ -183,15 +193,16 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     }
 }
 
-/// This frame's batches of the three passes (render world), their buffers reused frame to
+/// This frame's batches of the four passes (render world), their buffers reused frame to
 /// frame.
 #[derive(Resource, Default)]
 struct GpuBatches {
     tubes: Vec<TubeBatch>,
     strokes: Vec<StrokeBatch>,
     highlights: Vec<HighlightBatch>,
+    order: Vec<OrderBatch>,
     /// Batches in use this frame, of each pass.
-    used: [usize; 3],
+    used: [usize; 4],
 }
 
 /// Groups the hairs of this frame by vertex slab, uploads each batch's records, strands and
@@ -205,15 +216,16 @@ fn prepare_gpu_batches(
         Res<GpuTubePipeline>,
         Res<GpuStrokePipeline>,
         Res<GpuHighlightPipeline>,
+        Res<GpuOrderPipeline>,
     ),
     pipeline_cache: Res<PipelineCache>,
     (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
 ) {
-    let (tube_pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline) = pipelines;
     let render = (device.as_ref(), queue.as_ref());
     let limits = BindingLimits::of(&device.limits());
     let batches = batches.as_mut();
-    batches.used = [0; 3];
+    batches.used = [0; 4];
     let inputs: Vec<_> = inputs.iter_mut().collect();
     // The tube meshes, by slab.
     let mut spans = Vec::with_capacity(inputs.len());
@@ -261,12 +273,22 @@ fn prepare_gpu_batches(
         }
     }
     batches.used[0] = groups.len();
+    prepare_order_batches(
+        &inputs,
+        &placements,
+        batches,
+        &mesh_allocator,
+        limits,
+        render,
+        (&order_pipeline, &pipeline_cache),
+    );
     // The stroke and highlight jobs of each tube batch, by slab.
     let GpuBatches {
         tubes,
         strokes,
         highlights,
         used,
+        ..
     } = batches;
     for (b, tube_batch) in tubes.iter().enumerate().take(used[0]) {
         let Some(buffers) = tube_batch.buffers() else {
@@ -351,11 +373,54 @@ fn prepare_gpu_batches(
     }
 }
 
+/// Groups the hairs built this frame that have a draw order by index slab and prepares one
+/// draw-order batch a group. A mesh whose indices the device cannot bind keeps its order (it
+/// is drawn as before, only slower).
+fn prepare_order_batches(
+    inputs: &[Mut<GpuTubeInput>],
+    placements: &[Option<toolbox::HairPlacement>],
+    batches: &mut GpuBatches,
+    mesh_allocator: &MeshAllocator,
+    limits: BindingLimits,
+    render: (&RenderDevice, &RenderQueue),
+    pipeline: (&GpuOrderPipeline, &PipelineCache),
+) {
+    let mut spans = Vec::new();
+    for (i, input) in inputs.iter().enumerate() {
+        let hair = &input.hair;
+        if placements[i].is_none() || input.draw_order.len() != hair.strands as usize {
+            continue;
+        }
+        let indices = input.indices_per_strand as usize * hair.strands as usize;
+        if let Some(slice) = mesh_allocator.mesh_index_slice(&input.mesh)
+            && let Some(span) = SlabSpan::new(i, &slice, 1, indices)
+        {
+            spans.push(span);
+        }
+    }
+    let (groups, _kept_in_order) = group_by_slab(spans, Buffer::id, limits);
+    let hairs: Vec<OrderHairInput> = inputs
+        .iter()
+        .map(|input| OrderHairInput {
+            indices_per_strand: input.indices_per_strand,
+            vertices_per_strand: input.hair.rings * input.hair.sides + CAP_VERTICES,
+            order: &input.draw_order,
+        })
+        .collect();
+    if batches.order.len() < groups.len() {
+        batches.order.resize_with(groups.len(), Default::default);
+    }
+    for (b, group) in groups.iter().enumerate() {
+        batches.order[b].prepare(group, &hairs, render, pipeline);
+    }
+    batches.used[3] = groups.len();
+}
+
 /// Vertices after each strand's rings in a tube mesh.
 const CAP_VERTICES: u32 = crate::mesh::tube::CAP_VERTICES as u32;
 
-/// Runs the tube pass over every batch, then the stroke and highlight passes, before any camera
-/// draws: three compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
+/// Runs the tube pass over every batch, then the stroke, highlight and draw-order passes, before
+/// any camera draws: four compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
 /// where a game adds it (`render/hair_gpu_tubes/elapsed_gpu` and its pipeline statistics). The
 /// dispatches go to [`HairGpuPasses::dispatches`].
 fn build_gpu_batches(
@@ -365,11 +430,12 @@ fn build_gpu_batches(
         Res<GpuTubePipeline>,
         Res<GpuStrokePipeline>,
         Res<GpuHighlightPipeline>,
+        Res<GpuOrderPipeline>,
     ),
     pipeline_cache: Res<PipelineCache>,
     (device, passes): (Res<RenderDevice>, Res<HairGpuPasses>),
 ) {
-    let (tube_pipeline, stroke_pipeline, highlight_pipeline) = pipelines;
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline) = pipelines;
     let mut dispatches = HairGpuDispatches::default();
     let tubes: Vec<&PreparedBatch> = batches.tubes[..batches.used[0]]
         .iter()
@@ -392,6 +458,10 @@ fn build_gpu_batches(
         .iter()
         .filter_map(|b| b.prepared.as_ref())
         .collect();
+    let order: Vec<&PreparedBatch> = batches.order[..batches.used[3]]
+        .iter()
+        .filter_map(|b| b.prepared.as_ref())
+        .collect();
     let max_per_dimension = device.limits().max_compute_workgroups_per_dimension;
     let diagnostics = render_context.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
@@ -399,6 +469,7 @@ fn build_gpu_batches(
         tubes: tube_count,
         strokes: stroke_count,
         highlights: highlight_count,
+        draw_order: order_count,
     } = &mut dispatches;
     for (count, name, id, list) in [
         (
@@ -418,6 +489,12 @@ fn build_gpu_batches(
             "hair_gpu_highlights",
             highlight_pipeline.0.pipeline,
             highlights,
+        ),
+        (
+            order_count,
+            "hair_gpu_draw_order",
+            order_pipeline.0.pipeline,
+            order,
         ),
     ] {
         let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {

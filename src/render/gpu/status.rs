@@ -92,6 +92,9 @@ pub struct HairGpuDispatches {
     pub strokes: PassDispatches,
     /// The highlight pass.
     pub highlights: PassDispatches,
+    /// The draw-order pass (invocations: indices rewritten; a batch: hairs whose meshes share
+    /// an index slab).
+    pub draw_order: PassDispatches,
 }
 
 #[derive(Debug, Default)]
@@ -197,7 +200,7 @@ pub(super) fn report_pass_state(
 
 /// The crate's compute pipelines, by name (render world).
 #[derive(Resource, Clone, Copy)]
-pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 3]);
+pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 4]);
 
 /// Main world: marks the hairs built on the GPU this frame (the CPU mesh stage skips their
 /// vertices), and puts a hair back on the CPU, with [`HairGpuBuildFailed`], when the GPU cannot
