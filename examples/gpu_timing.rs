@@ -98,9 +98,7 @@ fn args() -> Result<Args, String> {
             "--cpu" => out.cpu = true,
             "--reverse-strands" => out.reverse_strands = true,
             "--rings" | "--sides" => {
-                let n: u32 = value(&a)?
-                    .parse()
-                    .map_err(|_| format!("{a} is a count"))?;
+                let n: u32 = value(&a)?.parse().map_err(|_| format!("{a} is a count"))?;
                 let limit = if a == "--rings" { 2..=64 } else { 3..=32 };
                 if !limit.contains(&n) {
                     return Err(format!("{a} is from {} to {}", limit.start(), limit.end()));
@@ -178,15 +176,15 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
     ));
     let camera = world
         .spawn((
-        Camera3d::default(),
-        if args.msaa == 4 {
-            Msaa::Sample4
-        } else {
-            Msaa::Off
-        },
-        RenderTarget::Image(target.into()),
-        Transform::IDENTITY,
-    ))
+            Camera3d::default(),
+            if args.msaa == 4 {
+                Msaa::Sample4
+            } else {
+                Msaa::Off
+            },
+            RenderTarget::Image(target.into()),
+            Transform::IDENTITY,
+        ))
         .id();
     if scene == Scene::Prepass {
         world.entity_mut(camera).insert((
@@ -307,7 +305,11 @@ fn main() -> ExitCode {
         heads.len(),
         args.rings.map_or(String::new(), |n| format!(", {n} rings")),
         args.sides.map_or(String::new(), |n| format!(", {n} sides")),
-        if args.reverse_strands { ", strands reversed" } else { "" },
+        if args.reverse_strands {
+            ", strands reversed"
+        } else {
+            ""
+        },
         args.width,
         args.height,
         args.msaa,

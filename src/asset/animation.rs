@@ -8,9 +8,13 @@ use bevy::asset::{AssetLoader, AssetPath, LoadContext};
 use bevy::curve::cubic_splines::{CubicCardinalSpline, CubicCurve, CubicGenerator};
 use bevy::prelude::*;
 
-use super::error::{BYTES_PER_ELEMENT, HairAssetError, float_attr, float_attr_or, read_text};
-use super::groom::{GroomLoaderSettings, HEADER_BYTES, HairGroom, MAX_PARTICLES};
-use super::xml::Xml;
+use super::error::HairAssetError;
+use super::fields::{BYTES_PER_ELEMENT, float_attr, float_attr_or, read_text};
+use super::groom::{
+    ATTRIBUTES_PER_ELEMENT, GroomLoaderSettings, HEADER_BYTES, HairGroom, MARKUP_ALLOWANCE,
+    MAX_PARTICLES,
+};
+use super::reader::Xml;
 
 /// Most keyframes an animation may have.
 pub const MAX_KEYS: usize = 256;
@@ -73,7 +77,14 @@ pub struct AnimationDescription {
 
 /// Parses the text of a `*.hairanim.xml` file (without loading its grooms).
 pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, HairAssetError> {
-    let mut xml = Xml::new(file, input);
+    let mut xml = Xml::new(
+        file,
+        input,
+        (
+            2 * MAX_KEYS + MARKUP_ALLOWANCE,
+            ATTRIBUTES_PER_ELEMENT * MAX_KEYS + MARKUP_ALLOWANCE,
+        ),
+    );
     let root = xml.root()?;
     if root.name != "hairanim" {
         return Err(xml.error(
@@ -146,7 +157,7 @@ pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, 
             }
             Some(g) => g.value.to_string(),
         };
-        let (line, column) = super::xml::line_column(input, node.offset);
+        let (line, column) = super::reader::line_column(input, node.offset);
         xml.skip(&node)?;
         keys.push(KeyReference {
             time,

@@ -4,9 +4,10 @@ use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};
 use bevy::prelude::*;
 
-use super::error::{BYTES_PER_ELEMENT, HairAssetError, length_attr, read_header, read_text};
-use super::groom::HEADER_BYTES;
-use super::xml::Xml;
+use super::error::HairAssetError;
+use super::fields::{BYTES_PER_ELEMENT, length_attr, read_header, read_text};
+use super::groom::{ATTRIBUTES_PER_ELEMENT, HEADER_BYTES, MARKUP_ALLOWANCE};
+use super::reader::Xml;
 
 /// Most shapes (spheres, capsules and planes together) a collision file may have.
 pub const MAX_SHAPES: usize = 4096;
@@ -70,7 +71,14 @@ pub struct HeadCollision {
 
 /// Parses the text of a `*.collision.xml` file. `file` names it in errors.
 pub fn parse_collision(file: &str, input: &str) -> Result<HeadCollision, HairAssetError> {
-    let mut xml = Xml::new(file, input);
+    let mut xml = Xml::new(
+        file,
+        input,
+        (
+            2 * MAX_SHAPES + MARKUP_ALLOWANCE,
+            ATTRIBUTES_PER_ELEMENT * MAX_SHAPES + MARKUP_ALLOWANCE,
+        ),
+    );
     let root = xml.root()?;
     let header = read_header(&xml, &root, "collision")?;
     let mut spheres = Vec::new();

@@ -6,11 +6,27 @@ use bevy::prelude::*;
 
 use serde::{Deserialize, Serialize};
 
-use super::error::{HairAssetError, MAX_COORDINATE, parse_finite, read_header, read_text, scaled};
-use super::xml::{Item, Xml};
+use super::error::HairAssetError;
+use super::fields::{MAX_COORDINATE, parse_finite, read_header, read_text, scaled};
+use super::reader::{Item, Xml};
 
-/// Most strands a groom may have. Counted while reading, before anything is kept for them.
-pub const MAX_STRANDS: usize = 1_000_000;
+/// Most strands a groom may have (ten times a 10,000-strand groom). Counted while reading,
+/// before anything is kept for them.
+pub const MAX_STRANDS: usize = 100_000;
+/// Most markup (elements, comments, processing instructions, CDATA sections) a groom file may
+/// have: two a strand and room for a header, comments and later versions' elements. Counted
+/// before the file is parsed, so the parser's tree never holds more.
+pub const MAX_GROOM_MARKUP: usize = 2 * MAX_STRANDS + MARKUP_ALLOWANCE;
+/// Most memory parsing one groom file takes beside its text, whatever the file (within
+/// [`MAX_GROOM_MARKUP`] and the byte limit): the parser's tree of the largest file the limits
+/// allow, and the positions kept. Measured by the hostile tests; `docs/formats.md`.
+pub const GROOM_PARSE_MEMORY: usize = 80 << 20;
+/// Attributes a collision shape or animation key may have, for the limit on a file's
+/// attributes in all (a capsule has 7).
+pub const ATTRIBUTES_PER_ELEMENT: usize = 8;
+/// Markup every hair file may have beside what its elements count: the XML declaration,
+/// comments, later versions' elements.
+pub const MARKUP_ALLOWANCE: usize = 1024;
 /// Most particles one strand may have.
 pub const MAX_PARTICLES_PER_STRAND: usize = 256;
 /// Most particles a whole groom may have (24 MB of positions). Counted while reading, before
@@ -131,11 +147,11 @@ fn check_strand(strand: &[Vec3], index: usize) -> Result<(), String> {
         ));
     }
     for (j, p) in strand.iter().enumerate() {
-        if !p.is_finite() || p.abs().max_element() > super::error::MAX_COORDINATE {
+        if !p.is_finite() || p.abs().max_element() > super::fields::MAX_COORDINATE {
             return Err(format!(
                 "strand {index}, particle {j}: coordinate {p} is not finite or farther than {} m \
                  from the bone",
-                super::error::MAX_COORDINATE
+                super::fields::MAX_COORDINATE
             ));
         }
     }
@@ -166,7 +182,7 @@ pub fn parse_groom_within(
     max_particles: usize,
 ) -> Result<HairGroom, HairAssetError> {
     let max_particles = max_particles.min(MAX_PARTICLES);
-    let mut xml = Xml::new(file, input);
+    let mut xml = Xml::new(file, input, (MAX_GROOM_MARKUP, MAX_GROOM_MARKUP));
     let root = xml.root()?;
     let header = read_header(&xml, &root, "groom")?;
     let mut groom = HairGroom {

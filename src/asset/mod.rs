@@ -21,9 +21,12 @@
 mod animation;
 mod collision;
 mod error;
+mod fields;
 mod groom;
 #[cfg(test)]
 mod hostile_tests;
+mod prescan;
+mod reader;
 #[cfg(not(target_arch = "wasm32"))]
 mod source;
 #[cfg(test)]
@@ -32,7 +35,6 @@ mod vrm;
 mod vrm_gltf;
 #[cfg(test)]
 mod vrm_tests;
-mod xml;
 
 pub use animation::{
     ANIMATION_BYTE_LIMIT, AnimationDescription, HairAnimation, HairAnimationLoader, HairKeyframe,
@@ -43,12 +45,15 @@ pub use collision::{
     COLLISION_BYTE_LIMIT, CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere,
     HeadCollision, HeadCollisionLoader, MAX_SHAPES, parse_collision,
 };
-pub use error::{BYTES_PER_ELEMENT, HairAssetError, MAX_COORDINATE, SCALE_RANGE};
+pub use error::HairAssetError;
+pub use fields::{BYTES_PER_ELEMENT, MAX_COORDINATE, SCALE_RANGE};
 pub use groom::{
-    GROOM_BYTES_PER_PARTICLE, GROOM_BYTES_PER_STRAND, GroomLoaderSettings, HEADER_BYTES, HairGroom,
-    HairGroomLoader, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS, MIN_SEGMENT_LENGTH,
+    ATTRIBUTES_PER_ELEMENT, GROOM_BYTES_PER_PARTICLE, GROOM_BYTES_PER_STRAND, GROOM_PARSE_MEMORY,
+    GroomLoaderSettings, HEADER_BYTES, HairGroom, HairGroomLoader, MARKUP_ALLOWANCE,
+    MAX_GROOM_MARKUP, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS, MIN_SEGMENT_LENGTH,
     groom_byte_limit, parse_groom, parse_groom_within,
 };
+pub use reader::{MAX_ATTRIBUTES, MAX_DEPTH};
 #[cfg(not(target_arch = "wasm32"))]
 pub use source::{RegularFileReader, regular_file_source};
 pub use vrm::{
@@ -57,7 +62,6 @@ pub use vrm::{
     VrmShape, VrmSpring, VrmSprings, VrmVersion, parse_vrm_springs,
 };
 pub use vrm_gltf::{VrmLoader, VrmNode, VrmSpringBones};
-pub use xml::{MAX_ATTRIBUTES, MAX_DEPTH};
 
 use bevy::prelude::*;
 

@@ -396,8 +396,9 @@ fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
 fn gpu_hair_is_drawn_nearest_strand_first() -> Result<(), Failed> {
     use bevy::time::TimeUpdateStrategy;
     let (mut r, camera) = scene(false)?;
-    r.app
-        .insert_resource(TimeUpdateStrategy::ManualDuration(std::time::Duration::ZERO));
+    r.app.insert_resource(TimeUpdateStrategy::ManualDuration(
+        std::time::Duration::ZERO,
+    ));
     // The index slabs can be read back.
     r.update();
     r.app
@@ -487,7 +488,9 @@ fn drawing_order(r: &HeadlessRenderer, hair: Entity, eye: Vec3) -> Result<Vec<u3
         .get::<bevy_cartoon_hair::sim::HairStrands>(hair)
         .ok_or("no strands")?;
     for e in list.iter() {
-        let strand = world.get::<bevy_cartoon_hair::sim::Strand>(e).ok_or("no strand")?;
+        let strand = world
+            .get::<bevy_cartoon_hair::sim::Strand>(e)
+            .ok_or("no strand")?;
         let particles = world.get::<StrandParticles>(e).ok_or("no particles")?;
         nearest[strand.index as usize] = particles
             .positions

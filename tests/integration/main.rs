@@ -37,8 +37,10 @@ pub type TestFn = fn() -> Result<(), Failed>;
 /// The repository root: `CARGO_MANIFEST_DIR` as the test runs (cargo sets it; a copied test
 /// binary run elsewhere is given it), else where the binary was built.
 pub fn repo() -> std::path::PathBuf {
-    std::env::var_os("CARGO_MANIFEST_DIR")
-        .map_or_else(|| env!("CARGO_MANIFEST_DIR").into(), std::path::PathBuf::from)
+    std::env::var_os("CARGO_MANIFEST_DIR").map_or_else(
+        || env!("CARGO_MANIFEST_DIR").into(),
+        std::path::PathBuf::from,
+    )
 }
 
 /// Serialises render tests: two renderers at once only slow each other down on lavapipe.

@@ -485,9 +485,7 @@ fn a_vrm_0_character_gets_its_bone_groups_and_converted_colliders() -> Result<()
 fn a_vrm_with_broken_spring_json_shows_the_character_and_says_where() -> Result<(), Failed> {
     let dir = std::env::temp_dir().join(format!("hair_broken_vrm_{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let good = std::fs::read(
-        crate::repo().join("assets/chain_hair/chain_hair.vrm"),
-    )?;
+    let good = std::fs::read(crate::repo().join("assets/chain_hair/chain_hair.vrm"))?;
     let (from, to) = (
         b"\"dragForce\":0.4".as_slice(),
         b"\"dragForce\":4.0".as_slice(),

@@ -198,18 +198,15 @@ pub(crate) fn gather_gpu_tube_inputs(
         }
         // Drawn nearest first for the camera nearest the hair (the one it is largest in).
         let here = global.translation();
-        let eye = eyes
-            .iter()
-            .copied()
-            .min_by(|a, b| a.distance_squared(here).total_cmp(&b.distance_squared(here)));
+        let eye = eyes.iter().copied().min_by(|a, b| {
+            a.distance_squared(here)
+                .total_cmp(&b.distance_squared(here))
+        });
         input.draw_order.clear();
         if let Some(eye) = eye {
-            let particles = order.iter().filter_map(|&(_, e)| {
-                strands
-                    .get(e)
-                    .ok()
-                    .map(|(_, p)| p.positions.as_slice())
-            });
+            let particles = order
+                .iter()
+                .filter_map(|&(_, e)| strands.get(e).ok().map(|(_, p)| p.positions.as_slice()));
             front_to_back(eye, particles, sort_keys, &mut input.draw_order);
         }
         input.indices_per_strand = computed.topology.indices.len() as u32;
