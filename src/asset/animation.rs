@@ -157,7 +157,7 @@ pub fn parse_animation(file: &str, input: &str) -> Result<AnimationDescription, 
             }
             Some(g) => g.value.to_string(),
         };
-        let (line, column) = super::reader::line_column(input, node.offset);
+        let (line, column) = super::prescan::line_column(input, node.offset);
         xml.skip(&node)?;
         keys.push(KeyReference {
             time,

@@ -3,7 +3,8 @@
 //! text itself (bounded in size, UTF-8).
 
 use super::error::{HairAssetError, whole_file};
-use super::reader::{Element, Xml, line_column};
+use super::prescan::line_column;
+use super::reader::{Element, Xml};
 
 /// Bytes a collision or animation file may take per element (`<sphere>`, `<key>`).
 pub const BYTES_PER_ELEMENT: usize = 256;

@@ -422,7 +422,7 @@ fn truncated_files_are_blamed_at_their_end() {
     for cut in [5, 19, 25, 30, 40, full.len() - 3] {
         let text = &full[..cut];
         let e = groom_err(text);
-        let (line, column) = super::reader::line_column(text, text.len());
+        let (line, column) = super::prescan::line_column(text, text.len());
         assert_eq!((e.line, e.column), (line, column), "cut at {cut}: {e}");
         assert!(e.line > 0 && e.to_string().contains("truncated"), "{e}");
     }

@@ -53,7 +53,7 @@ pub use groom::{
     MAX_GROOM_MARKUP, MAX_PARTICLES, MAX_PARTICLES_PER_STRAND, MAX_STRANDS, MIN_SEGMENT_LENGTH,
     groom_byte_limit, parse_groom, parse_groom_within,
 };
-pub use reader::{MAX_ATTRIBUTES, MAX_DEPTH};
+pub use prescan::{MAX_ATTRIBUTES, MAX_DEPTH};
 #[cfg(not(target_arch = "wasm32"))]
 pub use source::{RegularFileReader, regular_file_source};
 pub use vrm::{

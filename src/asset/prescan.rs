@@ -8,7 +8,10 @@
 //! checks of attributes and namespaces are quadratic in a tag's attributes and its node limit
 //! reports no position: after this pass neither can be reached.
 
-use super::reader::{MAX_ATTRIBUTES, MAX_DEPTH, line_column};
+/// Deepest element nesting a hair file may have (ours use 2; unknown elements may nest deeper).
+pub const MAX_DEPTH: usize = 32;
+/// Most attributes one element may have.
+pub const MAX_ATTRIBUTES: usize = 32;
 
 /// Where the scan stopped and why: a byte offset and a message.
 pub(crate) type ScanError = (usize, String);
@@ -301,6 +304,22 @@ fn attributes(
         };
         k = k + 1 + close + 1;
     }
+}
+
+/// 1-based line and column (in characters) of a byte offset.
+pub(crate) fn line_column(input: &str, offset: usize) -> (u32, u32) {
+    let mut offset = offset.min(input.len());
+    while !input.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &input[..offset];
+    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |n| n + 1);
+    let column = before[line_start..].chars().count() + 1;
+    (
+        u32::try_from(line).unwrap_or(u32::MAX),
+        u32::try_from(column).unwrap_or(u32::MAX),
+    )
 }
 
 #[cfg(test)]

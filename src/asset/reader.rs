@@ -2,9 +2,10 @@
 //!
 //! Hair files are hostile input (players and modders replace them), so:
 //! - a linear pre-scan ([`super::prescan`]) runs first and refuses a DTD, namespaces, more than
-//!   [`MAX_ATTRIBUTES`] attributes on a tag, nesting deeper than [`MAX_DEPTH`], more markup than
-//!   the format allows and a file cut short, each at its line and column; the tree the parser
-//!   then builds is bounded by the file's size limit and that count (`docs/formats.md`);
+//!   [`MAX_ATTRIBUTES`](super::MAX_ATTRIBUTES) attributes on a tag, nesting deeper than
+//!   [`MAX_DEPTH`](super::MAX_DEPTH), more markup than the format allows and a file cut short,
+//!   each at its line and column; the tree the parser then builds is bounded by the file's size
+//!   limit and that count (`docs/formats.md`);
 //! - only the five XML entities and character references are decoded (no DTD, so no entity
 //!   can expand);
 //! - every error names the file, a line and a column.
@@ -14,12 +15,7 @@ use std::borrow::Cow;
 use roxmltree::{Document, Node, NodeId, NodeType, ParsingOptions, StringStorage};
 
 use super::error::HairAssetError;
-use super::prescan::prescan;
-
-/// Deepest element nesting a hair file may have (ours use 2; unknown elements may nest deeper).
-pub const MAX_DEPTH: usize = 32;
-/// Most attributes one element may have.
-pub const MAX_ATTRIBUTES: usize = 32;
+use super::prescan::{line_column, prescan};
 
 /// An attribute of the element last returned.
 pub(crate) struct Attr<'a> {
@@ -303,20 +299,4 @@ fn enter<'a>(
         offset: node.range().start,
         empty,
     }
-}
-
-/// 1-based line and column (in characters) of a byte offset.
-pub(crate) fn line_column(input: &str, offset: usize) -> (u32, u32) {
-    let mut offset = offset.min(input.len());
-    while !input.is_char_boundary(offset) {
-        offset -= 1;
-    }
-    let before = &input[..offset];
-    let line = before.bytes().filter(|&b| b == b'\n').count() + 1;
-    let line_start = before.rfind('\n').map_or(0, |n| n + 1);
-    let column = before[line_start..].chars().count() + 1;
-    (
-        u32::try_from(line).unwrap_or(u32::MAX),
-        u32::try_from(column).unwrap_or(u32::MAX),
-    )
 }
