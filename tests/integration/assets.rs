@@ -368,11 +368,15 @@ fn hostile_keys_and_devices_are_refused_through_the_asset_server() -> Result<(),
 fn an_animation_shares_one_particle_budget_among_its_keys() -> Result<(), Failed> {
     use bevy_cartoon_hair::asset::MAX_ANIMATION_PARTICLES;
     let dir = scratch("budget")?;
-    let strands = 600_000;
-    let mut text = String::with_capacity(strands * 30 + 64);
+    // 1,200,000 particles: one key of it fits the 2,000,000 budget, two do not.
+    let (strands, per_strand) = (100_000, 12);
+    let strand: String = (0..per_strand).map(|k| format!("0 {k} 0 ")).collect();
+    let mut text = String::with_capacity(strands * (strand.len() + 20) + 64);
     text.push_str("<groom version=\"1\">\n");
     for _ in 0..strands {
-        text.push_str("<strand>0 0 0 0 1 0</strand>\n");
+        text.push_str("<strand>");
+        text.push_str(&strand);
+        text.push_str("</strand>\n");
     }
     text.push_str("</groom>\n");
     std::fs::write(dir.join("big.hair.xml"), &text)?;
@@ -386,7 +390,7 @@ fn an_animation_shares_one_particle_budget_among_its_keys() -> Result<(), Failed
         animation_with_key("big.hair.xml"),
     )?;
     let mut app = asset_app(&dir);
-    let left = MAX_ANIMATION_PARTICLES - 2 * strands;
+    let left = MAX_ANIMATION_PARTICLES - per_strand * strands;
     let msg = load_error::<HairAnimation>(&mut app, "two.hairanim.xml")?;
     if !(msg.contains("two.hairanim.xml:3:1: key 1")
         && msg.contains(&format!("may bring in {left} more particles"))
