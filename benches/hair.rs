@@ -395,7 +395,10 @@ fn bench_load(c: &mut Criterion) {
     // attribute on each: 3.6 MB.
     let mut short = String::from("<groom version=\"1\">\n");
     for i in 0..bevy_cartoon_hair::asset::MAX_STRANDS {
-        short.push_str(&format!("<strand a=\"{i}\">0 0 0 0 1 {}</strand>\n", i % 7 + 1));
+        short.push_str(&format!(
+            "<strand a=\"{i}\">0 0 0 0 1 {}</strand>\n",
+            i % 7 + 1
+        ));
     }
     short.push_str("</groom>\n");
     group.bench_function("100k_short_strands", |b| {
