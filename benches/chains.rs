@@ -5,7 +5,7 @@
 //! cargo bench --bench chains --no-default-features
 //! ```
 //!
-//! 16 characters x 40 chains x 6 joints (and a tail), each character with a head sphere, a neck
+//! 16 and 100 characters x 40 chains x 6 joints (and a tail), each character with a head sphere, a neck
 //! capsule and two shoulder capsules. `chains/ours` is a whole `app.update()` of a headless app
 //! (bone lookup, solver, writing the joints); `chains/vrm_reference` is the VRM 1.0 spring-bone
 //! step (verlet with drag, stiffness toward the bind direction, gravity, length kept, sphere and
@@ -29,6 +29,8 @@ use bevy_cartoon_hair::sim::{HairBoneChains, HairCollider, HairSimSettings, Hair
 use criterion::{Criterion, criterion_group, criterion_main};
 
 const CHARACTERS: usize = 16;
+/// A hundred avatars, the crowd a game with many VRM characters has.
+const CROWD: usize = 100;
 const CHAINS: usize = 40;
 const JOINTS: usize = 6;
 const SEGMENT: f32 = 0.03;
@@ -332,29 +334,32 @@ fn bench_chains(c: &mut Criterion) {
     );
     let mut group = c.benchmark_group("chains");
     group.sample_size(30);
-    let (mut app, roots, _) = our_app(CHARACTERS, 60.0);
-    let mut frame = 0u32;
-    group.bench_function("ours_16x40x6", |b| {
-        b.iter(|| {
-            frame += 1;
-            let r = shake(frame as f32 / 60.0);
-            for root in &roots {
-                app.world_mut()
-                    .get_mut::<Transform>(*root)
-                    .unwrap()
-                    .rotation = r;
-            }
-            app.update();
+    // The crowd the benches are named for, and a hundred avatars.
+    for characters in [CHARACTERS, CROWD] {
+        let (mut app, roots, _) = our_app(characters, 60.0);
+        let mut frame = 0u32;
+        group.bench_function(format!("ours_{characters}x40x6"), |b| {
+            b.iter(|| {
+                frame += 1;
+                let r = shake(frame as f32 / 60.0);
+                for root in &roots {
+                    app.world_mut()
+                        .get_mut::<Transform>(*root)
+                        .unwrap()
+                        .rotation = r;
+                }
+                app.update();
+            });
         });
-    });
-    let mut crowd = VrmCrowd::new(CHARACTERS);
-    let mut frame = 0u32;
-    group.bench_function("vrm_reference_16x40x6", |b| {
-        b.iter(|| {
-            frame += 1;
-            crowd.step(shake(frame as f32 / 60.0), 1.0 / 60.0);
+        let mut crowd = VrmCrowd::new(characters);
+        let mut frame = 0u32;
+        group.bench_function(format!("vrm_reference_{characters}x40x6"), |b| {
+            b.iter(|| {
+                frame += 1;
+                crowd.step(shake(frame as f32 / 60.0), 1.0 / 60.0);
+            });
         });
-    });
+    }
     group.finish();
 }
 

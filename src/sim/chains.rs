@@ -437,7 +437,28 @@ pub(crate) fn pose_bone_chains(
     mut shapes: Local<Vec<(ContactShape, bool)>>,
 ) {
     for (driven, hair_world, strand_list, mut computed, (settings, only)) in &mut hairs {
-        // The colliders this hair meets, where they are now.
+        let margin = settings.margins().0 * computed.size;
+        // Where the hair is: its particles' box, grown by twice its longest segment (the posed
+        // joints lie within a bone of the particles).
+        let (mut lo, mut hi, mut longest) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
+        for strand in strand_list.iter() {
+            let Ok((_, particles)) = strands.get(strand) else {
+                continue;
+            };
+            for (i, p) in particles.positions.iter().enumerate() {
+                if !p.is_finite() {
+                    continue;
+                }
+                let p = Vec3A::from(*p);
+                (lo, hi) = (lo.min(p), hi.max(p));
+                if let Some(next) = particles.positions.get(i + 1).filter(|n| n.is_finite()) {
+                    longest = longest.max(Vec3A::from(*next).distance(p));
+                }
+            }
+        }
+        let reach = Vec3A::splat(2.0 * longest);
+        // The colliders this hair meets, where they are now: those that can reach it (a crowd's
+        // hair meets its own character's body, not every body in the world).
         shapes.clear();
         for (e, collider, g) in &colliders {
             if only.is_some_and(|o| !o.0.contains(&e)) {
@@ -445,9 +466,13 @@ pub(crate) fn pose_bone_chains(
             }
             let pose = g.affine();
             let inside = collider.inside();
-            shapes.extend(collider.shapes().map(|s| (s.at(&pose), inside)));
+            shapes.extend(
+                collider
+                    .shapes()
+                    .map(|s| (s.at(&pose), inside))
+                    .filter(|(s, inside)| *inside || s.meets(lo - reach, hi + reach, margin)),
+            );
         }
-        let margin = settings.margins().0 * computed.size;
         for strand in strand_list.iter() {
             let Ok((strand, mut particles)) = strands.get_mut(strand) else {
                 continue;
