@@ -345,13 +345,7 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
 /// pass writes into the hair's vertices is finite.
 fn a_nan_particle_makes_no_nan_vertex_on_the_gpu() -> Result<(), Failed> {
     let (mut r, _) = scene(false)?;
-    // The vertex slabs can be read back.
-    r.update();
-    r.app
-        .sub_app_mut(RenderApp)
-        .world_mut()
-        .resource_mut::<MeshAllocatorSettings>()
-        .extra_buffer_usages |= BufferUsages::COPY_SRC;
+    readable_slabs(&mut r);
     let hair = spawn_spikes(&mut r, 4, Transform::IDENTITY);
     r.app.add_systems(
         PostUpdate,
@@ -399,13 +393,7 @@ fn gpu_hair_is_drawn_nearest_strand_first() -> Result<(), Failed> {
     r.app.insert_resource(TimeUpdateStrategy::ManualDuration(
         std::time::Duration::ZERO,
     ));
-    // The index slabs can be read back.
-    r.update();
-    r.app
-        .sub_app_mut(RenderApp)
-        .world_mut()
-        .resource_mut::<MeshAllocatorSettings>()
-        .extra_buffer_usages |= BufferUsages::COPY_SRC;
+    readable_slabs(&mut r);
     let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
     let front_view = r.capture()?;
     if !on_gpu(&r, hair) {
@@ -533,6 +521,16 @@ fn read_vertices(r: &HeadlessRenderer, mesh: AssetId<Mesh>) -> Result<Vec<f32>, 
         .chunks_exact(4)
         .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
         .collect())
+}
+
+/// Makes the mesh slabs created from now on readable (`COPY_SRC`), after the first frame.
+fn readable_slabs(r: &mut HeadlessRenderer) {
+    r.update();
+    r.app
+        .sub_app_mut(RenderApp)
+        .world_mut()
+        .resource_mut::<MeshAllocatorSettings>()
+        .extra_buffer_usages |= BufferUsages::COPY_SRC;
 }
 
 /// `size` bytes of `buffer` (a mesh slab, `COPY_SRC`) from `offset`, read back from the GPU.
