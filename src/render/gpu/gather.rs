@@ -95,11 +95,6 @@ pub(crate) fn gather_gpu_tube_inputs(
     )>,
 ) {
     let (order, (kinds, table), sort_keys) = &mut *scratch;
-    let eyes: Vec<Vec3> = cameras
-        .iter()
-        .filter(|(camera, _)| camera.is_active)
-        .map(|(_, at)| at.translation())
-        .collect();
     for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, (jobs, quads)) in
         &hairs
     {
@@ -198,10 +193,14 @@ pub(crate) fn gather_gpu_tube_inputs(
         }
         // Drawn nearest first for the camera nearest the hair (the one it is largest in).
         let here = global.translation();
-        let eye = eyes.iter().copied().min_by(|a, b| {
-            a.distance_squared(here)
-                .total_cmp(&b.distance_squared(here))
-        });
+        let eye = cameras
+            .iter()
+            .filter(|(camera, _)| camera.is_active)
+            .map(|(_, at)| at.translation())
+            .min_by(|a, b| {
+                a.distance_squared(here)
+                    .total_cmp(&b.distance_squared(here))
+            });
         input.draw_order.clear();
         if let Some(eye) = eye {
             let particles = order
