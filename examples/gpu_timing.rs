@@ -10,8 +10,11 @@
 //! (10,000 x 16), `w40k` (40,000 x 16). Options: `--size WxH` (default 1920x1080), `--msaa N`
 //! (1 or 4, default 4), `--frames N` (default 200; frames measured after the warm-up),
 //! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--rings N` and
-//! `--sides N` (every hair's tube resolution in place of the workload's), `--reverse-strands`
-//! (the strands drawn in the opposite order: how much a pass's overdraw depends on it).
+//! `--sides N` (every hair's tube resolution in place of the workload's), `--radius M` (the
+//! tubes' root radius in metres, in place of the default 0.016), `--silhouette-error PX`
+//! (`HairLod::silhouette_error`, 0 for the level's sides at any width), `--reverse-strands` (the
+//! strands drawn in the opposite order: how much a pass's overdraw depends on it). The hairs'
+//! strand width on screen and the tube resolution the level of detail chose are printed.
 //!
 //! The scene: one directional light with shadow cascades, a grey ground and a head-sized sphere
 //! under every hair, the default look. Each pass is timed with Bevy's `RenderDiagnosticsPlugin`
@@ -58,6 +61,8 @@ struct Args {
     reverse_strands: bool,
     rings: Option<u32>,
     sides: Option<u32>,
+    radius: Option<f32>,
+    silhouette_error: Option<f32>,
 }
 
 fn args() -> Result<Args, String> {
@@ -72,6 +77,8 @@ fn args() -> Result<Args, String> {
         reverse_strands: false,
         rings: None,
         sides: None,
+        radius: None,
+        silhouette_error: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -97,6 +104,24 @@ fn args() -> Result<Args, String> {
             "--no-shadows" => out.shadows = false,
             "--cpu" => out.cpu = true,
             "--reverse-strands" => out.reverse_strands = true,
+            "--silhouette-error" => {
+                let e: f32 = value("--silhouette-error")?
+                    .parse()
+                    .map_err(|_| "--silhouette-error is pixels")?;
+                if !(0.0..=16.0).contains(&e) {
+                    return Err("--silhouette-error is from 0 to 16 px".into());
+                }
+                out.silhouette_error = Some(e);
+            }
+            "--radius" => {
+                let r: f32 = value("--radius")?
+                    .parse()
+                    .map_err(|_| "--radius is metres")?;
+                if !(1e-4..=0.1).contains(&r) {
+                    return Err("--radius is from 0.0001 to 0.1 m".into());
+                }
+                out.radius = Some(r);
+            }
             "--rings" | "--sides" => {
                 let n: u32 = value(&a)?.parse().map_err(|_| format!("{a} is a count"))?;
                 let limit = if a == "--rings" { 2..=64 } else { 3..=32 };
@@ -220,13 +245,44 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             if args.reverse_strands {
                 strands.reverse();
             }
-            common::spawn_head_with(world, &head, strands);
+            let hair = common::spawn_head_with(world, &head, strands);
+            if let Some(error) = args.silhouette_error {
+                world.entity_mut(hair).insert(bevy_cartoon_hair::mesh::HairLod {
+                    silhouette_error: error,
+                    ..default()
+                });
+            }
+            if let Some(radius) = args.radius {
+                world
+                    .entity_mut(hair)
+                    .get_mut::<bevy_cartoon_hair::mesh::HairMeshSettings>()
+                    .ok_or("the hair has no mesh settings")?
+                    .radius = radius;
+            }
         }
     }
     r.warm_up(|_| true).map_err(|e| e.to_string())?;
     // Diagnostics arrive a few frames late; let them settle.
     for _ in 0..8 {
         r.update();
+    }
+    if hair {
+        // What the level of detail chose: the widest strands on screen and the tubes.
+        let world = r.app.world_mut();
+        let mut lod = world.query::<(
+            &bevy_cartoon_hair::mesh::HairLodLevel,
+            &bevy_cartoon_hair::mesh::ComputedHairMesh,
+        )>();
+        for (level, mesh) in lod.iter(world) {
+            println!(
+                "hair: {:.1} px tall, strands {:.1} px wide, level {}, tubes {} rings x {} sides",
+                level.pixels,
+                level.strand_pixels,
+                level.level,
+                mesh.topology.rings(),
+                mesh.topology.sides()
+            );
+        }
     }
     let mut sums: BTreeMap<String, (f64, u32)> = BTreeMap::new();
     for _ in 0..args.frames {

@@ -11,6 +11,12 @@
 //! | 2 | 40 to 80 px | half (at least 3) | three quarters (at least 3) | none |
 //! | 3 | under 40 px | a quarter (at least 3) | half (at least 3) | none |
 //!
+//! Whatever the level, a tube never has more sides than its strands' width on screen needs: the
+//! fewest whose polygon's outline stays within [`HairLod::silhouette_error`] pixels (default
+//! half a pixel) of a round tube's, at least 3 (see [`sides_for_width`]). Strands 2 px wide
+//! get 3 sides, 3 px wide 4, 8 px wide 7; strands wider than about 10 px keep the settings'
+//! sides. The width is the thickest strand's, at the hair's nearest point to the camera.
+//!
 //! Going back up waits until the hair is [`HairLod::hysteresis`] times larger than the threshold
 //! it went down at, so a hair at the edge does not flicker between levels. The steps are as
 //! coarse as keeps a switch from showing: the test `lod_switches_move_the_silhouette_by_at_most_two_pixels`
@@ -39,6 +45,10 @@ pub struct HairLod {
     /// How much larger than a threshold the hair must grow to go back up a level. Clamped to
     /// `[1, 4]`. Default: `1.25`.
     pub hysteresis: f32,
+    /// How far, in pixels, a tube's polygonal outline may lie inside a round tube's: the sides
+    /// are the fewest that keep within it at the strands' width on screen (never more than the
+    /// level's). `0` (or not finite) keeps the level's sides. Default: `0.5`.
+    pub silhouette_error: f32,
 }
 
 impl Default for HairLod {
@@ -47,6 +57,7 @@ impl Default for HairLod {
             enabled: true,
             thresholds: [240.0, 80.0, 40.0],
             hysteresis: 1.25,
+            silhouette_error: 0.5,
         }
     }
 }
@@ -60,6 +71,11 @@ pub struct HairLodLevel {
     pub level: u8,
     /// Height on screen, pixels.
     pub pixels: f32,
+    /// The thickest strand's width on screen last frame, pixels, at the hair's nearest point
+    /// (largest over the active 3D cameras; 0 when no camera sees it).
+    pub strand_pixels: f32,
+    /// The most sides that width needs ([`sides_for_width`]), `0` for no limit.
+    pub sides: u8,
 }
 
 impl HairLod {
@@ -95,6 +111,86 @@ impl HairLod {
         }
         level
     }
+
+    /// The most sides for strands `width` pixels wide on screen whose limit was `current`
+    /// (`0`: none), with the same hysteresis as the levels: more sides as soon as the width asks
+    /// for them, fewer only once the width is [`HairLod::hysteresis`] times under what they need.
+    pub fn sides_for(&self, width: f32, current: u8) -> u8 {
+        let error = self.silhouette_error;
+        if !self.enabled || !error.is_finite() || error <= 0.0 || !width.is_finite() {
+            return 0;
+        }
+        let wanted = sides_for_width(width, error);
+        // No limit is the most sides there are.
+        let current = match current {
+            0 => usize::MAX,
+            n => usize::from(n),
+        };
+        // The limit in use asks for fewer: more sides now.
+        if current <= wanted {
+            return to_limit(wanted);
+        }
+        let up = if self.hysteresis.is_finite() {
+            self.hysteresis.clamp(1.0, 4.0)
+        } else {
+            1.25
+        };
+        // Fewer: only as few as a strand `up` times wider would need.
+        to_limit(sides_for_width(width * up, error).min(current))
+    }
+}
+
+/// `sides` as a [`HairLodLevel::sides`] limit: `0` (none) when past what a tube can have.
+fn to_limit(sides: usize) -> u8 {
+    if sides >= tube::MAX_SIDES {
+        0
+    } else {
+        sides as u8
+    }
+}
+
+/// The fewest sides (3 to [`tube::MAX_SIDES`]) whose regular polygon, its corners on a circle
+/// `width` pixels across, has its outline within `error` pixels of the circle's from any
+/// direction: `r (1 - cos(pi / n)) <= error` for `r = width / 2`.
+pub fn sides_for_width(width: f32, error: f32) -> usize {
+    let r = width * 0.5;
+    if r.is_nan() || r <= error {
+        return tube::MIN_SIDES;
+    }
+    let half_angle = (1.0 - error / r).clamp(-1.0, 1.0).acos();
+    if half_angle <= 0.0 {
+        return tube::MAX_SIDES;
+    }
+    ((std::f32::consts::PI / half_angle).ceil() as usize).clamp(tube::MIN_SIDES, tube::MAX_SIDES)
+}
+
+/// The width on screen, in pixels, of `width` metres at the point of `bounds` nearest `camera`
+/// (its world transform `view`). `None` when the camera has no viewport size yet or the bounds
+/// are behind it; infinite when the camera is inside them.
+pub fn strand_width_on_screen(
+    camera: &Camera,
+    view: &GlobalTransform,
+    bounds: &Aabb,
+    width: f32,
+) -> Option<f32> {
+    let height = camera.physical_viewport_size()?.y as f32;
+    let clip_from_view = camera.clip_from_view();
+    let centre = view
+        .affine()
+        .inverse()
+        .transform_point3(Vec3::from(bounds.center));
+    let w = (clip_from_view * centre.extend(1.0)).w;
+    if w.is_nan() || w <= 1e-6 {
+        return None;
+    }
+    // The nearest point: towards the camera (+Z in view space) by the bounding radius.
+    let radius = Vec3::from(bounds.half_extents).length();
+    let near = centre + Vec3::Z * radius;
+    let w_near = (clip_from_view * near.extend(1.0)).w;
+    if w_near.is_nan() || w_near <= 1e-6 {
+        return Some(f32::INFINITY);
+    }
+    Some(width * clip_from_view.y_axis.y / w_near * height * 0.5)
 }
 
 /// Rings and sides of a tube of `rings` x `sides` at `level`.
@@ -296,6 +392,68 @@ mod tests {
         }
     }
 
+    /// The sides for a width, worked by hand from `r (1 - cos(pi / n)) <= 0.5`: at 2 px
+    /// (`r = 1`) a triangle is within 0.5 px; at 3 px a square is within 0.44 (a triangle is
+    /// 0.75 off); at 8 px 7 sides are within 0.40 (6: 0.54); at 46 px 16 sides (15: 0.503).
+    /// Each count is the fewest: one side fewer misses the bound, measured on the polygon.
+    #[test]
+    fn sides_follow_the_strand_width_on_screen() {
+        for (width, sides) in [(0.5, 3), (2.0, 3), (3.0, 4), (8.0, 7), (46.0, 16)] {
+            let n = sides_for_width(width, 0.5);
+            assert_eq!(n, sides, "{width} px wide");
+            // The polygon's outline from every direction: its half-width seen across is the
+            // largest projection of its corners; the circle's is r.
+            let off = |n: usize| {
+                let r = width * 0.5;
+                (0..3600)
+                    .map(|k| {
+                        let view = k as f32 * std::f32::consts::TAU / 3600.0;
+                        let reach = (0..n)
+                            .map(|i| {
+                                let a = i as f32 * std::f32::consts::TAU / n as f32;
+                                r * (a - view).cos()
+                            })
+                            .fold(f32::MIN, f32::max);
+                        r - reach
+                    })
+                    .fold(0.0f32, f32::max)
+            };
+            assert!(
+                off(n) <= 0.5 + 1e-4,
+                "{width} px, {n} sides: {} px off",
+                off(n)
+            );
+            if n > 3 {
+                assert!(off(n - 1) > 0.5, "{width} px: {} sides would do", n - 1);
+            }
+        }
+        assert_eq!(sides_for_width(1e6, 0.5), tube::MAX_SIDES);
+        assert_eq!(sides_for_width(f32::NAN, 0.5), tube::MIN_SIDES);
+        let lod = HairLod::default();
+        // More sides at once; fewer only as few as 1.25 times the width needs (9 px needs 7,
+        // 11.25 px 8; 2 px 3, 2.5 px 4).
+        assert_eq!(lod.sides_for(10.5, 7), 8);
+        assert_eq!(lod.sides_for(8.0, 8), 7);
+        assert_eq!(lod.sides_for(9.0, 8), 8);
+        assert_eq!(lod.sides_for(2.0, 4), 4);
+        assert_eq!(lod.sides_for(1.6, 4), 3);
+        // From no limit down as from the most sides: 8 px asks 7, but 10 px (8 x 1.25) too.
+        assert_eq!(lod.sides_for(8.0, 0), 7);
+        assert_eq!(lod.sides_for(9.0, 0), 8);
+        // Wide strands: no limit. Off: no limit.
+        assert_eq!(lod.sides_for(1e6, 7), 0);
+        let exact = HairLod {
+            silhouette_error: 0.0,
+            ..lod
+        };
+        assert_eq!(exact.sides_for(2.0, 3), 0);
+        let off = HairLod {
+            enabled: false,
+            ..lod
+        };
+        assert_eq!(off.sides_for(2.0, 3), 0);
+    }
+
     #[test]
     fn levels_follow_the_size_with_hysteresis() {
         let lod = HairLod::default();
@@ -404,7 +562,8 @@ mod app_tests {
     }
 
     /// A hair 0.8 m from the camera keeps its 16 x 8 tubes; one 20 m away
-    /// drops to level 3 (4 x 4) and is counted; brought near, it goes back to full.
+    /// drops to level 3 (4 rings) with strands 1.5 px wide, so 3 sides, and is counted; brought
+    /// near, it goes back to full.
     #[test]
     fn far_hair_gets_coarser_tubes_and_comes_back() {
         let mut app = lod_app();
@@ -418,7 +577,12 @@ mod app_tests {
         let far_px = app.world().get::<HairLodLevel>(far).unwrap().pixels;
         println!("near hair {near_px:.0} px tall, far hair {far_px:.0} px");
         assert_eq!(mesh_of(&app, near), (0, 16, 8), "near: {near_px} px");
-        assert_eq!(mesh_of(&app, far), (3, 4, 4), "far: {far_px} px");
+        let strand_px = app.world().get::<HairLodLevel>(far).unwrap().strand_pixels;
+        assert!(
+            (1.0..2.0).contains(&strand_px),
+            "far strands {strand_px} px wide"
+        );
+        assert_eq!(mesh_of(&app, far), (3, 4, 3), "far: {far_px} px");
         assert_eq!(
             app.world().resource::<HairCullingStats>().reduced,
             [0, 0, 1]

@@ -360,23 +360,69 @@ pub fn rebuild_strand_meshes(
         let (culling, mut in_view, lod, mut level) = culling;
         // A character scaled at run time keeps its tubes in proportion.
         let radius = settings.radius * sim.size();
-        // Level of detail from the hair's size on screen, by last frame's bounds (the mesh's
-        // bounds are this frame's particles, known only after the topology is chosen). A hair
-        // no camera sees keeps its level, so it comes back as it left.
-        let pixels = computed
-            .as_ref()
-            .and_then(|c| aabbs.get(c.entity).ok())
-            .and_then(|aabb| {
-                cameras
-                    .iter()
-                    .filter(|(c, ..)| c.is_active)
-                    .filter_map(|(c, _, view)| lod::screen_height(c, view, aabb))
-                    .reduce(f32::max)
+        // The thickest the tube gets: the H curve's largest value on [0, 1], at least 1.
+        let taper = &settings.taper;
+        let widest = [0.0, 1.0, (-taper.b / (2.0 * taper.a)).clamp(0.0, 1.0)]
+            .into_iter()
+            .map(|x| taper.a * x * x + taper.b * x + taper.c)
+            .filter(|h| h.is_finite())
+            .fold(1.0f32, f32::max);
+        // Gather particles in strand order, reusing last frame's buffers.
+        let count = strand_list.len();
+        let mut gathered = 0;
+        for e in strand_list.iter() {
+            if let Ok((strand, particles)) = strands.get(e) {
+                if gathered == scratch.len() {
+                    scratch.push((0, Vec::new()));
+                }
+                let (index, buffer) = &mut scratch[gathered];
+                *index = strand.index;
+                buffer.clear();
+                buffer.extend_from_slice(&particles.positions);
+                gathered += 1;
+            }
+        }
+        if gathered != count {
+            continue;
+        }
+        let scratch = &mut scratch[..gathered];
+        scratch.sort_unstable_by_key(|(i, _)| *i);
+        // Bounds: the particles, grown by the thickest the tube gets.
+        let bounds = particle_bounds(scratch, radius * widest);
+        // Hair no camera sees keeps its last mesh (see `culling`); with no camera at all
+        // there is nothing to judge by.
+        let seen = !culling.enabled
+            || !any_camera
+            || bounds.is_none_or(|b| {
+                culling::seen_by_any(
+                    &b,
+                    cameras
+                        .iter()
+                        .filter(|(c, ..)| c.is_active)
+                        .map(|(_, f, _)| f),
+                )
             });
-        let next = match pixels {
-            Some(px) if in_view.0 => lod::HairLodLevel {
+        in_view.set_if_neq(HairInView(seen));
+        // Level of detail from the hair's size on screen, by this frame's bounds. A hair no
+        // camera sees keeps its level, so it comes back as it left.
+        let on_screen = bounds.and_then(|aabb| {
+            cameras
+                .iter()
+                .filter(|(c, ..)| c.is_active)
+                .filter_map(|(c, _, view)| {
+                    let height = lod::screen_height(c, view, &aabb)?;
+                    let width = 2.0 * radius * widest;
+                    let strand = lod::strand_width_on_screen(c, view, &aabb, width)?;
+                    Some((height, strand))
+                })
+                .reduce(|a, b| (a.0.max(b.0), a.1.max(b.1)))
+        });
+        let next = match on_screen {
+            Some((px, strand_px)) if seen => lod::HairLodLevel {
                 level: lod.level_for(px, level.level),
                 pixels: px,
+                strand_pixels: strand_px,
+                sides: lod.sides_for(strand_px, level.sides),
             },
             _ if !lod.enabled => lod::HairLodLevel::default(),
             _ => *level,
@@ -384,8 +430,11 @@ pub fn rebuild_strand_meshes(
         level.set_if_neq(next);
         let (rings, sides) = settings_topology(settings);
         let (rings, sides) = lod::lod_topology(rings, sides, level.level);
+        let sides = match level.sides {
+            0 => sides,
+            limit => sides.min(usize::from(limit)).max(tube::MIN_SIDES),
+        };
         let sides = section_sides(sides, settings, per_strand);
-        let count = strand_list.len();
         let rebuild = computed.as_ref().is_none_or(|c| {
             c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
         });
@@ -435,34 +484,6 @@ pub fn rebuild_strand_meshes(
         let Some(computed) = created.as_ref().or(computed.as_deref()) else {
             continue;
         };
-        // Gather particles in strand order, reusing last frame's buffers.
-        let mut gathered = 0;
-        for e in strand_list.iter() {
-            if let Ok((strand, particles)) = strands.get(e) {
-                if gathered == scratch.len() {
-                    scratch.push((0, Vec::new()));
-                }
-                let (index, buffer) = &mut scratch[gathered];
-                *index = strand.index;
-                buffer.clear();
-                buffer.extend_from_slice(&particles.positions);
-                gathered += 1;
-            }
-        }
-        if gathered != computed.strands {
-            continue;
-        }
-        let scratch = &mut scratch[..gathered];
-        scratch.sort_unstable_by_key(|(i, _)| *i);
-        // Bounds: the particles, grown by the thickest the tube gets (the H curve's largest
-        // value on [0, 1], at least 1).
-        let taper = &settings.taper;
-        let widest = [0.0, 1.0, (-taper.b / (2.0 * taper.a)).clamp(0.0, 1.0)]
-            .into_iter()
-            .map(|x| taper.a * x * x + taper.b * x + taper.c)
-            .filter(|h| h.is_finite())
-            .fold(1.0f32, f32::max);
-        let bounds = particle_bounds(scratch, radius * widest);
         if let Some(bounds) = bounds {
             match aabbs.get_mut(computed.entity) {
                 Ok(mut aabb) => *aabb = bounds,
@@ -471,20 +492,6 @@ pub fn rebuild_strand_meshes(
                 }
             }
         }
-        // Hair no camera sees keeps its last mesh (see `culling`); with no camera at all
-        // there is nothing to judge by.
-        let seen = !culling.enabled
-            || !any_camera
-            || bounds.is_none_or(|b| {
-                culling::seen_by_any(
-                    &b,
-                    cameras
-                        .iter()
-                        .filter(|(c, ..)| c.is_active)
-                        .map(|(_, f, _)| f),
-                )
-            });
-        in_view.set_if_neq(HairInView(seen));
         counted.hairs += 1;
         if level.level > 0 {
             counted.reduced[usize::from(level.level.min(3)) - 1] += 1;
