@@ -258,6 +258,8 @@ fn spawn_ninja_scene(
                     ..default()
                 },
             ),
+            // The eyes show through the bangs, as anime draws them.
+            crate::render::ShowThroughHairNamed::new(["eyes"]),
         ))
         .observe(play_idle_when_ready)
         .observe(shade_scalp_as_hair)

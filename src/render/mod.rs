@@ -16,6 +16,7 @@ mod fringe_shadow;
 mod gpu;
 mod outline;
 mod ramps;
+mod see_through;
 #[cfg(test)]
 mod shader_validation;
 mod stroke;
@@ -40,6 +41,10 @@ pub use outline::{
 pub use ramps::{
     RAMP_HEIGHT, RAMP_WIDTH, ToonRamps, highlight_texture_image, ramp_image, stroke_texture_image,
 };
+pub use see_through::{
+    SeenThroughHairMaterial, SeenThroughHairOverlay, SeenThroughHairUniform,
+    SeenThroughOverlayMarker, ShowThroughHair, ShowThroughHairNamed,
+};
 pub use stroke::{HairStrokeMaterial, HairStrokeUniform};
 pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use toon::{
@@ -62,6 +67,7 @@ pub const MATERIAL_SHADERS: &[(&str, &str)] = &[
     ("hair_prepass.wesl", include_str!("hair_prepass.wesl")),
     ("stroke.wesl", include_str!("stroke.wesl")),
     ("fringe_shadow.wesl", include_str!("fringe_shadow.wesl")),
+    ("see_through.wesl", include_str!("see_through.wesl")),
 ];
 
 /// The entry-point shaders of the crate's post-process and compute passes, as `(name, source)`.
@@ -95,11 +101,15 @@ impl Plugin for ToonHairMaterialPlugin {
         bevy::asset::embedded_asset!(app, "hair_prepass.wesl");
         bevy::asset::embedded_asset!(app, "stroke.wesl");
         bevy::asset::embedded_asset!(app, "fringe_shadow.wesl");
+        bevy::asset::embedded_asset!(app, "see_through.wesl");
         app.add_plugins((
             MaterialPlugin::<ToonHairMaterial>::default(),
             MaterialPlugin::<HairStrokeMaterial>::default(),
             MaterialPlugin::<FringeShadowMaterial>::default(),
+            MaterialPlugin::<SeenThroughHairMaterial>::default(),
         ))
+        .register_type::<ShowThroughHair>()
+        .register_type::<ShowThroughHairNamed>()
         .register_type::<ToonHairMaterial>()
         .register_type::<HairStrokeMaterial>()
         .register_type::<ToonHairMeshes>()
@@ -146,6 +156,7 @@ impl Plugin for ToonHairMaterialPlugin {
                     fringe_shadow::apply_fringe_shadow,
                     apply_stroke_material,
                     apply_highlight_material,
+                    (see_through::mark_named_parts, see_through::sync_overlays).chain(),
                 )
                     .in_set(HairSystems::Materials),
             )

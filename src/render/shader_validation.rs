@@ -547,3 +547,50 @@ fn every_fringe_shadow_variant_composes_and_validates() {
     }
     assert_eq!(checked, 8);
 }
+
+#[test]
+fn every_see_through_variant_composes_and_validates() {
+    use super::MATERIAL_SHADERS;
+    let mut compiler = ShaderCompiler::new(&bevy_shader_sources());
+    let values = bevy_value_defs();
+    let (name, source) = MATERIAL_SHADERS
+        .iter()
+        .find(|(n, _)| *n == "see_through.wesl")
+        .expect("see_through.wesl is listed");
+    let eye = bevy::prelude::Mesh::from(bevy::prelude::Sphere::new(0.01));
+    let mut checked = 0;
+    for uvs in [false, true] {
+        for prepasses in [false, true] {
+            for multisampled in [false, true] {
+                for projection in [
+                    "VIEW_PROJECTION_PERSPECTIVE",
+                    "VIEW_PROJECTION_ORTHOGRAPHIC",
+                ] {
+                    let mut defs = mesh_pipeline_vertex_defs(&eye);
+                    if !uvs {
+                        defs.retain(|d| *d != "VERTEX_UVS_A" && *d != "VERTEX_UVS");
+                    }
+                    if prepasses {
+                        defs.extend(["NORMAL_PREPASS", "DEPTH_PREPASS"]);
+                    }
+                    if multisampled {
+                        defs.push("MULTISAMPLED");
+                    }
+                    defs.push(projection);
+                    let module = compiler
+                        .compile(name, source, &defs, &values)
+                        .unwrap_or_else(|e| panic!("see through {defs:?}: {e}"));
+                    let reads = |texture: &str| {
+                        module
+                            .global_variables
+                            .iter()
+                            .any(|(_, g)| g.name.as_deref().is_some_and(|n| n.contains(texture)))
+                    };
+                    assert_eq!(reads("normal_prepass_texture"), prepasses, "{defs:?}");
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(checked, 16);
+}

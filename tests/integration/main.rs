@@ -24,6 +24,7 @@ mod mass_render;
 mod outline_render;
 mod render_smoke;
 mod ring_render;
+mod see_through_render;
 mod silhouette_render;
 mod toon_render;
 mod vrm_render;
@@ -76,6 +77,7 @@ fn main() {
         .chain(hairstyle_render::RENDER_TESTS)
         .chain(gpu_tubes_render::RENDER_TESTS)
         .chain(gpu_fallback_render::RENDER_TESTS)
+        .chain(see_through_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -60,8 +60,11 @@ MATERIALS = [  # name, base colour (linear), roughness, metallic
     # The hair's own shadow tone (its colour, srgb(0.98, 0.62, 0.12), at the ramp's dark band),
     # so the scalp that shows between spiky locks reads as hair, not skin.
     ("scalp", (0.43, 0.15, 0.006), 0.8, 0.0),
+    # The eyes: the dark of the feet, a material of their own so a game can find them by name
+    # (to draw them through the fringe).
+    ("eyes", (0.01, 0.01, 0.012), 0.5, 0.0),
 ]
-M_SKIN, M_NAVY, M_RED, M_DARK, M_METAL, M_SCALP = range(6)
+M_SKIN, M_NAVY, M_RED, M_DARK, M_METAL, M_SCALP, M_EYES = range(7)
 
 
 # ============================================================================================
@@ -239,7 +242,7 @@ def build_character():
     for sx in (-1.0, 1.0):
         c = HEAD_C + [sx * 0.038, -HEAD_R[1] * 0.93, 0.004]
         v, f = ellipsoid(c, [0.016, 0.008, 0.011], 12, 6)
-        mb.add(v, f, M_DARK, "head")
+        mb.add(v, f, M_EYES, "head")
     # Headband: a tilted closed band around the forehead, a metal plate at the front, a knot
     # and two tails at the back.
     n = 48
