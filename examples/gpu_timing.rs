@@ -247,10 +247,12 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             }
             let hair = common::spawn_head_with(world, &head, strands);
             if let Some(error) = args.silhouette_error {
-                world.entity_mut(hair).insert(bevy_cartoon_hair::mesh::HairLod {
-                    silhouette_error: error,
-                    ..default()
-                });
+                world
+                    .entity_mut(hair)
+                    .insert(bevy_cartoon_hair::mesh::HairLod {
+                        silhouette_error: error,
+                        ..default()
+                    });
             }
             if let Some(radius) = args.radius {
                 world

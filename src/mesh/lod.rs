@@ -14,8 +14,10 @@
 //! Whatever the level, a tube never has more sides than its strands' width on screen needs: the
 //! fewest whose polygon's outline stays within [`HairLod::silhouette_error`] pixels (default
 //! half a pixel) of a round tube's, at least 3 (see [`sides_for_width`]). Strands 2 px wide
-//! get 3 sides, 3 px wide 4, 8 px wide 7; strands wider than about 10 px keep the settings'
-//! sides. The width is the thickest strand's, at the hair's nearest point to the camera.
+//! need 3 sides, 3 px wide 4, 8 px wide 7; strands wider than about 10 px keep the settings'
+//! sides. The width is the thickest strand's, at the hair's nearest point to the camera. A hair
+//! starts from the most sides and comes down only with the hysteresis below, so a still hair
+//! has the sides of strands [`HairLod::hysteresis`] times wider than its own (2 px: 4 sides).
 //!
 //! Going back up waits until the hair is [`HairLod::hysteresis`] times larger than the threshold
 //! it went down at, so a hair at the edge does not flicker between levels. The steps are as
@@ -74,7 +76,8 @@ pub struct HairLodLevel {
     /// The thickest strand's width on screen last frame, pixels, at the hair's nearest point
     /// (largest over the active 3D cameras; 0 when no camera sees it).
     pub strand_pixels: f32,
-    /// The most sides that width needs ([`sides_for_width`]), `0` for no limit.
+    /// The most sides that width needs ([`sides_for_width`]): `u8::MAX` when it needs more than a
+    /// tube has, `0` before the first choice or with the rule off.
     pub sides: u8,
 }
 
@@ -113,17 +116,20 @@ impl HairLod {
     }
 
     /// The most sides for strands `width` pixels wide on screen whose limit was `current`
-    /// (`0`: none), with the same hysteresis as the levels: more sides as soon as the width asks
-    /// for them, fewer only once the width is [`HairLod::hysteresis`] times under what they need.
+    /// (see [`HairLodLevel::sides`]), with the same hysteresis as the levels: more sides as soon
+    /// as the width asks for them, fewer only once the width is [`HairLod::hysteresis`] times
+    /// under what they need. `0` when the rule is off.
     pub fn sides_for(&self, width: f32, current: u8) -> u8 {
         let error = self.silhouette_error;
         if !self.enabled || !error.is_finite() || error <= 0.0 || !width.is_finite() {
             return 0;
         }
         let wanted = sides_for_width(width, error);
-        // No limit is the most sides there are.
         let current = match current {
-            0 => usize::MAX,
+            // None chosen yet, or no limit: the most sides there are, so a new hair starts
+            // with the sides it keeps (a hair whose strands are near a switch does not change
+            // its mesh in its first frames).
+            0 | u8::MAX => usize::MAX,
             n => usize::from(n),
         };
         // The limit in use asks for fewer: more sides now.
@@ -140,10 +146,10 @@ impl HairLod {
     }
 }
 
-/// `sides` as a [`HairLodLevel::sides`] limit: `0` (none) when past what a tube can have.
+/// `sides` as a [`HairLodLevel::sides`] limit: `u8::MAX` (none) when past what a tube can have.
 fn to_limit(sides: usize) -> u8 {
     if sides >= tube::MAX_SIDES {
-        0
+        u8::MAX
     } else {
         sides as u8
     }
@@ -437,11 +443,13 @@ mod tests {
         assert_eq!(lod.sides_for(9.0, 8), 8);
         assert_eq!(lod.sides_for(2.0, 4), 4);
         assert_eq!(lod.sides_for(1.6, 4), 3);
-        // From no limit down as from the most sides: 8 px asks 7, but 10 px (8 x 1.25) too.
+        // The first choice, and from no limit, down as from the most sides.
         assert_eq!(lod.sides_for(8.0, 0), 7);
         assert_eq!(lod.sides_for(9.0, 0), 8);
+        assert_eq!(lod.sides_for(9.0, u8::MAX), 8);
+        assert_eq!(lod.sides_for(8.0, u8::MAX), 7);
         // Wide strands: no limit. Off: no limit.
-        assert_eq!(lod.sides_for(1e6, 7), 0);
+        assert_eq!(lod.sides_for(1e6, 7), u8::MAX);
         let exact = HairLod {
             silhouette_error: 0.0,
             ..lod

@@ -154,6 +154,9 @@ pub struct ComputedHairMesh {
     /// Each strand's rest root direction and a normal to it, in bone space: ring frames start
     /// from these turned by the bone, so they never flip as the strand swings.
     pub rest_frames: Vec<(Vec3, Vec3)>,
+    /// True in the frame its resolution changed: the CPU builds that frame's vertices (the
+    /// GPU's passes take the new layout from the next frame).
+    pub rebuilt: bool,
 }
 
 impl ComputedHairMesh {
@@ -440,12 +443,30 @@ pub fn rebuild_strand_meshes(
         });
         // Built on creation and on a topology change; read in place on every other frame.
         let mut created = None;
+        // Only touched when set, so the component is not marked changed every frame.
+        if !rebuild
+            && computed.as_ref().is_some_and(|c| c.rebuilt)
+            && let Some(c) = computed.as_deref_mut()
+        {
+            c.rebuilt = false;
+        }
         if rebuild {
             let topology = TubeTopology::new(rings, sides);
-            let mesh = meshes.add(new_hair_mesh(&topology, count));
+            // A new resolution replaces the mesh asset's contents under the same handle: a new
+            // asset reaches the renderer a frame late, and the hair would vanish for a frame.
+            let kept = computed
+                .as_ref()
+                .and_then(|c| Some((c.mesh.clone(), meshes.get_mut(&c.mesh)?)))
+                .map(|(handle, mut mesh)| {
+                    *mesh = new_hair_mesh(&topology, count);
+                    handle
+                });
+            let mesh = kept.unwrap_or_else(|| meshes.add(new_hair_mesh(&topology, count)));
             let entity = match &computed {
                 Some(c) => {
-                    commands.entity(c.entity).insert(Mesh3d(mesh.clone()));
+                    if c.mesh != mesh {
+                        commands.entity(c.entity).insert(Mesh3d(mesh.clone()));
+                    }
                     c.entity
                 }
                 None => commands
@@ -471,6 +492,7 @@ pub fn rebuild_strand_meshes(
                 strands: count,
                 entity,
                 rest_frames,
+                rebuilt: true,
             };
             match computed.as_deref_mut() {
                 Some(existing) => *existing = c,
@@ -500,8 +522,10 @@ pub fn rebuild_strand_meshes(
             counted.culled += 1;
             continue;
         }
-        // The GPU builds its vertices from this frame's particles (`render::GpuTubesPlugin`).
-        if on_gpu {
+        // The GPU builds its vertices from this frame's particles (`render::GpuTubesPlugin`),
+        // but a mesh made this frame (a new resolution) reaches the GPU only after its passes
+        // ran: the CPU builds that frame, so the hair is never a frame without vertices.
+        if on_gpu && !rebuild {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&computed.mesh) else {

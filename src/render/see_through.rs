@@ -254,10 +254,14 @@ pub(crate) fn sync_overlays(
     mut removed: RemovedComponents<ShowThroughHair>,
     linked: Query<&SeenThroughHairOverlay>,
     mut overlays: Query<&mut Mesh3d, (With<SeenThroughOverlayMarker>, Without<ShowThroughHair>)>,
-    standard: Res<Assets<StandardMaterial>>,
-    fringe: Res<Assets<FringeShadowMaterial>>,
-    mut materials: ResMut<Assets<SeenThroughHairMaterial>>,
-    handles: Query<&MeshMaterial3d<SeenThroughHairMaterial>>,
+    (standard, fringe): (
+        Res<Assets<StandardMaterial>>,
+        Res<Assets<FringeShadowMaterial>>,
+    ),
+    (mut materials, handles): (
+        ResMut<Assets<SeenThroughHairMaterial>>,
+        Query<&MeshMaterial3d<SeenThroughHairMaterial>>,
+    ),
 ) {
     for part in removed.read() {
         if let Ok(link) = linked.get(part) {

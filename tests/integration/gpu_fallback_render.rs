@@ -41,6 +41,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         a_hair_back_in_view_is_built_in_that_frame,
     ),
     (
+        "a_gpu_hair_changing_its_tubes_in_view_is_drawn_every_frame",
+        a_gpu_hair_changing_its_tubes_in_view_is_drawn_every_frame,
+    ),
+    (
         "a_nan_particle_makes_no_nan_vertex_on_the_gpu",
         a_nan_particle_makes_no_nan_vertex_on_the_gpu,
     ),
@@ -338,6 +342,49 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
         return Err("the first frame back in view shows the hair where it left".into());
     }
     Ok(())
+}
+
+/// A GPU-built hair whose tubes change resolution while it is in view (what a level-of-detail
+/// switch does) is drawn in every frame, the frame of the change included (built on the CPU
+/// then), and ends as the CPU draws it. Before, the frame of a change drew no hair at all.
+fn a_gpu_hair_changing_its_tubes_in_view_is_drawn_every_frame() -> Result<(), Failed> {
+    use bevy::time::TimeUpdateStrategy;
+    use std::time::Duration;
+    let (mut r, _) = scene(false)?;
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
+            1.0 / 60.0,
+        )));
+    let hair = spawn_spikes(&mut r, 2, Transform::IDENTITY);
+    r.capture()?;
+    if !on_gpu(&r, hair) {
+        return Err("the hair was not built on the GPU".into());
+    }
+    for sides in [5, 8, 3] {
+        r.app
+            .world_mut()
+            .get_mut::<HairMeshSettings>(hair)
+            .ok_or("the hair has no mesh settings")?
+            .shape_resolution = sides;
+        let mut frames = Vec::new();
+        r.capture_sequence(3, |_, f| frames.push(f))?;
+        for (k, f) in frames.iter().enumerate() {
+            let px = f.count(|p| p != BACKGROUND);
+            eprintln!("{sides} sides, frame {k}: {px} hair px");
+            if px < 500 {
+                save(f, &format!("gpu_tubes_change_{sides}_{k}"))?;
+                return Err(format!("{sides} sides, frame {k} of the change: {px} hair px").into());
+            }
+        }
+        if !on_gpu(&r, hair) {
+            return Err(format!("{sides} sides: the hair left the GPU").into());
+        }
+    }
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    let gpu = next_frame(&mut r)?;
+    let cpu = cpu_reference(&mut r)?;
+    same_picture(&cpu, &gpu, "after the changes, against the CPU")
 }
 
 /// Particles that are NaN or infinite reach the tube pass (written into the strands after the

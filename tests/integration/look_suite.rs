@@ -31,6 +31,25 @@ const VIEWS: [(&str, f32); 3] = [
     ("back", std::f32::consts::PI),
 ];
 
+/// Puts every hair at rest, lets it settle for 20 frames of 1/30 s, then stops time, so every
+/// capture that follows sees the same hair.
+pub(crate) fn settle_and_freeze(r: &mut HeadlessRenderer) {
+    let world = r.app.world_mut();
+    let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
+    for (bone, mut hair) in hairs.iter_mut(world) {
+        hair.reset(bone);
+    }
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
+            1.0 / 30.0,
+        )));
+    for _ in 0..20 {
+        r.app.update();
+    }
+    r.app
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+}
+
 fn luma(p: [u8; 4]) -> f32 {
     0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
 }
@@ -197,20 +216,7 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
             r.app.insert_resource(HairMeshBuilder::Cpu);
         }
         r.warm_up(ninja_scene_ready)?;
-        let world = r.app.world_mut();
-        let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
-        for (bone, mut hair) in hairs.iter_mut(world) {
-            hair.reset(bone);
-        }
-        r.app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
-                1.0 / 30.0,
-            )));
-        for _ in 0..20 {
-            r.app.update();
-        }
-        r.app
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+        settle_and_freeze(&mut r);
         let world = r.app.world_mut();
         let supported = world.resource::<HairGpuMeshSupport>().supported;
         let mut built = world.query::<(&Hair, Has<HairMeshBuiltOnGpu>)>();

@@ -12,7 +12,6 @@ use bevy_cartoon_hair::demo::{NinjaHairstyle, NinjaOrbit, NinjaScenePlugin, ninj
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{SeenThroughOverlayMarker, ShowThroughHair};
-use bevy_cartoon_hair::sim::ComputedHair;
 use libtest_mimic::Failed;
 
 use crate::toon_render::save;
@@ -100,22 +99,7 @@ fn eyes_show_through_the_fringe_at_their_opacity_and_nowhere_else() -> Result<()
                 .count()
                 >= 1
     })?;
-    eprintln!("see through: the ninja and its eye overlays are ready");
-    // The hair settled at rest, then time frozen so every capture sees the same hair.
-    let world = r.app.world_mut();
-    let mut hairs = world.query::<(&GlobalTransform, &mut ComputedHair)>();
-    for (bone, mut hair) in hairs.iter_mut(world) {
-        hair.reset(bone);
-    }
-    r.app
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f32(
-            1.0 / 30.0,
-        )));
-    for _ in 0..20 {
-        r.app.update();
-    }
-    r.app
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    crate::look_suite::settle_and_freeze(&mut r);
     let world = r.app.world_mut();
     // Magenta eyes (their own material), no tone mapping.
     let mut marked = world

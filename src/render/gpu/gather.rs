@@ -108,7 +108,9 @@ pub(crate) fn gather_gpu_tube_inputs(
                 ],
             )
         });
-        let (Some([position, normal, tangent, stride]), true, true) = (offsets, on_gpu, in_view.0)
+        // A mesh whose resolution changed this frame is built on the CPU this frame.
+        let (Some([position, normal, tangent, stride]), true, true, false) =
+            (offsets, on_gpu, in_view.0, computed.rebuilt)
         else {
             if inputs.contains(computed.entity) {
                 commands.entity(computed.entity).remove::<GpuTubeInput>();
