@@ -189,8 +189,8 @@ pub mod prelude {
     #[cfg(feature = "render")]
     pub use crate::render::{
         FringeShadow, FringeShadowMeshes, HairGpuBuildFailed, HairMaterial, ImageSpaceOutline,
-        LockLines, OutlineSource, RampMode, ToonHairMaterial, ToonHairMeshes, ToonLighting,
-        ToonRamps, ToonShading,
+        LockLines, OutlineSource, RampMode, ShowThroughHair, ShowThroughHairNamed,
+        ToonHairMaterial, ToonHairMeshes, ToonLighting, ToonRamps, ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};
