@@ -346,7 +346,7 @@ fn a_hair_back_in_view_is_built_in_that_frame() -> Result<(), Failed> {
 
 /// A GPU-built hair whose tubes change resolution while it is in view (what a level-of-detail
 /// switch does) is drawn in every frame, the frame of the change included (built on the CPU
-/// then), and ends as the CPU draws it. Before, the frame of a change drew no hair at all.
+/// then), and ends as the CPU draws it.
 fn a_gpu_hair_changing_its_tubes_in_view_is_drawn_every_frame() -> Result<(), Failed> {
     use bevy::time::TimeUpdateStrategy;
     use std::time::Duration;
