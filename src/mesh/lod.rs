@@ -87,11 +87,7 @@ impl HairLod {
         if !self.enabled || !pixels.is_finite() {
             return 0;
         }
-        let up = if self.hysteresis.is_finite() {
-            self.hysteresis.clamp(1.0, 4.0)
-        } else {
-            1.25
-        };
+        let up = self.up();
         // The level the size alone asks for.
         let wanted = self
             .thresholds
@@ -115,6 +111,15 @@ impl HairLod {
         level
     }
 
+    /// How much past a switch a hair must grow to go back: the hysteresis, clamped.
+    fn up(&self) -> f32 {
+        if self.hysteresis.is_finite() {
+            self.hysteresis.clamp(1.0, 4.0)
+        } else {
+            1.25
+        }
+    }
+
     /// The most sides for strands `width` pixels wide on screen whose limit was `current`
     /// (see [`HairLodLevel::sides`]), with the same hysteresis as the levels: more sides as soon
     /// as the width asks for them, fewer only once the width is [`HairLod::hysteresis`] times
@@ -136,11 +141,7 @@ impl HairLod {
         if current <= wanted {
             return to_limit(wanted);
         }
-        let up = if self.hysteresis.is_finite() {
-            self.hysteresis.clamp(1.0, 4.0)
-        } else {
-            1.25
-        };
+        let up = self.up();
         // Fewer: only as few as a strand `up` times wider would need.
         to_limit(sides_for_width(width * up, error).min(current))
     }
@@ -170,35 +171,6 @@ pub fn sides_for_width(width: f32, error: f32) -> usize {
     ((std::f32::consts::PI / half_angle).ceil() as usize).clamp(tube::MIN_SIDES, tube::MAX_SIDES)
 }
 
-/// The width on screen, in pixels, of `width` metres at the point of `bounds` nearest `camera`
-/// (its world transform `view`). `None` when the camera has no viewport size yet or the bounds
-/// are behind it; infinite when the camera is inside them.
-pub fn strand_width_on_screen(
-    camera: &Camera,
-    view: &GlobalTransform,
-    bounds: &Aabb,
-    width: f32,
-) -> Option<f32> {
-    let height = camera.physical_viewport_size()?.y as f32;
-    let clip_from_view = camera.clip_from_view();
-    let centre = view
-        .affine()
-        .inverse()
-        .transform_point3(Vec3::from(bounds.center));
-    let w = (clip_from_view * centre.extend(1.0)).w;
-    if w.is_nan() || w <= 1e-6 {
-        return None;
-    }
-    // The nearest point: towards the camera (+Z in view space) by the bounding radius.
-    let radius = Vec3::from(bounds.half_extents).length();
-    let near = centre + Vec3::Z * radius;
-    let w_near = (clip_from_view * near.extend(1.0)).w;
-    if w_near.is_nan() || w_near <= 1e-6 {
-        return Some(f32::INFINITY);
-    }
-    Some(width * clip_from_view.y_axis.y / w_near * height * 0.5)
-}
-
 /// Rings and sides of a tube of `rings` x `sides` at `level`.
 pub fn lod_topology(rings: usize, sides: usize, level: u8) -> (usize, usize) {
     let (rings, sides) = match level {
@@ -221,19 +193,47 @@ pub fn lod_topology(rings: usize, sides: usize, level: u8) -> (usize, usize) {
 /// viewport size yet or the bounds are behind it.
 pub fn screen_height(camera: &Camera, view: &GlobalTransform, bounds: &Aabb) -> Option<f32> {
     let height = camera.logical_viewport_size()?.y;
+    let (clip_from_view, _, w) = project_centre(camera, view, bounds)?;
+    let radius = Vec3::from(bounds.half_extents).length();
+    Some(2.0 * radius * clip_from_view.y_axis.y / w * height * 0.5)
+}
+
+/// [`screen_height`], and the width on screen in pixels of `width` metres at the point of
+/// `bounds` nearest the camera (infinite when the camera is inside them).
+pub fn screen_height_and_width(
+    camera: &Camera,
+    view: &GlobalTransform,
+    bounds: &Aabb,
+    width: f32,
+) -> Option<(f32, f32)> {
+    let logical = camera.logical_viewport_size()?.y;
+    let pixels = camera.physical_viewport_size()?.y as f32;
+    let (clip_from_view, centre, w) = project_centre(camera, view, bounds)?;
+    let scale = clip_from_view.y_axis.y * 0.5;
+    let radius = Vec3::from(bounds.half_extents).length();
+    let height = 2.0 * radius * scale / w * logical;
+    // The nearest point: towards the camera (+Z in view space) by the bounding radius.
+    let w_near = (clip_from_view * (centre + Vec3::Z * radius).extend(1.0)).w;
+    if w_near.is_nan() || w_near <= 1e-6 {
+        return Some((height, f32::INFINITY));
+    }
+    Some((height, width * scale / w_near * pixels))
+}
+
+/// The camera's projection, the bounds' centre in view space and its clip `w` (perspective: the
+/// depth; orthographic: 1). `None` behind the camera.
+fn project_centre(
+    camera: &Camera,
+    view: &GlobalTransform,
+    bounds: &Aabb,
+) -> Option<(Mat4, Vec3, f32)> {
     let clip_from_view = camera.clip_from_view();
     let centre = view
         .affine()
         .inverse()
         .transform_point3(Vec3::from(bounds.center));
-    let clip = clip_from_view * centre.extend(1.0);
-    // Perspective: w is the depth; orthographic: 1.
-    let w = clip.w;
-    if w.is_nan() || w <= 1e-6 {
-        return None;
-    }
-    let radius = Vec3::from(bounds.half_extents).length();
-    Some(2.0 * radius * clip_from_view.y_axis.y / w * height * 0.5)
+    let w = (clip_from_view * centre.extend(1.0)).w;
+    (!w.is_nan() && w > 1e-6).then_some((clip_from_view, centre, w))
 }
 
 #[cfg(test)]

@@ -154,9 +154,6 @@ pub struct ComputedHairMesh {
     /// Each strand's rest root direction and a normal to it, in bone space: ring frames start
     /// from these turned by the bone, so they never flip as the strand swings.
     pub rest_frames: Vec<(Vec3, Vec3)>,
-    /// True in the frame its resolution changed: the CPU builds that frame's vertices (the
-    /// GPU's passes take the new layout from the next frame).
-    pub rebuilt: bool,
 }
 
 impl ComputedHairMesh {
@@ -413,10 +410,7 @@ pub fn rebuild_strand_meshes(
                 .iter()
                 .filter(|(c, ..)| c.is_active)
                 .filter_map(|(c, _, view)| {
-                    let height = lod::screen_height(c, view, &aabb)?;
-                    let width = 2.0 * radius * widest;
-                    let strand = lod::strand_width_on_screen(c, view, &aabb, width)?;
-                    Some((height, strand))
+                    lod::screen_height_and_width(c, view, &aabb, 2.0 * radius * widest)
                 })
                 .reduce(|a, b| (a.0.max(b.0), a.1.max(b.1)))
         });
@@ -443,13 +437,6 @@ pub fn rebuild_strand_meshes(
         });
         // Built on creation and on a topology change; read in place on every other frame.
         let mut created = None;
-        // Only touched when set, so the component is not marked changed every frame.
-        if !rebuild
-            && computed.as_ref().is_some_and(|c| c.rebuilt)
-            && let Some(c) = computed.as_deref_mut()
-        {
-            c.rebuilt = false;
-        }
         if rebuild {
             let topology = TubeTopology::new(rings, sides);
             // A new resolution replaces the mesh asset's contents under the same handle: a new
@@ -492,7 +479,6 @@ pub fn rebuild_strand_meshes(
                 strands: count,
                 entity,
                 rest_frames,
-                rebuilt: true,
             };
             match computed.as_deref_mut() {
                 Some(existing) => *existing = c,
@@ -524,7 +510,8 @@ pub fn rebuild_strand_meshes(
         }
         // The GPU builds its vertices from this frame's particles (`render::GpuTubesPlugin`),
         // but a mesh made this frame (a new resolution) reaches the GPU only after its passes
-        // ran: the CPU builds that frame, so the hair is never a frame without vertices.
+        // ran: the CPU builds that frame, so the hair is never a frame without vertices. The
+        // component is written only here, so the GPU's gather reads a change of it as this.
         if on_gpu && !rebuild {
             continue;
         }

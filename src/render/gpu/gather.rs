@@ -75,7 +75,7 @@ pub(crate) fn gather_gpu_tube_inputs(
             &HairMeshSettings,
             Option<&HairStrandSections>,
             &HairStrands,
-            &ComputedHairMesh,
+            Ref<ComputedHairMesh>,
             &ComputedHair,
             &HairInView,
             &GlobalTransform,
@@ -108,9 +108,10 @@ pub(crate) fn gather_gpu_tube_inputs(
                 ],
             )
         });
-        // A mesh whose resolution changed this frame is built on the CPU this frame.
+        // A mesh made or resized this frame is built on the CPU this frame (`ComputedHairMesh`
+        // is written only then).
         let (Some([position, normal, tangent, stride]), true, true, false) =
-            (offsets, on_gpu, in_view.0, computed.rebuilt)
+            (offsets, on_gpu, in_view.0, computed.is_changed())
         else {
             if inputs.contains(computed.entity) {
                 commands.entity(computed.entity).remove::<GpuTubeInput>();
