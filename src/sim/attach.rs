@@ -190,6 +190,14 @@ impl ComputedHair {
         self.batches[b as usize].particle(l as usize, i)
     }
 
+    /// How many particles strand `s` has (0 when there is no such strand).
+    pub(crate) fn particle_count(&self, s: usize) -> usize {
+        self.lane_of
+            .get(s)
+            .and_then(|&(b, _)| self.batches.get(b as usize))
+            .map_or(0, |b| b.nodes.len() / 2)
+    }
+
     /// Moves particle `i` of strand `s` to `p` (a limit that cut its step short).
     pub(crate) fn set_particle(&mut self, s: usize, i: usize, p: Vec3) {
         if let Some(&(b, l)) = self.lane_of.get(s) {

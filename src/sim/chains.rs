@@ -17,13 +17,13 @@ use bevy::prelude::*;
 use bevy::transform::helper::TransformHelper;
 use bevy::world_serialization::WorldAssetRoot;
 
-use super::attach::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+use super::attach::Hair;
 use super::attach_work::AttachWork;
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
-use super::collider::{HairCollider, HairCollidesOnly};
-use super::contact::ContactShape;
+use super::chain_pose::ChainPose;
+use super::collider::HairCollidesOnly;
 use super::events::BoneNotFound;
-use super::limits::{ChainJointLimits, limit_frame, limit_offset};
+use super::limits::ChainJointLimits;
 use super::settings::{HairInertiaFrame, HairSimSettings};
 use crate::asset::{HairGroom, JointLimit};
 
@@ -115,13 +115,13 @@ pub struct BoneChainHair {
     /// Per strand: its joints, root first (the tail particle has none).
     pub joints: Vec<Vec<Entity>>,
     /// Per strand: each joint's local transform in the bind pose.
-    rest: Vec<Vec<Transform>>,
+    pub(super) rest: Vec<Vec<Transform>>,
     /// Per strand: the tail's offset in the last turned joint's local frame.
-    tail: Vec<Vec3>,
+    pub(super) tail: Vec<Vec3>,
     /// Per strand: its last joint is the tail (moved, not turned).
-    tail_joint: Vec<bool>,
+    pub(super) tail_joint: Vec<bool>,
     /// Per strand: each joint's angle limit ([`ChainJointLimits`]), if any.
-    limits: Vec<Vec<Option<JointLimit>>>,
+    pub(super) limits: Vec<Vec<Option<JointLimit>>>,
 }
 
 /// A chain found under the character: the bone it hangs from and its joints, root first.
@@ -353,6 +353,7 @@ pub(crate) fn build_bone_chains(
                 },
                 settings.clone(),
                 driven,
+                ChainPose::default(),
                 ChildOf(parent),
             ));
             if let Some(only) = only {
@@ -410,188 +411,4 @@ fn chain_strand(
     world.push(tip);
     let tail_local = last.affine().inverse().transform_point3(tip);
     Some((world, rest, tail_local))
-}
-
-/// Turns each chain's joints, root to tip, so each points at its next particle (its child, at
-/// the bone's length, kept off the hair's colliders and inside the joint's angle limit, if it
-/// has one: [`ChainJointLimits`]; the particle follows), and writes their local and global
-/// transforms (the skinned mesh is drawn from these this frame).
-#[expect(
-    clippy::type_complexity,
-    reason = "a Bevy system: its parameters are its queries"
-)]
-pub(crate) fn pose_bone_chains(
-    mut hairs: Query<(
-        &BoneChainHair,
-        &GlobalTransform,
-        &HairStrands,
-        &mut ComputedHair,
-        (&HairSimSettings, Option<&HairCollidesOnly>),
-    )>,
-    mut strands: Query<(&Strand, &mut StrandParticles)>,
-    mut joints: Query<
-        (&mut Transform, &mut GlobalTransform),
-        (Without<BoneChainHair>, Without<HairCollider>),
-    >,
-    colliders: Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
-    mut shapes: Local<Vec<(ContactShape, bool)>>,
-) {
-    for (driven, hair_world, strand_list, mut computed, (settings, only)) in &mut hairs {
-        let margin = settings.margins().0 * computed.size;
-        // Where the hair is: its particles' box, grown by twice its longest segment (the posed
-        // joints lie within a bone of the particles).
-        let (mut lo, mut hi, mut longest) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
-        for strand in strand_list.iter() {
-            let Ok((_, particles)) = strands.get(strand) else {
-                continue;
-            };
-            for (i, p) in particles.positions.iter().enumerate() {
-                if !p.is_finite() {
-                    continue;
-                }
-                let p = Vec3A::from(*p);
-                (lo, hi) = (lo.min(p), hi.max(p));
-                if let Some(next) = particles.positions.get(i + 1).filter(|n| n.is_finite()) {
-                    longest = longest.max(Vec3A::from(*next).distance(p));
-                }
-            }
-        }
-        let reach = Vec3A::splat(2.0 * longest);
-        // The colliders this hair meets, where they are now: those that can reach it (a crowd's
-        // hair meets its own character's body, not every body in the world).
-        shapes.clear();
-        for (e, collider, g) in &colliders {
-            if only.is_some_and(|o| !o.0.contains(&e)) {
-                continue;
-            }
-            let pose = g.affine();
-            let inside = collider.inside();
-            shapes.extend(
-                collider
-                    .shapes()
-                    .map(|s| (s.at(&pose), inside))
-                    .filter(|(s, inside)| *inside || s.meets(lo - reach, hi + reach, margin)),
-            );
-        }
-        for strand in strand_list.iter() {
-            let Ok((strand, mut particles)) = strands.get_mut(strand) else {
-                continue;
-            };
-            let s = strand.index as usize;
-            let (Some(chain), Some(rest), Some(tail)) =
-                (driven.joints.get(s), driven.rest.get(s), driven.tail.get(s))
-            else {
-                continue;
-            };
-            let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
-            let particles_expected = chain.len() + usize::from(!tail_joint);
-            if particles.positions.len() != particles_expected
-                || !particles.positions.iter().all(|p| p.is_finite())
-            {
-                continue;
-            }
-            // The hair hangs on the chains' parent bone with an identity transform.
-            let mut parent = *hair_world;
-            for (k, &joint) in chain.iter().enumerate() {
-                let Ok((mut local, mut global)) = joints.get_mut(joint) else {
-                    break;
-                };
-                if tail_joint && k + 1 == chain.len() {
-                    // The tail joint follows the turned chain, unturned.
-                    *global = parent.mul_transform(*local);
-                    break;
-                }
-                let bind = Transform {
-                    rotation: rest[k].rotation,
-                    ..*local
-                };
-                let at_rest = parent.mul_transform(bind);
-                let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
-                let from = at_rest.affine().transform_vector3(child);
-                let mut to = particles.positions[k + 1] - at_rest.translation();
-                // The posed child sits at its bone's length: keep it off the colliders the
-                // particle was kept off (a collider can hold a particle nearer than a bone).
-                if let Some(kept) = keep_off(&shapes, at_rest.translation(), to, from, margin) {
-                    let moved = at_rest.translation() + kept;
-                    particles.positions[k + 1] = moved;
-                    computed.set_particle(s, k + 1, moved);
-                    to = kept;
-                }
-                if let Some(limit) = driven
-                    .limits
-                    .get(s)
-                    .and_then(|l| l.get(k))
-                    .copied()
-                    .flatten()
-                {
-                    let (_, rest_rotation, _) = at_rest.to_scale_rotation_translation();
-                    let frame = limit_frame(rest_rotation, child, &limit);
-                    let limited = limit_offset(frame, &limit, to);
-                    if limited != to {
-                        // The simulation goes on from the limited joint, as VRM's step does.
-                        let moved = at_rest.translation() + limited;
-                        particles.positions[k + 1] = moved;
-                        computed.set_particle(s, k + 1, moved);
-                        to = limited;
-                    }
-                }
-                let rotation = match (from.try_normalize(), to.try_normalize()) {
-                    (Some(a), Some(b)) => {
-                        let (_, parent_rotation, _) = parent.to_scale_rotation_translation();
-                        let turn = Quat::from_rotation_arc(a, b);
-                        (parent_rotation.inverse() * turn * parent_rotation * bind.rotation)
-                            .normalize()
-                    }
-                    _ => bind.rotation,
-                };
-                if !rotation.is_finite() {
-                    break;
-                }
-                let posed = Transform { rotation, ..bind };
-                let world = parent.mul_transform(posed);
-                local.rotation = rotation;
-                *global = world;
-                parent = world;
-            }
-        }
-    }
-}
-
-/// Rounds of [`keep_off`]: each pushes the child onto a collider's margin and back to the bone's
-/// length, nearer the margin each time.
-const KEEP_OFF_ROUNDS: usize = 8;
-
-/// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
-/// length (`bone`'s), it would lie within `margin` of a collider in `shapes`: turned about the
-/// joint onto the collider's margin. `None` when it is
-/// clear.
-fn keep_off(
-    shapes: &[(ContactShape, bool)],
-    joint: Vec3,
-    to: Vec3,
-    bone: Vec3,
-    margin: f32,
-) -> Option<Vec3> {
-    let length = bone.length();
-    let mut dir = to.try_normalize()?;
-    let mut moved = false;
-    for _ in 0..KEEP_OFF_ROUNDS {
-        let mut clear = true;
-        for (shape, inside) in shapes {
-            let q = Vec3A::from(joint + dir * length);
-            if let Some(out) = shape.resolve(q, margin, *inside)
-                && let Some(d) = (Vec3::from(out) - joint).try_normalize()
-            {
-                dir = d;
-                clear = false;
-                moved = true;
-            }
-        }
-        if clear {
-            break;
-        }
-    }
-    // At the bone's length: the particle goes where the posed joint is.
-    let kept = dir * length;
-    (moved && kept.is_finite()).then_some(kept)
 }

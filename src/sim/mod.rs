@@ -27,6 +27,7 @@
 mod attach;
 mod attach_work;
 mod bone;
+mod chain_pose;
 mod chains;
 mod clock;
 mod collider;
@@ -39,6 +40,7 @@ mod limits;
 mod physics;
 mod reload;
 mod scratch;
+mod segments;
 mod settings;
 pub mod solver;
 mod step;
@@ -151,8 +153,10 @@ impl Plugin for HairSimulationPlugin {
                 PostUpdate,
                 (
                     step::step_hair_strands.after(physics::GatherColliders),
+                    // Posing moves the particles it keeps off colliders: before they are
+                    // written out.
                     step::write_strand_particles,
-                    chains::pose_bone_chains,
+                    chain_pose::pose_bone_chains,
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

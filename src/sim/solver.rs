@@ -220,6 +220,9 @@ pub struct StepInput {
     /// Style limit applied after the last substep: no free node farther than this (metres)
     /// from its anchor; `inf` = none.
     pub style_limit: f32,
+    /// Keep the segments between particles off spheres and capsules too, not only the
+    /// particles (bone chains, whose joints are far apart; see `sim::segments`).
+    pub segments: bool,
     /// Strain limit applied after the last substep: no chain edge (and no particle segment)
     /// longer than this times its rest length; `inf` or below 1 = none.
     pub max_stretch: f32,
@@ -501,6 +504,16 @@ impl Batch {
         }
         if !input.shapes.is_empty() {
             self.collide_shapes(&input.shapes, input.friction);
+        }
+        if input.segments {
+            let spheres = input.sphere_count;
+            self.collide_segments(
+                &input.spheres[s * spheres..(s + 1) * spheres],
+                input.contacts[s * c..(s + 1) * c]
+                    .iter()
+                    .filter(|contact| !contact.inside)
+                    .map(|contact| &contact.shape),
+            );
         }
     }
 

@@ -32,6 +32,59 @@ pub(crate) struct ColliderHistory {
     shapes: Vec<(ShapeView, Entity)>,
     /// Every force field that blows: pose last frame, now, field.
     field_views: Vec<(Affine3A, Affine3A, HairForceField)>,
+    /// Per collider entity: its run of `shapes` and where they were and are, so a hair skips a
+    /// far collider with one box test (a crowd's hair meets its own character's body).
+    colliders: Vec<ColliderReach>,
+    /// This frame's small hairs, each stepped whole on one thread (reused every frame).
+    jobs: Vec<HairJob>,
+}
+
+/// A [`HairCollider`]'s shapes over one frame, for the per-hair broad phase.
+#[derive(Clone, Copy, Debug)]
+struct ColliderReach {
+    /// Its shapes: `shapes[first..end]`.
+    first: usize,
+    end: usize,
+    /// Its pose now is usable (its shapes are skipped until it is).
+    usable: bool,
+    /// How far its origin moved since last frame (infinite when last frame's pose is unusable).
+    travel: f32,
+    /// Its shapes' bounds last frame and now; infinite for planes and keep-inside shapes,
+    /// which every hair tests.
+    prev: (Vec3A, Vec3A),
+    now: (Vec3A, Vec3A),
+}
+
+impl ColliderReach {
+    /// Whether a hair within `reach` (grown by `margin`) can meet the collider this frame,
+    /// given that the collider `jumped` (then only its pose now counts).
+    fn meets(&self, reach: (Vec3A, Vec3A), margin: f32, jumped: bool) -> bool {
+        let (mut lo, mut hi) = self.now;
+        if !jumped {
+            lo = lo.min(self.prev.0);
+            hi = hi.max(self.prev.1);
+        }
+        (lo - margin).cmple(reach.1).all() && (hi + margin).cmpge(reach.0).all()
+    }
+}
+
+/// Hairs with at least this many batches share their batches out over the threads; smaller
+/// hairs are stepped whole, several hairs at once.
+const SHARED_HAIR_BATCHES: usize = 32;
+
+/// A small hair's step, run on one thread beside other hairs': its batches and step buffers,
+/// taken from its [`ComputedHair`] for the frame and given back after.
+#[derive(Default)]
+struct HairJob {
+    entity: Option<Entity>,
+    batches: Vec<Batch>,
+    scratch: StepScratch,
+    /// The bone's pose at the last substep (where a reset strand starts again).
+    last: Affine3A,
+    /// Measure the free particles' bounds (the hair spreads by its density).
+    measure: bool,
+    bounds: super::volume::Bounds,
+    resets: u32,
 }
 
 /// Interpolates two affine transforms (translation and scale linearly, rotation by slerp).
@@ -66,6 +119,7 @@ pub(crate) fn step_hair_strands(
         Option<&super::HairStrandRadius>,
         Option<(&super::HairCulling, &super::HairInView)>,
         Option<&super::HairInertiaFrame>,
+        Has<super::BoneChainHair>,
     )>,
     (own, only_colliders, frames): (
         Query<(Entity, &HairCollider, &GlobalTransform)>,
@@ -84,15 +138,49 @@ pub(crate) fn step_hair_strands(
     // Every HairCollider shape: its pose last frame and now (into last frame's buffers).
     let history = &mut *history;
     history.shapes.clear();
+    history.colliders.clear();
     for (e, collider, g) in &own {
         let now = g.affine();
         let prev = history.poses.get(&e).copied().unwrap_or(now);
         let inside = collider.inside();
+        let first = history.shapes.len();
         history.shapes.extend(
             collider
                 .shapes()
                 .map(|shape| ((prev, now, shape, inside), e)),
         );
+        let (usable, prev_usable) = (usable_frame(&now), usable_frame(&prev));
+        let everywhere = (Vec3A::NEG_INFINITY, Vec3A::INFINITY);
+        let nowhere = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        let (mut at_prev, mut at_now) = (nowhere, nowhere);
+        for ((_, _, shape, _), _) in &history.shapes[first..] {
+            let grow = |pose: &Affine3A, into: &mut (Vec3A, Vec3A)| {
+                let (lo, hi) = if inside {
+                    everywhere
+                } else {
+                    shape.at(pose).bounds()
+                };
+                *into = (into.0.min(lo), into.1.max(hi));
+            };
+            if usable {
+                grow(&now, &mut at_now);
+            }
+            if prev_usable {
+                grow(&prev, &mut at_prev);
+            }
+        }
+        history.colliders.push(ColliderReach {
+            first,
+            end: history.shapes.len(),
+            usable,
+            travel: if prev_usable {
+                prev.translation.distance(now.translation)
+            } else {
+                f32::INFINITY
+            },
+            prev: at_prev,
+            now: at_now,
+        });
     }
     history.poses.clear();
     history
@@ -113,8 +201,17 @@ pub(crate) fn step_hair_strands(
         .fields
         .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
     let pool = parallel::compute_pool();
-    for (hair_entity, hair, global, settings, mut computed, mesh_settings, culling, inertia) in
-        &mut hairs
+    for (
+        hair_entity,
+        hair,
+        global,
+        settings,
+        mut computed,
+        mesh_settings,
+        culling,
+        inertia,
+        chains,
+    ) in &mut hairs
     {
         let computed = &mut *computed;
         let full = global.affine();
@@ -214,6 +311,8 @@ pub(crate) fn step_hair_strands(
         ]
         .map(|s| alpha_tilde(s, h));
         input.style_limit = settings.style_limit() * computed.size;
+        // A bone chain's joints are far apart: its segments collide too.
+        input.segments = chains;
         // Loose edges (stiffness 0) ask for stretchy hair: no limit then.
         input.max_stretch = if compliance_factor(settings.edge_stiffness, h, 1.0) > 0.0 {
             settings.max_stretch()
@@ -306,15 +405,24 @@ pub(crate) fn step_hair_strands(
             !usable_frame(prev) || prev.translation.distance(now.translation) > jump
         };
         templates.clear();
-        // A collider whose pose is not usable (NaN, zero scale) is skipped until it is.
+        // A collider whose pose is not usable (NaN, zero scale) is skipped until it is; one
+        // that cannot reach the hair this frame is skipped whole.
         let only = only_colliders.get(hair_entity).ok();
-        for &((prev, now, shape, inside), on) in &history.shapes {
-            if !usable_frame(&now) || only.is_some_and(|o| !o.0.contains(&on)) {
+        for c in &history.colliders {
+            let Some(&(_, on)) = history.shapes.get(c.first) else {
+                continue;
+            };
+            if !c.usable || only.is_some_and(|o| !o.0.contains(&on)) {
                 continue;
             }
-            let prev = if jumped(&prev, &now) { now } else { prev };
-            if meets(&shape, &prev, &now, inside) {
-                templates.push((prev, now, shape, inside));
+            if reach.is_some_and(|r| !c.meets(r, max_margin, c.travel > jump)) {
+                continue;
+            }
+            for &((prev, now, shape, inside), _) in &history.shapes[c.first..c.end] {
+                let prev = if jumped(&prev, &now) { now } else { prev };
+                if meets(&shape, &prev, &now, inside) {
+                    templates.push((prev, now, shape, inside));
+                }
             }
         }
         let seen = world
@@ -436,86 +544,210 @@ pub(crate) fn step_hair_strands(
                 b.blend_anchors(&w[..n]);
             }
         }
-        // Step batches in parallel; each group of equal chain length shares anchor factors.
-        let batches = &mut computed.batches;
-        let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
-        anchor_factors(settings, h, batches.iter().map(|b| b.nodes.len()), factors);
-        let last = &input.bones.last().copied().unwrap_or(bone);
-        let resets = AtomicU32::new(0);
-        // Hair spread by its density needs its bounds: measured here, part by part, while the
-        // batches are in this thread's cache.
+        // Each group of equal chain length shares anchor factors.
+        anchor_factors(
+            settings,
+            h,
+            computed.batches.iter().map(|b| b.nodes.len()),
+            factors,
+        );
+        let last = input.bones.last().copied().unwrap_or(bone);
+        // Hair spread by its density needs its bounds: measured while stepping, while the
+        // batches are in the stepping thread's cache.
         let measure = settings.volume.is_some() && computed.volume.wants_bounds();
-        let bounds = std::sync::Mutex::new(super::volume::NO_BOUNDS);
-        let (input, factors) = (&*input, &*factors);
-        parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
-            for b in part.iter_mut() {
-                let f = factors
-                    .iter()
-                    .find(|(n, _)| *n == b.nodes.len())
-                    .map(|(_, f)| f.as_slice())
-                    .unwrap_or(&[]);
-                b.step_with(input, f);
-                // A strand whose state stopped being finite starts again on its anchors.
-                let bad = b.non_finite_lanes();
-                if bad != 0 {
-                    for l in 0..super::solver::LANES {
-                        if bad & (1 << l) != 0 {
-                            b.reset_lane(l, last);
-                            if l < b.count {
-                                resets.fetch_add(1, Ordering::Relaxed);
-                            }
-                        }
+        computed.scratch = scratch;
+        if computed.batches.len() >= SHARED_HAIR_BATCHES {
+            // A big hair: its batches shared out over the threads now.
+            let ComputedHair {
+                batches, scratch, ..
+            } = computed;
+            let (bounds, resets) = step_shared(
+                pool,
+                batches,
+                &scratch.input,
+                &scratch.factors,
+                &last,
+                measure,
+            );
+            finish_hair(
+                hair_entity,
+                settings,
+                mesh_settings,
+                computed,
+                &last,
+                (measure, bounds),
+                resets,
+            );
+        } else {
+            history.jobs.push(HairJob {
+                entity: Some(hair_entity),
+                batches: std::mem::take(&mut computed.batches),
+                scratch: std::mem::take(&mut computed.scratch),
+                last,
+                measure,
+                bounds: super::volume::NO_BOUNDS,
+                resets: 0,
+            });
+        }
+    }
+    // The small hairs, several at once, each whole on one thread (one hair alone shares its
+    // batches out).
+    let mut jobs = std::mem::take(&mut history.jobs);
+    if let [job] = jobs.as_mut_slice() {
+        (job.bounds, job.resets) = step_shared(
+            pool,
+            &mut job.batches,
+            &job.scratch.input,
+            &job.scratch.factors,
+            &job.last,
+            job.measure,
+        );
+    } else if !jobs.is_empty() {
+        let per_part = jobs.len().div_ceil(parallel::workers(pool) * 2).max(1);
+        parallel::run_parts(
+            pool,
+            jobs.chunks_mut(per_part),
+            &|part: &mut [HairJob]| {
+                for job in part {
+                    let (input, factors) = (&job.scratch.input, &job.scratch.factors);
+                    job.resets = step_batches(&mut job.batches, input, factors, &job.last);
+                    if job.measure {
+                        job.bounds = super::volume::bounds_of(&job.batches);
+                    }
+                }
+            },
+        );
+    }
+    for job in &mut jobs {
+        let Some(entity) = job.entity.take() else {
+            continue;
+        };
+        let Ok((_, _, _, settings, mut computed, mesh_settings, _, _, _)) = hairs.get_mut(entity)
+        else {
+            continue;
+        };
+        computed.batches = std::mem::take(&mut job.batches);
+        computed.scratch = std::mem::take(&mut job.scratch);
+        finish_hair(
+            entity,
+            settings,
+            mesh_settings,
+            &mut computed,
+            &job.last,
+            (job.measure, job.bounds),
+            job.resets,
+        );
+    }
+    jobs.clear();
+    history.jobs = jobs;
+}
+
+/// Steps `batches` with `input` and resets each strand whose state stopped being finite onto
+/// its anchors at `last`; returns how many strands were reset.
+fn step_batches(
+    batches: &mut [Batch],
+    input: &super::solver::StepInput,
+    factors: &[(usize, Vec<f32>)],
+    last: &Affine3A,
+) -> u32 {
+    let mut resets = 0;
+    for b in batches.iter_mut() {
+        let f = factors
+            .iter()
+            .find(|(n, _)| *n == b.nodes.len())
+            .map(|(_, f)| f.as_slice())
+            .unwrap_or(&[]);
+        b.step_with(input, f);
+        // A strand whose state stopped being finite starts again on its anchors.
+        let bad = b.non_finite_lanes();
+        if bad != 0 {
+            for l in 0..super::solver::LANES {
+                if bad & (1 << l) != 0 {
+                    b.reset_lane(l, last);
+                    if l < b.count {
+                        resets += 1;
                     }
                 }
             }
-            if measure {
-                let part = super::volume::bounds_of(part);
-                let mut all = bounds
-                    .lock()
-                    .unwrap_or_else(std::sync::PoisonError::into_inner);
-                *all = super::volume::merge_bounds(*all, part);
-            }
-        });
-        if measure {
-            let bounds = bounds.into_inner();
-            computed
-                .volume
-                .measure(bounds.unwrap_or_else(std::sync::PoisonError::into_inner));
-        }
-        let no_substeps = input.bones.is_empty();
-        computed.scratch = scratch;
-        computed.stats.strand_resets += resets.load(Ordering::Relaxed);
-        // Hair–hair volume, once a frame after the last substep.
-        computed.stats.volume_pairs = 0;
-        computed.stats.volume_spread = 0;
-        if let (Some(volume), false) = (settings.volume, no_substeps) {
-            let radius = volume
-                .radius
-                .or(mesh_settings.map(|r| r.0))
-                .unwrap_or(super::DEFAULT_STRAND_RADIUS)
-                * computed.size;
-            let ComputedHair {
-                batches,
-                volume: scratch,
-                ..
-            } = computed;
-            let was_dense = scratch.dense;
-            let pairs = super::keep_apart(batches, radius, volume.stiffness, last, scratch);
-            if scratch.dense != was_dense {
-                debug!(
-                    "hair {hair_entity}: volume {} ({} particles crowded at radius {radius} m)",
-                    if scratch.dense {
-                        "spreads the hair by its density"
-                    } else {
-                        "back to pairs"
-                    },
-                    scratch.crowded_count
-                );
-            }
-            computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
-            computed.stats.volume_spread = computed.volume.spread;
         }
     }
+    resets
+}
+
+/// [`step_batches`] with the batches shared out over `pool`'s threads, and (when `measure`)
+/// the free particles' bounds measured part by part.
+fn step_shared(
+    pool: &bevy::tasks::TaskPool,
+    batches: &mut [Batch],
+    input: &super::solver::StepInput,
+    factors: &[(usize, Vec<f32>)],
+    last: &Affine3A,
+    measure: bool,
+) -> (super::volume::Bounds, u32) {
+    let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
+    let resets = AtomicU32::new(0);
+    let bounds = std::sync::Mutex::new(super::volume::NO_BOUNDS);
+    parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
+        resets.fetch_add(step_batches(part, input, factors, last), Ordering::Relaxed);
+        if measure {
+            let part = super::volume::bounds_of(part);
+            let mut all = bounds
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            *all = super::volume::merge_bounds(*all, part);
+        }
+    });
+    let bounds = bounds
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    (bounds, resets.into_inner())
+}
+
+/// After a hair's substeps: counts its resets, keeps its strands apart (hair–hair volume,
+/// once a frame after the last substep), given `measured` bounds when it measured them.
+fn finish_hair(
+    hair_entity: Entity,
+    settings: &HairSimSettings,
+    mesh_settings: Option<&super::HairStrandRadius>,
+    computed: &mut ComputedHair,
+    last: &Affine3A,
+    (measured, bounds): (bool, super::volume::Bounds),
+    resets: u32,
+) {
+    if measured {
+        computed.volume.measure(bounds);
+    }
+    computed.stats.strand_resets += resets;
+    computed.stats.volume_pairs = 0;
+    computed.stats.volume_spread = 0;
+    let Some(volume) = settings.volume else {
+        return;
+    };
+    let radius = volume
+        .radius
+        .or(mesh_settings.map(|r| r.0))
+        .unwrap_or(super::DEFAULT_STRAND_RADIUS)
+        * computed.size;
+    let ComputedHair {
+        batches,
+        volume: scratch,
+        ..
+    } = computed;
+    let was_dense = scratch.dense;
+    let pairs = super::keep_apart(batches, radius, volume.stiffness, last, scratch);
+    if scratch.dense != was_dense {
+        debug!(
+            "hair {hair_entity}: volume {} ({} particles crowded at radius {radius} m)",
+            if scratch.dense {
+                "spreads the hair by its density"
+            } else {
+                "back to pairs"
+            },
+            scratch.crowded_count
+        );
+    }
+    computed.stats.volume_pairs = u32::try_from(pairs).unwrap_or(u32::MAX);
+    computed.stats.volume_spread = computed.volume.spread;
 }
 
 /// Whether a shape goes to the solver's sphere fast path: an outside sphere that moves less

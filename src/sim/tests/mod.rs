@@ -705,5 +705,6 @@ fn particles(app: &mut App) -> Vec<Vec<Vec3>> {
 mod attach;
 mod chains;
 mod motion;
+mod segments;
 mod volume;
 mod vrm;

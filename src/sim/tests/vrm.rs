@@ -281,8 +281,8 @@ fn vrm_springs_become_chains_that_collide_only_with_their_groups() {
 }
 
 /// Chain A blown sideways (gravity along +X, no stiffness) for two seconds, its first two joints
-/// with `limit`; returns each turned bone's angle from the bone before it (the first from its
-/// bind direction, straight down), in degrees.
+/// with `limit`; returns each turned bone's largest angle in the second second from the bone
+/// before it (the first from its bind direction, straight down), in degrees.
 fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
     let mut app = event_app();
     let mut springs = crossed(vec![]);
@@ -295,17 +295,21 @@ fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
         3
     ];
     let (_, nodes) = vrm_scene(&mut app, springs);
-    for _ in 0..120 {
+    // The chain still swings after a second: the largest angle of the second second (a
+    // snapshot would depend on the swing's phase).
+    let mut angles = [0.0f32; 2];
+    for frame in 0..120 {
         app.update();
+        if frame < 60 {
+            continue;
+        }
+        let p = positions(&app, &nodes);
+        let first = (p[2] - p[1]).normalize();
+        let second = (p[3] - p[2]).normalize();
+        angles[0] = angles[0].max(first.angle_between(Vec3::NEG_Y).to_degrees());
+        angles[1] = angles[1].max(second.angle_between(first).to_degrees());
     }
-    let p = positions(&app, &nodes);
-    let first = (p[2] - p[1]).normalize();
-    let second = (p[3] - p[2]).normalize();
-    let angles = [
-        first.angle_between(Vec3::NEG_Y).to_degrees(),
-        second.angle_between(first).to_degrees(),
-    ];
-    eprintln!("limit {limit:?}: bones at {angles:?} degrees");
+    eprintln!("limit {limit:?}: bones at most at {angles:?} degrees");
     angles
 }
 

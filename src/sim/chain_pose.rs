@@ -1,0 +1,317 @@
+//! Posing bone chains from their solved particles: each joint turned, root to tip, to point at
+//! its next particle (kept at the bone's length, off the hair's colliders and inside the
+//! joint's angle limit), and its local and global transforms written so Bevy's skinning draws
+//! this frame's pose.
+//!
+//! Two passes: the poses are worked out hair by hair on every core (each hair reads its own
+//! solver state and the joints' bind transforms), then written to the joints in one pass.
+
+use bevy::ecs::batching::BatchingStrategy;
+use bevy::math::{Affine3A, Vec3A};
+use bevy::prelude::*;
+
+use super::attach::ComputedHair;
+use super::chains::BoneChainHair;
+use super::collider::{HairCollider, HairCollidesOnly};
+use super::contact::ContactShape;
+use super::limits::{limit_frame, limit_offset};
+use super::settings::HairSimSettings;
+
+/// A bone-chain hair's posing buffers, kept between frames.
+#[derive(Component, Clone, Debug, Default)]
+pub(crate) struct ChainPose {
+    /// This frame's pose of each joint: its entity, its local rotation, its world transform.
+    posed: Vec<(Entity, Quat, Affine3A)>,
+    /// The collider shapes near the hair this frame.
+    near: Vec<NearShape>,
+}
+
+/// A collider shape near a hair: the shape, whether it keeps particles inside, and where a
+/// point can touch it (its bounds grown by the hair's margin; everywhere for keep-inside).
+type NearShape = (ContactShape, bool, Vec3A, Vec3A);
+
+/// Every [`HairCollider`]'s shapes where they are this frame, gathered once for all hairs.
+#[derive(Default)]
+pub(crate) struct FrameShapes {
+    /// Per collider: its entity, its run of `shapes`, its shapes' bounds (infinite for keep
+    /// inside colliders and planes).
+    colliders: Vec<(Entity, usize, usize, Vec3A, Vec3A)>,
+    shapes: Vec<(ContactShape, bool)>,
+}
+
+/// Joints hairs are posed in parallel batches of (a chain hair is small: a few dozen joints).
+const HAIRS_PER_TASK: usize = 4;
+
+/// Turns each chain's joints, root to tip, so each points at its next particle (its child, at
+/// the bone's length, kept off the hair's colliders and inside the joint's angle limit, if it
+/// has one: [`ChainJointLimits`](super::ChainJointLimits); the particle follows), and writes
+/// their local and global transforms (the skinned mesh is drawn from these this frame).
+#[expect(
+    clippy::type_complexity,
+    reason = "a Bevy system: its parameters are its queries"
+)]
+pub(crate) fn pose_bone_chains(
+    mut hairs: Query<(
+        &BoneChainHair,
+        &GlobalTransform,
+        &mut ComputedHair,
+        &mut ChainPose,
+        (&HairSimSettings, Option<&HairCollidesOnly>),
+    )>,
+    mut joints: Query<
+        (&mut Transform, &mut GlobalTransform),
+        (Without<BoneChainHair>, Without<HairCollider>),
+    >,
+    colliders: Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
+    mut frame: Local<FrameShapes>,
+) {
+    if hairs.is_empty() {
+        return;
+    }
+    // Made with defaults when no app made it (tests, benches).
+    crate::parallel::compute_pool();
+    // The colliders where they are now, once for every hair.
+    let frame = &mut *frame;
+    frame.colliders.clear();
+    frame.shapes.clear();
+    for (e, collider, g) in &colliders {
+        let pose = g.affine();
+        let inside = collider.inside();
+        let first = frame.shapes.len();
+        frame
+            .shapes
+            .extend(collider.shapes().map(|s| (s.at(&pose), inside)));
+        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        for (shape, _) in &frame.shapes[first..] {
+            let (a, b) = if inside {
+                (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+            } else {
+                shape.bounds()
+            };
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        frame.colliders.push((e, first, frame.shapes.len(), lo, hi));
+    }
+    // Each hair's poses, on every core.
+    let frame = &*frame;
+    let bind = &joints;
+    hairs
+        .par_iter_mut()
+        .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
+        .for_each(
+            |(driven, hair_world, mut computed, mut pose, (settings, only))| {
+                let pose = &mut *pose;
+                pose.posed.clear();
+                let margin = settings.margins().0 * computed.size;
+                gather_near(frame, &computed, only, margin, &mut pose.near);
+                pose_hair(
+                    driven,
+                    hair_world,
+                    &mut computed,
+                    &pose.near,
+                    margin,
+                    &mut pose.posed,
+                    &|e| bind.get(e).ok().map(|(t, _)| *t),
+                );
+            },
+        );
+    // Written in one pass. The world transform is written here, so the local rotation is
+    // stored without flagging the joint changed: Bevy's propagation would otherwise walk every
+    // joint's ancestors next frame to recompute what is already there (it still recomputes
+    // them when something above them moves, from the rotation stored here).
+    for (_, _, _, pose, _) in &hairs {
+        for &(joint, rotation, world) in &pose.posed {
+            if let Ok((mut local, mut global)) = joints.get_mut(joint) {
+                local.bypass_change_detection().rotation = rotation;
+                *global = GlobalTransform::from(world);
+            }
+        }
+    }
+}
+
+/// The shapes of `frame` the hair of `computed` can meet: those near its particles' box grown
+/// by twice its longest segment (the posed joints lie within a bone of the particles), and
+/// keep-inside ones; a crowd's hair meets its own character's body, not every body.
+fn gather_near(
+    frame: &FrameShapes,
+    computed: &ComputedHair,
+    only: Option<&HairCollidesOnly>,
+    margin: f32,
+    near: &mut Vec<NearShape>,
+) {
+    near.clear();
+    let (mut lo, mut hi, mut longest) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
+    for s in 0..computed.lane_of.len() {
+        let mut before: Option<Vec3A> = None;
+        for i in 0..computed.particle_count(s) {
+            let p = Vec3A::from(computed.particle(s, i));
+            if !p.is_finite() {
+                before = None;
+                continue;
+            }
+            (lo, hi) = (lo.min(p), hi.max(p));
+            if let Some(b) = before {
+                longest = longest.max(b.distance(p));
+            }
+            before = Some(p);
+        }
+    }
+    let reach = Vec3A::splat(2.0 * longest);
+    let (lo, hi) = (lo - reach, hi + reach);
+    for &(e, first, end, c_lo, c_hi) in &frame.colliders {
+        if only.is_some_and(|o| !o.0.contains(&e)) {
+            continue;
+        }
+        if !((c_lo - margin).cmple(hi).all() && (c_hi + margin).cmpge(lo).all()) {
+            continue;
+        }
+        near.extend(
+            frame.shapes[first..end]
+                .iter()
+                .filter(|(s, inside)| *inside || s.meets(lo, hi, margin))
+                .map(|&(s, inside)| {
+                    let (a, b) = if inside {
+                        (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+                    } else {
+                        s.bounds()
+                    };
+                    (s, inside, a - margin, b + margin)
+                }),
+        );
+    }
+}
+
+/// One hair's joint poses into `posed`, root to tip, chain by chain; particles the pose moves
+/// (off a collider, into a limit) are moved in `computed` too. `bind` gives a joint's local
+/// transform now (its rotation is replaced; translation and scale are kept).
+fn pose_hair(
+    driven: &BoneChainHair,
+    hair_world: &GlobalTransform,
+    computed: &mut ComputedHair,
+    near: &[NearShape],
+    margin: f32,
+    posed: &mut Vec<(Entity, Quat, Affine3A)>,
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) {
+    let hair = hair_world.affine();
+    // Under a uniform, unmirrored scale a joint's world rotation is its parent's times its
+    // own; otherwise it is read back from each parent's matrix.
+    let (scale, hair_rotation, _) = hair.to_scale_rotation_translation();
+    let uniform = scale.min_element() > 0.0
+        && (scale.max_element() - scale.min_element()) <= 1e-4 * scale.max_element();
+    for (s, chain) in driven.joints.iter().enumerate() {
+        let (Some(rest), Some(tail)) = (driven.rest.get(s), driven.tail.get(s)) else {
+            continue;
+        };
+        let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+        let expected = chain.len() + usize::from(!tail_joint);
+        if s >= computed.lane_of.len()
+            || computed.particle_count(s) != expected
+            || (0..expected).any(|i| !computed.particle(s, i).is_finite())
+        {
+            continue;
+        }
+        // The hair hangs on the chains' parent bone with an identity transform.
+        let (mut parent, mut parent_rotation) = (hair, hair_rotation);
+        for (k, &joint) in chain.iter().enumerate() {
+            let Some(local) = bind(joint) else {
+                break;
+            };
+            let rest_rotation = rest[k].rotation;
+            if !uniform {
+                parent_rotation = parent.to_scale_rotation_translation().1;
+            }
+
+            if tail_joint && k + 1 == chain.len() {
+                // The tail joint follows the turned chain, unturned.
+                posed.push((joint, local.rotation, parent * local.compute_affine()));
+                break;
+            }
+            let origin = parent.transform_point3(local.translation);
+            let at_rest_rotation = parent_rotation * rest_rotation;
+            let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
+            let from = parent
+                .matrix3
+                .mul_vec3(rest_rotation * (local.scale * child));
+            let mut to = computed.particle(s, k + 1) - origin;
+            // The posed child sits at its bone's length: keep it off the colliders the particle
+            // was kept off (a collider can hold a particle nearer than a bone).
+            if let Some(kept) = keep_off(near, origin, to, from, margin) {
+                computed.set_particle(s, k + 1, origin + kept);
+                to = kept;
+            }
+            if let Some(limit) = driven
+                .limits
+                .get(s)
+                .and_then(|l| l.get(k))
+                .copied()
+                .flatten()
+            {
+                let frame = limit_frame(at_rest_rotation, child, &limit);
+                let limited = limit_offset(frame, &limit, to);
+                if limited != to {
+                    // The simulation goes on from the limited joint, as VRM's step does.
+                    computed.set_particle(s, k + 1, origin + limited);
+                    to = limited;
+                }
+            }
+            let (rotation, world_rotation) = match (from.try_normalize(), to.try_normalize()) {
+                (Some(a), Some(b)) => {
+                    let world = (Quat::from_rotation_arc(a, b) * at_rest_rotation).normalize();
+                    ((parent_rotation.inverse() * world).normalize(), world)
+                }
+                _ => (rest_rotation, at_rest_rotation),
+            };
+            if !rotation.is_finite() {
+                break;
+            }
+            let world = parent
+                * Affine3A::from_scale_rotation_translation(
+                    local.scale,
+                    rotation,
+                    local.translation,
+                );
+            posed.push((joint, rotation, world));
+            parent = world;
+            parent_rotation = world_rotation;
+        }
+    }
+}
+
+/// Rounds of [`keep_off`]: each pushes the child onto a collider's margin and back to the bone's
+/// length, nearer the margin each time.
+const KEEP_OFF_ROUNDS: usize = 8;
+
+/// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
+/// length (`bone`'s), it would lie within `margin` of a collider in `shapes`: turned about the
+/// joint onto the collider's margin. `None` when it is clear.
+fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32) -> Option<Vec3> {
+    if shapes.is_empty() {
+        return None;
+    }
+    let length = bone.length();
+    let mut dir = to.try_normalize()?;
+    let mut moved = false;
+    for _ in 0..KEEP_OFF_ROUNDS {
+        let mut clear = true;
+        for (shape, inside, lo, hi) in shapes {
+            let q = Vec3A::from(joint + dir * length);
+            if false && (q.cmplt(*lo).any() || q.cmpgt(*hi).any()) {
+                continue;
+            }
+            if let Some(out) = shape.resolve(q, margin, *inside)
+                && let Some(d) = (Vec3::from(out) - joint).try_normalize()
+            {
+                dir = d;
+                clear = false;
+                moved = true;
+            }
+        }
+        if clear {
+            break;
+        }
+    }
+    // At the bone's length: the particle goes where the posed joint is.
+    let kept = dir * length;
+    (moved && kept.is_finite()).then_some(kept)
+}
