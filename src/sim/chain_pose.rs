@@ -296,7 +296,7 @@ fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32
         let mut clear = true;
         for (shape, inside, lo, hi) in shapes {
             let q = Vec3A::from(joint + dir * length);
-            if false && (q.cmplt(*lo).any() || q.cmpgt(*hi).any()) {
+            if q.cmplt(*lo).any() || q.cmpgt(*hi).any() || (!inside && clear_of(shape, q, margin)) {
                 continue;
             }
             if let Some(out) = shape.resolve(q, margin, *inside)
@@ -314,4 +314,23 @@ fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32
     // At the bone's length: the particle goes where the posed joint is.
     let kept = dir * length;
     (moved && kept.is_finite()).then_some(kept)
+}
+
+/// Whether `q` is certainly farther than `margin` outside `shape`, by squared distances (most
+/// joints near a head are clear of it: no square root, no call).
+#[inline(always)]
+fn clear_of(shape: &ContactShape, q: Vec3A, margin: f32) -> bool {
+    match *shape {
+        ContactShape::Sphere { centre, radius } => {
+            let reach = radius + margin;
+            q.distance_squared(centre) >= reach * reach
+        }
+        ContactShape::Capsule { a, b, radius } => {
+            let ab = b - a;
+            let t = ((q - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+            let reach = radius + margin;
+            q.distance_squared(a + ab * t) >= reach * reach
+        }
+        ContactShape::Plane { .. } | ContactShape::Box { .. } => false,
+    }
 }

@@ -13,7 +13,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::solver::{Batch, ContactShape, LANES, PINNED};
+use super::solver::{Batch, ContactShape, LANES, PINNED, StepInput};
 
 /// A segment end nearer its collider than this share of the segment is left to the particle
 /// collision.
@@ -62,13 +62,17 @@ impl Core {
 }
 
 impl Batch {
-    /// Keeps every segment of every lane off `spheres` (centre, radius) and the outside
-    /// spheres and capsules among `contacts`.
-    pub(super) fn collide_segments<'a>(
-        &mut self,
-        spheres: &[(Vec3A, f32)],
-        contacts: impl Iterator<Item = &'a ContactShape>,
-    ) {
+    /// Keeps every segment of every lane off substep `s`'s spheres and outside capsules (out of
+    /// line: most hairs never come here, and the solver's loop stays as it was).
+    #[inline(never)]
+    pub(super) fn collide_segments(&mut self, input: &StepInput, s: usize) {
+        let n = input.sphere_count;
+        let spheres = &input.spheres[s * n..(s + 1) * n];
+        let n = input.contact_count;
+        let contacts = input.contacts[s * n..(s + 1) * n]
+            .iter()
+            .filter(|contact| !contact.inside)
+            .map(|contact| &contact.shape);
         // A segment whose ends are outside a shape's reach `r + m` dips at most to
         // `sqrt((r + m)^2 - L^2 / 4)` from its core (a chord; a capsule's distance is a
         // circle's across its axis): segments no longer than `2 sqrt(2 r m + m^2)` cannot reach

@@ -506,14 +506,7 @@ impl Batch {
             self.collide_shapes(&input.shapes, input.friction);
         }
         if input.segments {
-            let spheres = input.sphere_count;
-            self.collide_segments(
-                &input.spheres[s * spheres..(s + 1) * spheres],
-                input.contacts[s * c..(s + 1) * c]
-                    .iter()
-                    .filter(|contact| !contact.inside)
-                    .map(|contact| &contact.shape),
-            );
+            self.collide_segments(input, s);
         }
     }
 
