@@ -39,7 +39,7 @@ pub(crate) struct FrameShapes {
     shapes: Vec<(ContactShape, bool)>,
 }
 
-/// Joints hairs are posed in parallel batches of (a chain hair is small: a few dozen joints).
+/// Hairs posed by one task (a chain hair is small: a few dozen to a few hundred joints).
 const HAIRS_PER_TASK: usize = 4;
 
 /// Turns each chain's joints, root to tip, so each points at its next particle (its child, at

@@ -52,7 +52,7 @@ fn chains_app(settings: HairSimSettings, root: Transform, unit: f32) -> (App, En
     (app, root, joints)
 }
 
-fn joint_positions(app: &App, joints: &[Entity]) -> Vec<Vec3> {
+pub(super) fn joint_positions(app: &App, joints: &[Entity]) -> Vec<Vec3> {
     joints
         .iter()
         .map(|j| {
