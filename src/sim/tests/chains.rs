@@ -270,6 +270,33 @@ fn chains_swing_in_a_head_shake_and_return_to_rest_within_2_mm() {
 }
 
 #[test]
+fn chains_on_a_stretched_rig_swing_and_return_to_rest() {
+    // Unequal axis scales: each joint's world rotation is read from its parent's matrix.
+    let run = shake_run(
+        60.0,
+        Transform::from_scale(Vec3::new(1.0, 1.3, 0.8)),
+        1.0,
+        2.0,
+        shake,
+        HairSimSettings::default(),
+    );
+    let back = farthest(&run.after, &run.rest);
+    println!(
+        "bone chains on a stretched rig: swung {:.4} m, back within {back:e} m",
+        run.swing
+    );
+    assert!(
+        run.swing > 0.01,
+        "the shake must swing the chains ({} m)",
+        run.swing
+    );
+    assert!(
+        back < 0.002,
+        "a joint rests {back} m from where it rested before"
+    );
+}
+
+#[test]
 fn chains_on_a_rig_of_scale_0_01_move_as_on_a_unit_rig() {
     let unit_rig = shake_run(
         60.0,
