@@ -15,10 +15,11 @@
 //! iteration is `app.update()` and then what Bevy's extraction and preparation do on the
 //! CPU with it: for a CPU-built hair mesh, changed every frame, a copy of the mesh into the
 //! render world and its vertices interleaved and its indices copied into the bytes written to
-//! the GPU, and the same for its stroke and highlight meshes; for a GPU-built hair, a copy of
-//! its GPU input and its particles, strands, sections and the records of its tube, stroke
-//! and highlight passes written into the bytes sent (its stroke and highlight meshes do
-//! not change on the CPU, so Bevy sends nothing for them). The bytes sent a frame are printed.
+//! the GPU, and the same for its stroke, highlight and shadow ribbon meshes; for a GPU-built
+//! hair, a copy of its GPU input and its particles, strands, sections and the records of its
+//! tube, stroke, highlight and shadow passes written into the bytes sent (its stroke,
+//! highlight and ribbon meshes do not change on the CPU, so Bevy sends nothing for them). A
+//! sun casts shadows, so each hair builds its shadow ribbons. The bytes sent a frame are printed.
 //! There is no GPU here: the compute passes themselves are not timed.
 #![expect(
     missing_docs,
@@ -35,6 +36,7 @@ use bevy::time::TimeUpdateStrategy;
 use bevy_cartoon_hair::HairSchedulePlugin;
 use bevy_cartoon_hair::asset::HairAssetPlugin;
 use bevy_cartoon_hair::mesh::highlights::{HairHighlightsOf, SpecularQuads};
+use bevy_cartoon_hair::mesh::shadow::HairShadowMeshOf;
 use bevy_cartoon_hair::mesh::{HairCulling, HairInView, HairLod, HairMeshOf, HairMeshPlugin};
 use bevy_cartoon_hair::render::{HairMeshBuilder, encode_gpu_inputs};
 use bevy_cartoon_hair::silhouette::{HairSilhouettePlugin, HairStrokesOf, SilhouetteSettings};
@@ -74,6 +76,14 @@ fn app(heads: &[Head], build: Build) -> App {
     });
     common::gpu_path(&mut app);
     bench_camera(app.world_mut(), Vec3::ZERO, Vec3::NEG_Z);
+    // A sun that casts shadows: the hairs build their shadow ribbons.
+    app.world_mut().spawn((
+        DirectionalLight {
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(1.0, 2.0, 1.5).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
     let strokes = matches!(build, Build::CpuStrokes | Build::GpuStrokes);
     for head in heads {
         let world = app.world_mut();
@@ -122,15 +132,20 @@ fn extract_and_prepare(world: &mut World, staging: &mut Vec<u8>) -> usize {
             staging.extend(copy.get_index_buffer_bytes().unwrap_or_default());
         }
     }
-    // Strokes and highlights are meshes of their own, rebuilt every frame on the CPU.
+    // Strokes, highlights and shadow ribbons are meshes of their own, rebuilt every frame on
+    // the CPU.
     let mut strips = world.query_filtered::<(
         &Mesh3d,
         Option<&HairStrokesOf>,
         Option<&HairHighlightsOf>,
+        Option<&HairShadowMeshOf>,
     ), Without<HairMeshOf>>();
     let owners: Vec<_> = strips
         .iter(world)
-        .map(|(m, s, h)| (m.0.clone(), s.map(|s| s.0).or(h.map(|h| h.0))))
+        .map(|(m, s, h, r)| {
+            let owner = s.map(|s| s.0).or(h.map(|h| h.0)).or(r.map(|r| r.0));
+            (m.0.clone(), owner)
+        })
         .collect();
     let strip_meshes: Vec<_> = owners
         .into_iter()

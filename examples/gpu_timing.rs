@@ -13,14 +13,16 @@
 //! `--sides N` (every hair's tube resolution in place of the workload's), `--radius M` (the
 //! tubes' root radius in metres, in place of the default 0.016), `--silhouette-error PX`
 //! (`HairLod::silhouette_error`, 0 for the level's sides at any width), `--reverse-strands` (the
-//! strands drawn in the opposite order: how much a pass's overdraw depends on it). The hairs'
+//! strands drawn in the opposite order: how much a pass's overdraw depends on it),
+//! `--closed-tubes` (`HairLod::half_tubes` off), `--shadow-caster ribbons|tubes|off`
+//! (`HairShadowCaster`). The hairs'
 //! strand width on screen and the tube resolution the level of detail chose are printed.
 //!
 //! The scene: one directional light with shadow cascades, a grey ground and a head-sized sphere
 //! under every hair, the default look. Each pass is timed with Bevy's `RenderDiagnosticsPlugin`
 //! (GPU timestamps) and counted with pipeline statistics; the crate's passes
 //! (`hair_gpu_tubes`, `hair_gpu_strokes`, `hair_gpu_highlights`, `hair_gpu_draw_order`,
-//! `outline_*`) have spans of
+//! `hair_gpu_shadows`, `outline_*`) have spans of
 //! their own, and each compute pass's dispatches and strands built a frame
 //! (`HairGpuPasses::dispatches`) are printed beside them. The hair's share of a pass is the
 //! pass with hair minus the same scene without. The hair turns on Bevy's depth and normal
@@ -29,7 +31,9 @@
 //! has them already.
 //!
 //! Bevy 0.20 records the shadow passes as one time span (`per_view_shadow_pass`), without
-//! pipeline statistics.
+//! pipeline statistics; `shadow_casters/primitives` counts instead the triangles of every mesh
+//! Bevy's cascade culling keeps in each cascade (what the shadow passes are sent), summed over
+//! the cascades (`shadow_casters/cascades`).
 //!
 //! Pipeline statistics (vertex, fragment and compute invocations, primitives) are counts: the
 //! same on Mesa's CPU rasteriser (lavapipe) as on a GPU. On lavapipe the times are the CPU
@@ -63,6 +67,8 @@ struct Args {
     sides: Option<u32>,
     radius: Option<f32>,
     silhouette_error: Option<f32>,
+    closed_tubes: bool,
+    caster: bevy_cartoon_hair::mesh::HairShadowCaster,
 }
 
 fn args() -> Result<Args, String> {
@@ -79,6 +85,8 @@ fn args() -> Result<Args, String> {
         sides: None,
         radius: None,
         silhouette_error: None,
+        closed_tubes: false,
+        caster: default(),
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -104,6 +112,18 @@ fn args() -> Result<Args, String> {
             "--no-shadows" => out.shadows = false,
             "--cpu" => out.cpu = true,
             "--reverse-strands" => out.reverse_strands = true,
+            "--closed-tubes" => out.closed_tubes = true,
+            "--shadow-caster" => {
+                use bevy_cartoon_hair::mesh::HairShadowCaster;
+                out.caster = match value("--shadow-caster")?.as_str() {
+                    "ribbons" => HairShadowCaster::Ribbons,
+                    "tubes" => HairShadowCaster::Tubes,
+                    "off" => HairShadowCaster::Off,
+                    other => {
+                        return Err(format!("--shadow-caster {other}: ribbons, tubes or off"));
+                    }
+                };
+            }
             "--silhouette-error" => {
                 let e: f32 = value("--silhouette-error")?
                     .parse()
@@ -246,14 +266,15 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
                 strands.reverse();
             }
             let hair = common::spawn_head_with(world, &head, strands);
-            if let Some(error) = args.silhouette_error {
-                world
-                    .entity_mut(hair)
-                    .insert(bevy_cartoon_hair::mesh::HairLod {
-                        silhouette_error: error,
-                        ..default()
-                    });
-            }
+            let lod = bevy_cartoon_hair::mesh::HairLod::default();
+            world.entity_mut(hair).insert((
+                bevy_cartoon_hair::mesh::HairLod {
+                    silhouette_error: args.silhouette_error.unwrap_or(lod.silhouette_error),
+                    half_tubes: !args.closed_tubes,
+                    ..lod
+                },
+                args.caster,
+            ));
             if let Some(radius) = args.radius {
                 world
                     .entity_mut(hair)
@@ -277,12 +298,17 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
         )>();
         for (level, mesh) in lod.iter(world) {
             println!(
-                "hair: {:.1} px tall, strands {:.1} px wide, level {}, tubes {} rings x {} sides",
+                "hair: {:.1} px tall, strands {:.1} px wide, level {}, tubes {} rings x {} sides{}",
                 level.pixels,
                 level.strand_pixels,
                 level.level,
                 mesh.topology.rings(),
-                mesh.topology.sides()
+                mesh.topology.closed_sides(),
+                if mesh.topology.is_facing() {
+                    format!(", half tubes of {} vertices a ring", mesh.topology.sides())
+                } else {
+                    String::new()
+                }
             );
         }
     }
@@ -301,6 +327,16 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
                 e.1 += 1;
             }
         }
+        // What Bevy sends into the shadow cascades: every triangle of each mesh its cascade
+        // culling keeps, cascade by cascade (the shadow passes have no pipeline statistics).
+        let (casts, cascades) = shadow_primitives(r.app.world_mut(), camera);
+        for (figure, v) in [("primitives", casts), ("cascades", cascades)] {
+            let e = sums
+                .entry(format!("render/shadow_casters/{figure}"))
+                .or_default();
+            e.0 += v as f64;
+            e.1 += 1;
+        }
         // The crate's own count of its compute work: dispatches and strands built.
         let built = r.app.world().resource::<HairGpuPasses>().dispatches();
         for (pass, work, what) in [
@@ -308,6 +344,7 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             ("hair_gpu_strokes", built.strokes, "strands_built"),
             ("hair_gpu_highlights", built.highlights, "strands_built"),
             ("hair_gpu_draw_order", built.draw_order, "indices_ordered"),
+            ("hair_gpu_shadows", built.shadows, "strands_built"),
         ] {
             for (figure, v) in [("dispatches", work.dispatches), (what, work.invocations)] {
                 let e = sums.entry(format!("render/{pass}/{figure}")).or_default();
@@ -320,6 +357,36 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
         .into_iter()
         .map(|(k, (sum, n))| (k, sum / f64::from(n.max(1))))
         .collect())
+}
+
+/// The triangles of every mesh Bevy's cascade culling keeps in each shadow cascade of every
+/// directional light for `camera`, summed over the cascades; and the cascades.
+fn shadow_primitives(world: &mut World, camera: Entity) -> (usize, usize) {
+    let mut lights = world.query::<&bevy::camera::visibility::CascadesVisibleEntities>();
+    let mut meshes_of = world.query::<&Mesh3d>();
+    let meshes = world.resource::<Assets<Mesh>>();
+    let (mut primitives, mut cascades) = (0, 0);
+    for visible in lights.iter(world) {
+        let Some(per_cascade) = visible.entities.get(&camera) else {
+            continue;
+        };
+        cascades += per_cascade.len();
+        for cascade in per_cascade {
+            for &entity in &cascade.entities {
+                let triangles = meshes_of
+                    .get(world, entity)
+                    .ok()
+                    .and_then(|m| meshes.get(&m.0))
+                    .map_or(0, |m| {
+                        m.indices()
+                            .map_or(m.count_vertices(), bevy::mesh::Indices::len)
+                            / 3
+                    });
+                primitives += triangles;
+            }
+        }
+    }
+    (primitives, cascades)
 }
 
 fn main() -> ExitCode {

@@ -181,7 +181,7 @@ pub mod prelude {
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::highlights::SpecularQuads;
     pub use crate::mesh::{
-        HairCulling, HairLod, HairMeshSettings, HairStrandSections, LockSection,
+        HairCulling, HairLod, HairMeshSettings, HairShadowCaster, HairStrandSections, LockSection,
     };
     pub use crate::plugins::CartoonHairPlugins;
     #[cfg(feature = "render")]

@@ -291,6 +291,8 @@ pub fn build_specular_quads(
                         Mesh3d(mesh),
                         Transform::IDENTITY,
                         NoFrustumCulling,
+                        // Light strips and ink lines cast no shadow.
+                        bevy::light::NotShadowCaster,
                         HairHighlightsOf(hair),
                     ));
                 }

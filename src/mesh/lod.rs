@@ -51,6 +51,13 @@ pub struct HairLod {
     /// are the fewest that keep within it at the strands' width on screen (never more than the
     /// level's). `0` (or not finite) keeps the level's sides. Default: `0.5`.
     pub silhouette_error: f32,
+    /// Draw only the half of each round tube the camera sees
+    /// ([`TubeTopology::facing`](super::tube::TubeTopology::facing)): half the triangles, the
+    /// same outline. Only where it holds: tubes built on the GPU, every strand's section
+    /// [`Round`](super::LockSection::Round) at aspect 1, one active camera seeing the hair, and
+    /// the shadow cast by ribbons ([`HairShadowCaster`](super::HairShadowCaster)), not the
+    /// tubes. Default: `true`.
+    pub half_tubes: bool,
 }
 
 impl Default for HairLod {
@@ -60,6 +67,7 @@ impl Default for HairLod {
             thresholds: [240.0, 80.0, 40.0],
             hysteresis: 1.25,
             silhouette_error: 0.5,
+            half_tubes: true,
         }
     }
 }

@@ -9,13 +9,15 @@
 //! material's angel ring runs across it. Normals lean toward the hair's mass
 //! ([`HairMeshSettings::mass_normals`]).
 //!
-//! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006).
+//! [`highlights`] adds the optional specular sampling quads (Shin et al. 2006); [`shadow`] the
+//! ribbons a hair casts its shadow with.
 
 pub mod culling;
 pub mod highlights;
 pub mod lod;
 mod mass;
 mod section;
+pub mod shadow;
 pub mod tube;
 
 pub use culling::{HairCulling, HairCullingStats, HairInView};
@@ -25,6 +27,7 @@ pub(crate) use mass::MassField;
 pub use section::LockSection;
 #[cfg(feature = "render")]
 pub(crate) use section::{SectionSide, fill_section};
+pub use shadow::HairShadowCaster;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::camera::primitives::{Aabb, Frustum};
@@ -131,6 +134,13 @@ pub struct HairMeshBuiltOnGpu;
 #[relationship(relationship_target = HairMeshes)]
 pub struct HairMeshOf(pub Entity);
 
+/// The eye a hair's half tubes face this frame ([`TubeTopology::facing`], see
+/// [`HairLod::half_tubes`]); `None` while its tubes are closed. On the [`Hair`] entity,
+/// inserted with it.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairTubesFacing(pub Option<Vec3>);
+
 /// A hair's mesh entities; despawning the hair despawns them.
 #[derive(Component, Reflect, Debug, Default)]
 #[reflect(Component, Debug, Default)]
@@ -191,6 +201,12 @@ impl Plugin for HairMeshPlugin {
             .register_required_components::<Hair, HairMeshSettings>()
             .register_required_components::<Hair, highlights::SpecularQuads>()
             .register_required_components::<Hair, highlights::GpuHighlightJob>()
+            .register_type::<shadow::HairShadowCaster>()
+            .register_type::<shadow::HairShadowMeshOf>()
+            .register_required_components::<Hair, shadow::HairShadowCaster>()
+            .register_required_components::<Hair, shadow::GpuShadowJob>()
+            .register_type::<HairTubesFacing>()
+            .register_required_components::<Hair, HairTubesFacing>()
             .register_type::<culling::HairCulling>()
             .register_type::<culling::HairInView>()
             .register_type::<culling::HairCullingStats>()
@@ -207,6 +223,7 @@ impl Plugin for HairMeshPlugin {
                     hand_radius_to_volume,
                     rebuild_strand_meshes,
                     highlights::build_specular_quads,
+                    shadow::build_shadow_ribbons,
                     chain_hairs_in_view,
                 )
                     .chain()
@@ -320,6 +337,8 @@ pub fn rebuild_strand_meshes(
                 &HairMeshSettings,
                 Option<&HairStrandSections>,
                 Has<HairMeshBuiltOnGpu>,
+                &shadow::HairShadowCaster,
+                &mut HairTubesFacing,
             ),
             &GlobalTransform,
             &HairStrands,
@@ -349,7 +368,7 @@ pub fn rebuild_strand_meshes(
     for (
         hair,
         hair_assets,
-        (settings, per_strand, on_gpu),
+        (settings, per_strand, on_gpu, caster, mut facing),
         global,
         strand_list,
         mut computed,
@@ -432,13 +451,35 @@ pub fn rebuild_strand_meshes(
             limit => sides.min(usize::from(limit)).max(tube::MIN_SIDES),
         };
         let sides = section_sides(sides, settings, per_strand);
+        // Half tubes facing the one camera that sees the hair, where that holds (`HairLod`).
+        let round = |s: LockSection| s == LockSection::Round;
+        let eye = (lod.half_tubes
+            && on_gpu
+            && seen
+            && *caster != shadow::HairShadowCaster::Tubes
+            && round(settings.section)
+            && settings.section_aspect >= 1.0
+            && per_strand.is_none_or(|p| p.0.iter().copied().all(round)))
+        .then(|| bounds.and_then(|b| only_camera_seeing(&b, &cameras)))
+        .flatten();
+        facing.set_if_neq(HairTubesFacing(eye));
+        let ring_sides = match eye {
+            Some(_) => TubeTopology::facing_sides(sides),
+            None => sides,
+        };
         let rebuild = computed.as_ref().is_none_or(|c| {
-            c.topology.rings() != rings || c.topology.sides() != sides || c.strands != count
+            c.topology.rings() != rings
+                || c.topology.sides() != ring_sides
+                || c.topology.is_facing() != eye.is_some()
+                || c.strands != count
         });
         // Built on creation and on a topology change; read in place on every other frame.
         let mut created = None;
         if rebuild {
-            let topology = TubeTopology::new(rings, sides);
+            let topology = match eye {
+                Some(_) => TubeTopology::facing(rings, sides),
+                None => TubeTopology::new(rings, sides),
+            };
             // A new resolution replaces the mesh asset's contents under the same handle: a new
             // asset reaches the renderer a frame late, and the hair would vanish for a frame.
             let kept = computed
@@ -529,6 +570,7 @@ pub fn rebuild_strand_meshes(
             section: per_strand.map_or(settings.section, |p| {
                 p.get(strand as usize, settings.section)
             }),
+            eye,
         };
         let mass = mass_field(settings, sim);
         let per = computed.vertices_per_strand();
@@ -582,6 +624,18 @@ pub fn rebuild_strand_meshes(
         mesh.insert_attribute(Mesh::ATTRIBUTE_TANGENT, tangents);
     }
     stats.set_if_neq(counted);
+}
+
+/// Where the one active camera whose frustum meets `bounds` is; `None` when none or several do.
+fn only_camera_seeing(
+    bounds: &Aabb,
+    cameras: &Query<(&Camera, &Frustum, &GlobalTransform), With<Camera3d>>,
+) -> Option<Vec3> {
+    let mut seeing = cameras
+        .iter()
+        .filter(|(c, f, _)| c.is_active && culling::seen_by_any(bounds, std::iter::once(*f)));
+    let (_, _, first) = seeing.next()?;
+    seeing.next().is_none().then(|| first.translation())
 }
 
 /// Each strand's rest root direction and ring normal, in bone space. The normal lies across the

@@ -192,6 +192,10 @@ fn safe_recip(t: f32) -> f32 {
 pub struct TubeTopology {
     rings: usize,
     sides: usize,
+    /// A half tube turned to the camera ([`TubeTopology::facing`]).
+    facing: bool,
+    /// Sides of the closed tube it is (half of, when facing).
+    closed_sides: usize,
     /// `(cos, sin)` of each side's angle around the ring.
     cos_sin: Vec<(f32, f32)>,
     /// Triangle list, counter-clockwise seen from outside (outward facing): the walls ring by ring
@@ -241,10 +245,81 @@ impl TubeTopology {
         Self {
             rings,
             sides,
+            facing: false,
+            closed_sides: sides,
             cos_sin,
             indices,
             uvs,
         }
+    }
+
+    /// The half of a round tube of `sides` sides that a camera sees: each ring's vertices span
+    /// the half turn facing the eye ([`TubeParams::eye`]), at the full tube's angular step
+    /// (`sides / 2 + 1` vertices, at least 3), the ring's two ends on the tube's outline seen
+    /// from the eye. Half the triangles of the closed tube, the same outline and the same
+    /// normals where it is seen; the caps are half fans. `u` runs from `0.25` at one end of a
+    /// ring to `0.75` at the other, whichever way the tube has turned, so a texture around the
+    /// tube stays put on screen. Not closed: only for a tube seen by the one camera it faces.
+    pub fn facing(rings: usize, sides: usize) -> Self {
+        let rings = rings.clamp(MIN_RINGS, MAX_RINGS);
+        let closed_sides = sides.clamp(MIN_SIDES, MAX_SIDES);
+        let sides = Self::facing_sides(sides);
+        let cos_sin = (0..sides)
+            .map(|k| {
+                let angle = std::f64::consts::PI * (k as f64 / (sides - 1) as f64 - 0.5);
+                let (sin, cos) = angle.sin_cos();
+                (cos as f32, sin as f32)
+            })
+            .collect();
+        let at = |ring: usize, side: usize| (ring * sides + side) as u32;
+        let mut indices = Vec::with_capacity(6 * (sides - 1) * rings);
+        for r in 0..rings - 1 {
+            for k in 0..sides - 1 {
+                let (a0, a1, b0, b1) = (at(r, k), at(r, k + 1), at(r + 1, k), at(r + 1, k + 1));
+                indices.extend_from_slice(&[a0, a1, b1, a0, b1, b0]);
+            }
+        }
+        let root = (rings * sides) as u32;
+        let tip = root + 1;
+        for k in 0..sides - 1 {
+            indices.extend_from_slice(&[root, at(0, k + 1), at(0, k)]);
+        }
+        for k in 0..sides - 1 {
+            indices.extend_from_slice(&[tip, at(rings - 1, k), at(rings - 1, k + 1)]);
+        }
+        let mut uvs = Vec::with_capacity(rings * sides + 2);
+        for r in 0..rings {
+            let v = r as f32 / (rings - 1) as f32;
+            uvs.extend((0..sides).map(|k| [0.25 + 0.5 * k as f32 / (sides - 1) as f32, v]));
+        }
+        uvs.push([0.5, 0.0]);
+        uvs.push([0.5, 1.0]);
+        Self {
+            rings,
+            sides,
+            facing: true,
+            closed_sides,
+            cos_sin,
+            indices,
+            uvs,
+        }
+    }
+
+    /// Whether this is a half tube turned to the camera ([`TubeTopology::facing`]).
+    pub fn is_facing(&self) -> bool {
+        self.facing
+    }
+
+    /// Sides of the closed tube: [`TubeTopology::sides`], or for a half tube the sides of the
+    /// tube it is half of (its outline is found on that tube's ring).
+    pub fn closed_sides(&self) -> usize {
+        self.closed_sides
+    }
+
+    /// The vertices a ring of the half tube of a `sides`-sided tube has
+    /// ([`TubeTopology::facing`]).
+    pub fn facing_sides(sides: usize) -> usize {
+        (sides.clamp(MIN_SIDES, MAX_SIDES).div_ceil(2) + 1).max(3)
     }
 
     /// `(cos, sin)` of each side's angle around the ring.
@@ -268,9 +343,10 @@ impl TubeTopology {
         self.rings * self.sides + CAP_VERTICES
     }
 
-    /// `2 * sides * rings`: `2 * sides * (rings - 1)` wall triangles and `sides` per cap.
+    /// `2 * sides * rings`: `2 * sides * (rings - 1)` wall triangles and `sides` per cap
+    /// (`sides - 1` for each for a [`TubeTopology::facing`] half tube).
     pub fn triangle_count(&self) -> usize {
-        2 * self.sides * self.rings
+        self.indices.len() / 3
     }
 
     /// The index of ring vertex `side` (taken modulo `sides`) of ring `ring`.
@@ -365,6 +441,9 @@ pub struct TubeParams {
     pub aspect: f32,
     /// The shape of the cross-section; see [`LockSection`].
     pub section: LockSection,
+    /// Where the camera is, for a [`TubeTopology::facing`] half tube (which faces it); unused
+    /// by a closed tube. `None` leaves a half tube in the ring frame.
+    pub eye: Option<Vec3>,
 }
 
 impl Default for TubeParams {
@@ -376,6 +455,7 @@ impl Default for TubeParams {
             reference: FrameReference::default(),
             aspect: 1.0,
             section: LockSection::Round,
+            eye: None,
         }
     }
 }
@@ -527,6 +607,15 @@ pub fn build_tube(
         // The outward normal of a tube r(s) is radial - r'(s) T, normalised; radial ⟂ T.
         let radial_weight = (1.0 + slope * slope).sqrt().recip();
         let tangent_weight = -slope * radial_weight;
+        // A half tube spans the half turn facing the eye: its frame's normal points at it.
+        let (normal, binormal) = match params.eye {
+            Some(eye) if topology.facing => {
+                let to_eye = eye - samples[r];
+                let facing = (to_eye - tangent * tangent.dot(to_eye)).normalize_or(normal);
+                (facing, tangent.cross(facing))
+            }
+            _ => (normal, binormal),
+        };
         // 4-wide vectors: this loop is most of the work.
         let (n, b) = (Vec3A::from(normal), Vec3A::from(binormal));
         let centre = Vec3A::from(samples[r]);
@@ -597,6 +686,7 @@ mod tests {
             },
             aspect: 1.0,
             section: LockSection::Round,
+            eye: None,
         }
     }
 
@@ -880,6 +970,7 @@ mod tests {
             },
             aspect: 1.0,
             section: LockSection::Round,
+            eye: None,
         };
         for particles in &bad {
             for params in [TubeParams::default(), params] {
@@ -907,6 +998,7 @@ mod tests {
             reference: FrameReference::from_direction(Vec3::NEG_Y),
             aspect: 1.0,
             section: LockSection::Round,
+            eye: None,
         };
         // A strand that hangs down, curls and bends sideways.
         let base: Vec<Vec3> = (0..10)
@@ -972,11 +1064,71 @@ mod tests {
             },
             aspect: 1.0,
             section: LockSection::Round,
+            eye: None,
         };
         let b = build(&t, &particles, &params);
         for r in 0..t.rings() {
             let n = v3(b.normals[t.ring_vertex(r, 0) as usize]);
             assert!(n.distance(Vec3::Z) < 1e-4, "ring {r}: {n:?}");
         }
+    }
+
+    /// A half tube has half the closed tube's triangles, every one facing the eye, its ring's
+    /// ends on the outline seen from the eye (as wide as the round tube) and its middle vertex
+    /// looking at the eye; without an eye it stays in the ring frame.
+    #[test]
+    fn a_half_tube_faces_the_eye_with_half_the_triangles() {
+        let closed = TubeTopology::new(16, 8);
+        let half = TubeTopology::facing(16, 8);
+        assert_eq!(half.sides(), 5);
+        assert_eq!(half.closed_sides(), 8);
+        assert!(half.is_facing() && !closed.is_facing());
+        assert_eq!(2 * half.triangle_count(), closed.triangle_count());
+        assert_eq!(half.vertex_count(), 16 * 5 + CAP_VERTICES);
+        let particles = straight(6, 0.5);
+        for eye in [
+            Vec3::new(0.0, 0.2, 3.0),
+            Vec3::new(-2.0, 0.4, 1.0),
+            Vec3::new(1.0, -1.0, -1.0),
+        ] {
+            let params = TubeParams {
+                eye: Some(eye),
+                ..params_up(0.05)
+            };
+            let b = build(&half, &particles, &params);
+            for r in 0..half.rings() {
+                let centre = Vec3::Y * (0.5 * r as f32 / 15.0);
+                let to_eye = eye - centre;
+                let across = (to_eye - Vec3::Y * to_eye.y).normalize();
+                let first = v3(b.positions[half.ring_vertex(r, 0) as usize]) - centre;
+                let last = v3(b.positions[half.ring_vertex(r, 4) as usize]) - centre;
+                let middle = v3(b.normals[half.ring_vertex(r, 2) as usize]);
+                assert!(first.dot(across).abs() < 1e-5 && last.dot(across).abs() < 1e-5);
+                assert!(
+                    (first.distance(last) - 0.1).abs() < 1e-5,
+                    "ring {r}: as wide as the tube"
+                );
+                assert!(
+                    middle.distance(across) < 1e-5,
+                    "ring {r}: {middle:?} for {across:?}"
+                );
+            }
+            for tri in half.indices.chunks(3).take(2 * 4 * 15) {
+                let [a, b2, c] = [0, 1, 2].map(|i| v3(b.positions[tri[i] as usize]));
+                let n = (b2 - a).cross(c - a);
+                assert!(
+                    n.dot(eye - (a + b2 + c) / 3.0) > 0.0,
+                    "a wall triangle faces away"
+                );
+            }
+        }
+        // No eye: the ring frame's half, ring vertex 2 along its normal (+Z here).
+        let b = build(&half, &particles, &params_up(0.05));
+        assert!(v3(b.normals[half.ring_vertex(3, 2) as usize]).distance(Vec3::Z) < 1e-5);
+        assert!(
+            half.uvs[..5]
+                .iter()
+                .all(|uv| (0.25..=0.75).contains(&uv[0]))
+        );
     }
 }

@@ -19,6 +19,7 @@ mod ramps;
 mod see_through;
 #[cfg(test)]
 mod shader_validation;
+mod shadow_caster;
 mod stroke;
 mod tonal_maps;
 mod toon;
@@ -45,6 +46,7 @@ pub use see_through::{
     SeenThroughHairMaterial, SeenThroughHairOverlay, SeenThroughHairUniform,
     SeenThroughOverlayMarker, ShowThroughHair, ShowThroughHairNamed,
 };
+pub use shadow_caster::HairShadowMaterial;
 pub use stroke::{HairStrokeMaterial, HairStrokeUniform};
 pub use tonal_maps::{HatchingMapSettings, TonalArtMapCache, assign_tonal_art_maps};
 pub use toon::{
@@ -76,6 +78,7 @@ pub const PASS_SHADERS: &[(&str, &str)] = &[
     ("gpu/tubes.wesl", include_str!("gpu/tubes.wesl")),
     ("gpu/strokes.wesl", include_str!("gpu/strokes.wesl")),
     ("gpu/highlights.wesl", include_str!("gpu/highlights.wesl")),
+    ("gpu/shadows.wesl", include_str!("gpu/shadows.wesl")),
 ];
 
 /// Registers the crate's WESL library modules so materials can `import` them. Part of
@@ -143,6 +146,7 @@ impl Plugin for ToonHairMaterialPlugin {
                     ..default()
                 }),
         );
+        shadow_caster::build(app);
         app.insert_resource(ramps)
             .insert_resource(stroke)
             .insert_resource(highlight)

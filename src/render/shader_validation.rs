@@ -334,12 +334,14 @@ fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
     // Each pass's bindings are the ones render/gpu lays out: the batch header first; the tube
     // pass then its hairs, strands and points, the vertex slab and the ring frames it writes;
     // the stroke pass its jobs, the strands, points and frames, and the stroke slab; the
-    // highlight pass its jobs, the frames and the highlight slab.
+    // highlight pass its jobs, the frames and the highlight slab; the shadow pass the same with
+    // the ribbon slab.
     let defs = super::gpu::shader_defs();
     for (file, bindings) in [
         ("gpu/tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
         ("gpu/strokes.wesl", &[0, 1, 2, 3, 4, 5][..]),
         ("gpu/highlights.wesl", &[0, 1, 2, 3][..]),
+        ("gpu/shadows.wesl", &[0, 1, 2, 3][..]),
     ] {
         let (name, source) = PASS_SHADERS
             .iter()

@@ -441,6 +441,8 @@ pub fn extract_silhouettes(
                     Mesh3d(mesh.clone()),
                     Transform::IDENTITY,
                     NoFrustumCulling,
+                    // Light strips and ink lines cast no shadow.
+                    bevy::light::NotShadowCaster,
                     HairStrokesOf(hair),
                 ));
                 if let Some(layer) = view.layer {
@@ -461,7 +463,8 @@ pub fn extract_silhouettes(
                 }
             }
             if on_gpu {
-                let layout = (hair_mesh.strands, topology.rings(), topology.sides());
+                // The contours are found on the closed ring (a half tube's too).
+                let layout = (hair_mesh.strands, topology.rings(), topology.closed_sides());
                 if view.gpu_layout != Some(layout) {
                     // Once: the first mesh takes the GPU's topology, the others are emptied.
                     view.gpu_layout = Some(layout);

@@ -16,6 +16,7 @@ mod fringe_render;
 mod gpu_fallback_render;
 mod gpu_tubes_render;
 mod hairstyle_render;
+mod half_tube_render;
 mod hot_reload;
 mod lighting_render;
 mod lock_render;
@@ -25,6 +26,7 @@ mod outline_render;
 mod render_smoke;
 mod ring_render;
 mod see_through_render;
+mod shadow_render;
 mod silhouette_render;
 mod toon_render;
 mod vrm_render;
@@ -78,6 +80,8 @@ fn main() {
         .chain(gpu_tubes_render::RENDER_TESTS)
         .chain(gpu_fallback_render::RENDER_TESTS)
         .chain(see_through_render::RENDER_TESTS)
+        .chain(shadow_render::RENDER_TESTS)
+        .chain(half_tube_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

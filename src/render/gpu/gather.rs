@@ -1,6 +1,6 @@
 //! The main world's side of the GPU path: after the CPU's mesh and silhouette stages, each
 //! GPU-built hair in view gets a [`GpuTubeInput`] on its mesh entity (this frame's particles,
-//! strands, cross-sections, stroke and highlight jobs), which the render world batches.
+//! strands, cross-sections, stroke, highlight and shadow jobs), which the render world batches.
 
 use bevy::ecs::query::QueryItem;
 use bevy::ecs::system::lifetimeless::Read;
@@ -11,13 +11,16 @@ use bevy::render::sync_component::SyncComponent;
 
 use super::highlights::{GpuHighlightInput, highlight_input};
 use super::order::front_to_back;
+use super::shadows::{GpuShadowInput, shadow_input};
 use super::strokes::{GpuStrokeInput, stroke_input};
 use super::toolbox::vertex_offsets;
 use super::tubes::{GpuStrand, GpuTubeHair};
 use crate::mesh::highlights::GpuHighlightJob;
+use crate::mesh::shadow::GpuShadowJob;
+use crate::mesh::tube::TubeTopology;
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
-    LockSection, SectionSide, fill_section, mass_field,
+    HairTubesFacing, LockSection, SectionSide, fill_section, mass_field,
 };
 use crate::silhouette::GpuStrokeJobs;
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
@@ -42,6 +45,8 @@ pub(crate) struct GpuTubeInput {
     pub strokes: Vec<GpuStrokeInput>,
     /// The specular quads to build from the tubes.
     pub highlights: Option<GpuHighlightInput>,
+    /// The shadow ribbons to build from the tubes.
+    pub shadows: Option<GpuShadowInput>,
     /// The strands (by their place in the mesh) in the order to draw them, nearest the nearest
     /// camera first; empty without a camera (the mesh's order stays).
     pub draw_order: Vec<u32>,
@@ -77,10 +82,14 @@ pub(crate) fn gather_gpu_tube_inputs(
             &HairStrands,
             Ref<ComputedHairMesh>,
             &ComputedHair,
-            &HairInView,
+            (&HairInView, &HairTubesFacing),
             &GlobalTransform,
             Has<HairMeshBuiltOnGpu>,
-            (Option<&GpuStrokeJobs>, Option<&GpuHighlightJob>),
+            (
+                Option<&GpuStrokeJobs>,
+                Option<&GpuHighlightJob>,
+                Option<&GpuShadowJob>,
+            ),
         ),
         With<Hair>,
     >,
@@ -95,8 +104,17 @@ pub(crate) fn gather_gpu_tube_inputs(
     )>,
 ) {
     let (order, (kinds, table), sort_keys) = &mut *scratch;
-    for (settings, per_strand, list, computed, sim, in_view, global, on_gpu, (jobs, quads)) in
-        &hairs
+    for (
+        settings,
+        per_strand,
+        list,
+        computed,
+        sim,
+        (in_view, facing),
+        global,
+        on_gpu,
+        (jobs, quads, ribbons),
+    ) in &hairs
     {
         let offsets = meshes.get(&computed.mesh).and_then(|mesh| {
             vertex_offsets(
@@ -140,15 +158,20 @@ pub(crate) fn gather_gpu_tube_inputs(
             input.strokes = std::mem::take(&mut last.strokes);
             input.draw_order = std::mem::take(&mut last.draw_order);
         }
+        // Contours are found on the closed ring, a half tube's too.
+        let closed_sides = computed.topology.closed_sides();
         input.strokes.clear();
         input.strokes.extend(
-            jobs.iter()
-                .flat_map(|j| &j.0)
-                .filter_map(|job| stroke_input(job, &meshes, rings, sides, computed.strands)),
+            jobs.iter().flat_map(|j| &j.0).filter_map(|job| {
+                stroke_input(job, &meshes, rings, closed_sides, computed.strands)
+            }),
         );
         input.highlights = quads
             .and_then(|q| q.0.as_ref())
             .and_then(|job| highlight_input(job, &meshes, rings, computed.strands));
+        input.shadows = ribbons
+            .and_then(|r| r.0.as_ref())
+            .and_then(|job| shadow_input(job, &meshes, rings, computed.strands));
         input.strands.clear();
         input.particles.clear();
         input.sections.clear();
@@ -194,6 +217,19 @@ pub(crate) fn gather_gpu_tube_inputs(
                 .particles
                 .extend(particles.positions.iter().map(|p| p.extend(1.0)));
         }
+        // A half tube's strands are all round: the closed ring's table follows theirs, and the
+        // stroke pass reads it.
+        if computed.topology.is_facing() {
+            let shift = input.sections.len() as u32;
+            let closed = TubeTopology::new(2, closed_sides);
+            fill_section(LockSection::Round, 1.0, closed.cos_sin(), table);
+            input.sections.extend(table.iter().flat_map(|[p, n, a]| {
+                [Vec4::new(p.0, p.1, n.0, n.1), Vec4::new(a.0, a.1, 0.0, 0.0)]
+            }));
+            for stroke in &mut input.strokes {
+                stroke.record.section_shift = shift;
+            }
+        }
         // Drawn nearest first for the camera nearest the hair (the one it is largest in).
         let here = global.translation();
         let eye = cameras
@@ -229,6 +265,10 @@ pub(crate) fn gather_gpu_tube_inputs(
             metric_y: metric.y_axis.extend(0.0),
             metric_z: metric.z_axis.extend(0.0),
             up: up.extend(0.0),
+            eye: match facing.0 {
+                Some(eye) if computed.topology.is_facing() => eye.extend(1.0),
+                _ => Vec4::ZERO,
+            },
             ..default()
         };
         match inputs.get_mut(computed.entity) {
@@ -254,13 +294,15 @@ pub fn encode_gpu_inputs(world: &mut World, staging: &mut Vec<u8>) -> usize {
         let mut writer = StorageBuffer::new(Vec::new());
         let strokes: Vec<_> = copy.strokes.iter().map(|s| s.record).collect();
         let highlights: Vec<_> = copy.highlights.iter().map(|h| h.record).collect();
+        let shadows: Vec<_> = copy.shadows.iter().map(|h| h.record).collect();
         let written = writer
             .write(&[copy.hair])
             .and_then(|()| writer.write(&copy.strands))
             .and_then(|()| writer.write(&copy.particles))
             .and_then(|()| writer.write(&copy.sections))
             .and_then(|()| writer.write(&strokes))
-            .and_then(|()| writer.write(&highlights));
+            .and_then(|()| writer.write(&highlights))
+            .and_then(|()| writer.write(&shadows));
         if written.is_ok() {
             staging.extend_from_slice(&writer.into_inner());
             hairs += 1;

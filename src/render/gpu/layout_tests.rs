@@ -8,6 +8,7 @@ use bevy::render::render_resource::encase::internal::WriteInto;
 use bevy::render::render_resource::encase::{ShaderSize, StorageBuffer};
 
 use super::highlights::GpuHighlightRecord;
+use super::shadows::GpuShadowRecord;
 use super::strokes::GpuStrokeRecord;
 use super::toolbox::{GpuBatch, shader_defs};
 use super::tubes::{GpuStrand, GpuTubeHair};
@@ -112,8 +113,9 @@ fn the_tube_pass_reads_the_rust_records_where_they_are_written() {
         metric_y: f(11),
         metric_z: f(12),
         up: f(13),
-        first_strand: u(14),
-        frame_base: u(15),
+        eye: f(14),
+        first_strand: u(15),
+        frame_base: u(16),
         pad: UVec2::ZERO,
     };
     let names = [
@@ -138,13 +140,14 @@ fn the_tube_pass_reads_the_rust_records_where_they_are_written() {
         "metric_y",
         "metric_z",
         "up",
+        "eye",
     ]
     .into_iter()
     .enumerate()
     {
         expected.push((n, fw(8 + i as u32)));
     }
-    expected.extend([("first_strand", u(14)), ("frame_base", u(15))]);
+    expected.extend([("first_strand", u(15)), ("frame_base", u(16))]);
     check("gpu/tubes.wesl", "Hair", &hair, &expected);
 
     let strand = GpuStrand {
@@ -172,13 +175,18 @@ fn the_tube_pass_reads_the_rust_records_where_they_are_written() {
         pad: UVec2::ZERO,
     };
     let expected = [("invocations", u(0)), ("records", u(1))];
-    for shader in ["gpu/tubes.wesl", "gpu/strokes.wesl", "gpu/highlights.wesl"] {
+    for shader in [
+        "gpu/tubes.wesl",
+        "gpu/strokes.wesl",
+        "gpu/highlights.wesl",
+        "gpu/shadows.wesl",
+    ] {
         check(shader, "Batch", &batch, &expected);
     }
 }
 
 #[test]
-fn the_stroke_and_highlight_passes_read_the_rust_records_where_they_are_written() {
+fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_written() {
     let stroke = GpuStrokeRecord {
         view_proj: Mat4::from_cols(f(0), f(100), f(101), f(102)),
         unproject_x: f(1),
@@ -199,7 +207,7 @@ fn the_stroke_and_highlight_passes_read_the_rust_records_where_they_are_written(
         first_strand: u(16),
         frame_base: u(17),
         first_invocation: u(18),
-        pad: 0,
+        section_shift: u(19),
     };
     let vectors = [
         "view_proj",
@@ -223,6 +231,7 @@ fn the_stroke_and_highlight_passes_read_the_rust_records_where_they_are_written(
         "first_strand",
         "frame_base",
         "first_invocation",
+        "section_shift",
     ];
     let expected: Vec<(&str, u32)> = vectors
         .iter()
@@ -259,4 +268,28 @@ fn the_stroke_and_highlight_passes_read_the_rust_records_where_they_are_written(
         ("first_invocation", u(10)),
     ];
     check("gpu/highlights.wesl", "Job", &highlight, &expected);
+
+    let shadow = GpuShadowRecord {
+        light: f(0),
+        vertex_base: u(1),
+        stride: u(2),
+        position_offset: u(3),
+        normal_offset: u(4),
+        rings: u(5),
+        strands: u(6),
+        frame_base: u(7),
+        first_invocation: u(8),
+    };
+    let expected = [
+        ("light", fw(0)),
+        ("vertex_base", u(1)),
+        ("stride", u(2)),
+        ("position_offset", u(3)),
+        ("normal_offset", u(4)),
+        ("rings", u(5)),
+        ("strands", u(6)),
+        ("frame_base", u(7)),
+        ("first_invocation", u(8)),
+    ];
+    check("gpu/shadows.wesl", "Job", &shadow, &expected);
 }

@@ -1,14 +1,16 @@
-//! Strand tubes, silhouette strokes and specular quads built on the GPU.
+//! Strand tubes, silhouette strokes, specular quads and shadow ribbons built on the GPU.
 //!
 //! Each frame the main world gathers the particles of every GPU-built hair in view
 //! ([`gather`]); the render world batches the hairs whose meshes share a vertex slab (the mesh
-//! allocator keeps meshes of one layout together) and runs three compute passes, each one
+//! allocator keeps meshes of one layout together) and runs five compute passes, each one
 //! dispatch a batch, however many hairs it holds:
 //! - the tube pass ([`tubes`], `tubes.wesl`) sweeps every strand's tube straight into its hair
 //!   mesh's vertex buffer and leaves each ring's frame in a buffer;
 //! - the stroke pass ([`strokes`], `strokes.wesl`) finds each strand's contours for each camera
 //!   from those frames and writes the stroke strips into the cameras' stroke meshes;
 //! - the highlight pass ([`highlights`], `highlights.wesl`) writes the specular quads;
+//! - the shadow pass ([`shadows`], `shadows.wesl`) writes the ribbons the hair casts its
+//!   shadow with ([`crate::mesh::shadow`]);
 //! - the draw-order pass ([`order`], `order.wesl`) rewrites each hair mesh's index buffer so
 //!   that its strands are drawn nearest the camera first (the main world sorts them), which
 //!   spares the prepass shading the hair behind.
@@ -41,6 +43,7 @@ use crate::schedule::HairSystems;
 mod gather;
 mod highlights;
 mod order;
+mod shadows;
 mod status;
 mod strokes;
 mod toolbox;
@@ -57,6 +60,9 @@ use highlights::{
     prepare_highlight_batch,
 };
 use order::{GpuOrderPipeline, OrderBatch, OrderHairInput, init_gpu_order_pipeline};
+use shadows::{
+    GpuShadowPipeline, ShadowBatch, init_gpu_shadow_pipeline, prepare_shadow_batch, shadow_vertices,
+};
 use status::{GpuPassIds, choose_mesh_builder, report_pass_state};
 pub use status::{
     GpuPassState, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback, HairGpuMeshSupport,
@@ -81,6 +87,7 @@ impl Plugin for GpuTubesPlugin {
         bevy::asset::embedded_asset!(app, "strokes.wesl");
         bevy::asset::embedded_asset!(app, "highlights.wesl");
         bevy::asset::embedded_asset!(app, "order.wesl");
+        bevy::asset::embedded_asset!(app, "shadows.wesl");
         let passes = HairGpuPasses::default();
         app.init_resource::<HairMeshBuilder>()
             .init_resource::<HairGpuMeshSupport>()
@@ -110,6 +117,7 @@ impl Plugin for GpuTubesPlugin {
                         init_gpu_stroke_pipeline,
                         init_gpu_highlight_pipeline,
                         init_gpu_order_pipeline,
+                        init_gpu_shadow_pipeline,
                     ),
                     name_gpu_passes,
                 )
@@ -159,12 +167,14 @@ fn name_gpu_passes(
     strokes: Res<GpuStrokePipeline>,
     highlights: Res<GpuHighlightPipeline>,
     order: Res<GpuOrderPipeline>,
+    shadows: Res<GpuShadowPipeline>,
 ) {
     commands.insert_resource(GpuPassIds([
         ("hair_gpu_tubes", tubes.0.pipeline),
         ("hair_gpu_strokes", strokes.0.pipeline),
         ("hair_gpu_highlights", highlights.0.pipeline),
         ("hair_gpu_draw_order", order.0.pipeline),
+        ("hair_gpu_shadows", shadows.0.pipeline),
     ]));
 }
 
@@ -193,7 +203,16 @@ fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     }
 }
 
-/// This frame's batches of the four passes (render world), their buffers reused frame to
+/// The five passes' pipelines, as the systems that prepare and run them take them.
+type PassPipelines<'w> = (
+    Res<'w, GpuTubePipeline>,
+    Res<'w, GpuStrokePipeline>,
+    Res<'w, GpuHighlightPipeline>,
+    Res<'w, GpuOrderPipeline>,
+    Res<'w, GpuShadowPipeline>,
+);
+
+/// This frame's batches of the five passes (render world), their buffers reused frame to
 /// frame.
 #[derive(Resource, Default)]
 struct GpuBatches {
@@ -201,8 +220,9 @@ struct GpuBatches {
     strokes: Vec<StrokeBatch>,
     highlights: Vec<HighlightBatch>,
     order: Vec<OrderBatch>,
+    shadows: Vec<ShadowBatch>,
     /// Batches in use this frame, of each pass.
-    used: [usize; 4],
+    used: [usize; 5],
 }
 
 /// Groups the hairs of this frame by vertex slab, uploads each batch's records, strands and
@@ -212,20 +232,16 @@ fn prepare_gpu_batches(
     mut inputs: Query<&mut GpuTubeInput>,
     mut batches: ResMut<GpuBatches>,
     mesh_allocator: Res<MeshAllocator>,
-    pipelines: (
-        Res<GpuTubePipeline>,
-        Res<GpuStrokePipeline>,
-        Res<GpuHighlightPipeline>,
-        Res<GpuOrderPipeline>,
-    ),
+    pipelines: PassPipelines<'_>,
     pipeline_cache: Res<PipelineCache>,
     (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
 ) {
-    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline) = pipelines;
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline, shadow_pipeline) =
+        pipelines;
     let render = (device.as_ref(), queue.as_ref());
     let limits = BindingLimits::of(&device.limits());
     let batches = batches.as_mut();
-    batches.used = [0; 4];
+    batches.used = [0; 5];
     let inputs: Vec<_> = inputs.iter_mut().collect();
     // The tube meshes, by slab.
     let mut spans = Vec::with_capacity(inputs.len());
@@ -282,11 +298,12 @@ fn prepare_gpu_batches(
         render,
         (&order_pipeline, &pipeline_cache),
     );
-    // The stroke and highlight jobs of each tube batch, by slab.
+    // The stroke, highlight and shadow jobs of each tube batch, by slab.
     let GpuBatches {
         tubes,
         strokes,
         highlights,
+        shadows,
         used,
         ..
     } = batches;
@@ -302,7 +319,19 @@ fn prepare_gpu_batches(
         };
         let mut stroke_spans = Vec::new();
         let mut highlight_spans = Vec::new();
+        let mut shadow_spans = Vec::new();
         for (input, placement) in in_batch() {
+            if let Some(job) = &input.shadows
+                && let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
+                && let Some(span) = SlabSpan::new(
+                    (job.record, placement),
+                    &slice,
+                    job.record.stride,
+                    shadow_vertices(&job.record),
+                )
+            {
+                shadow_spans.push(span);
+            }
             for job in &input.strokes {
                 if let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
                     && let Some(span) = SlabSpan::new(
@@ -333,16 +362,33 @@ fn prepare_gpu_batches(
         let (groups, refused) = group_by_slab(stroke_spans, Buffer::id, limits);
         let (highlight_groups, refused_highlights) =
             group_by_slab(highlight_spans, Buffer::id, limits);
+        let (shadow_groups, refused_shadows) = group_by_slab(shadow_spans, Buffer::id, limits);
         let refused_hairs = refused.iter().map(|(_, h)| h);
-        for hair in refused_hairs.chain(refused_highlights.iter().map(|(_, h)| h)) {
+        for hair in refused_hairs
+            .chain(refused_highlights.iter().map(|(_, h)| h))
+            .chain(refused_shadows.iter().map(|(_, h)| h))
+        {
             passes.refuse(
                 hair.hair_mesh,
                 format!(
-                    "its stroke or highlight mesh is larger than this device binds as storage \
-                     ({} bytes); it is built on the CPU",
+                    "its stroke, highlight or shadow mesh is larger than this device binds as \
+                     storage ({} bytes); it is built on the CPU",
                     limits.max_bytes
                 ),
             );
+        }
+        for group in &shadow_groups {
+            if shadows.len() <= used[4] {
+                shadows.push(ShadowBatch::default());
+            }
+            prepare_shadow_batch(
+                &mut shadows[used[4]],
+                group,
+                buffers,
+                render,
+                (&shadow_pipeline, &pipeline_cache),
+            );
+            used[4] += 1;
         }
         for group in &groups {
             if strokes.len() <= used[1] {
@@ -419,23 +465,19 @@ fn prepare_order_batches(
 /// Vertices after each strand's rings in a tube mesh.
 const CAP_VERTICES: u32 = crate::mesh::tube::CAP_VERTICES as u32;
 
-/// Runs the tube pass over every batch, then the stroke, highlight and draw-order passes, before
-/// any camera draws: four compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
+/// Runs the tube pass over every batch, then the stroke, highlight, draw-order and shadow
+/// passes, before any camera or light draws: five compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
 /// where a game adds it (`render/hair_gpu_tubes/elapsed_gpu` and its pipeline statistics). The
 /// dispatches go to [`HairGpuPasses::dispatches`].
 fn build_gpu_batches(
     mut render_context: RenderContext,
     batches: Res<GpuBatches>,
-    pipelines: (
-        Res<GpuTubePipeline>,
-        Res<GpuStrokePipeline>,
-        Res<GpuHighlightPipeline>,
-        Res<GpuOrderPipeline>,
-    ),
+    pipelines: PassPipelines<'_>,
     pipeline_cache: Res<PipelineCache>,
     (device, passes): (Res<RenderDevice>, Res<HairGpuPasses>),
 ) {
-    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline) = pipelines;
+    let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline, shadow_pipeline) =
+        pipelines;
     let mut dispatches = HairGpuDispatches::default();
     let tubes: Vec<&PreparedBatch> = batches.tubes[..batches.used[0]]
         .iter()
@@ -462,6 +504,10 @@ fn build_gpu_batches(
         .iter()
         .filter_map(|b| b.prepared.as_ref())
         .collect();
+    let shadows: Vec<&PreparedBatch> = batches.shadows[..batches.used[4]]
+        .iter()
+        .filter_map(|b| b.prepared.as_ref())
+        .collect();
     let max_per_dimension = device.limits().max_compute_workgroups_per_dimension;
     let diagnostics = render_context.diagnostic_recorder();
     let diagnostics = diagnostics.as_deref();
@@ -470,6 +516,7 @@ fn build_gpu_batches(
         strokes: stroke_count,
         highlights: highlight_count,
         draw_order: order_count,
+        shadows: shadow_count,
     } = &mut dispatches;
     for (count, name, id, list) in [
         (
@@ -495,6 +542,12 @@ fn build_gpu_batches(
             "hair_gpu_draw_order",
             order_pipeline.0.pipeline,
             order,
+        ),
+        (
+            shadow_count,
+            "hair_gpu_shadows",
+            shadow_pipeline.0.pipeline,
+            shadows,
         ),
     ] {
         let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {

@@ -95,6 +95,8 @@ pub struct HairGpuDispatches {
     /// The draw-order pass (invocations: indices rewritten; a batch: hairs whose meshes share
     /// an index slab).
     pub draw_order: PassDispatches,
+    /// The shadow ribbon pass.
+    pub shadows: PassDispatches,
 }
 
 #[derive(Debug, Default)]
@@ -166,7 +168,7 @@ pub struct HairGpuFallback {
     pub mesh: Option<AssetId<Mesh>>,
 }
 
-/// Render world: the three compute pipelines' state, every frame.
+/// Render world: the compute pipelines' state, every frame.
 pub(super) fn report_pass_state(
     passes: Res<HairGpuPasses>,
     cache: Res<PipelineCache>,
@@ -200,7 +202,7 @@ pub(super) fn report_pass_state(
 
 /// The crate's compute pipelines, by name (render world).
 #[derive(Resource, Clone, Copy)]
-pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 4]);
+pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 5]);
 
 /// Main world: marks the hairs built on the GPU this frame (the CPU mesh stage skips their
 /// vertices), and puts a hair back on the CPU, with [`HairGpuBuildFailed`], when the GPU cannot

@@ -17,6 +17,7 @@ use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::settings::WgpuLimits;
 use bevy::shader::ShaderDefVal;
 
+use crate::mesh::shadow::SHADOW_RING_STEP;
 use crate::mesh::tube::{CAP_VERTICES, MIN_RINGS, MIN_SIDES};
 
 /// Invocations in a workgroup of every pass (`constants::WORKGROUP_SIZE`).
@@ -38,6 +39,7 @@ pub fn shader_defs() -> Vec<ShaderDefVal> {
         uint("TUBE_CAP_VERTICES", CAP_VERTICES as u32),
         uint("MIN_RINGS", MIN_RINGS as u32),
         uint("MIN_SIDES", MIN_SIDES as u32),
+        uint("SHADOW_RING_STEP", SHADOW_RING_STEP as u32),
     ]
 }
 
@@ -84,12 +86,14 @@ impl ComputePass {
 }
 
 /// Word offsets of three attributes in `mesh`'s interleaved vertex, then the words per vertex;
-/// `None` if one is missing.
+/// `None` if one is missing. An attribute may be asked for twice.
 pub fn vertex_offsets(mesh: &Mesh, attributes: [MeshVertexAttributeId; 3]) -> Option<[u32; 4]> {
     let (mut offset, mut found) = (0u64, [None; 3]);
     for (attribute, _) in mesh.attributes() {
-        if let Some(slot) = attributes.iter().position(|id| *id == attribute.id) {
-            found[slot] = Some((offset / 4) as u32);
+        for (slot, id) in attributes.iter().enumerate() {
+            if *id == attribute.id {
+                found[slot] = Some((offset / 4) as u32);
+            }
         }
         offset += attribute.format.size();
     }

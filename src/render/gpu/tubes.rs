@@ -51,6 +51,9 @@ pub(crate) struct GpuTubeHair {
     pub metric_z: Vec4,
     /// The bone's up axis, for the angel ring's tangents.
     pub up: Vec4,
+    /// The eye its half tubes face (`w = 1`; `w = 0`: closed tubes, see
+    /// [`TubeTopology::facing`](crate::mesh::tube::TubeTopology::facing)).
+    pub eye: Vec4,
     /// Its first strand in the batch (set in the render world).
     pub first_strand: u32,
     /// Its first ring frame in the batch, in vec4 (set in the render world).
