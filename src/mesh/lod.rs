@@ -54,9 +54,10 @@ pub struct HairLod {
     /// Draw only the half of each round tube the camera sees
     /// ([`TubeTopology::facing`](super::tube::TubeTopology::facing)): half the triangles, the
     /// same outline. Only where it holds: tubes built on the GPU, every strand's section
-    /// [`Round`](super::LockSection::Round) at aspect 1, one active camera seeing the hair, and
-    /// the shadow cast by ribbons ([`HairShadowCaster`](super::HairShadowCaster)), not the
-    /// tubes. Default: `true`.
+    /// [`Round`](super::LockSection::Round) at aspect 1, one active camera seeing the hair, the
+    /// shadow cast by ribbons ([`HairShadowCaster`](super::HairShadowCaster)), not the tubes,
+    /// and no texture around the tube ([`HairTubesClosed`](super::HairTubesClosed): surface
+    /// hatching). Default: `true`.
     pub half_tubes: bool,
 }
 

@@ -141,6 +141,14 @@ pub struct HairMeshOf(pub Entity);
 #[reflect(Component, Default, Debug, PartialEq)]
 pub struct HairTubesFacing(pub Option<Vec3>);
 
+/// Keeps a hair's tubes closed ([`HairLod::half_tubes`] off for it): for a look whose texture
+/// runs around the tube, as surface hatching does, which a half tube (its `u` fixed on screen)
+/// would hold still while the strands turn. The render plugin keeps it on the hairs whose
+/// material hatches on the surface.
+#[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[reflect(Component, Default, Debug, PartialEq)]
+pub struct HairTubesClosed;
+
 /// A hair's mesh entities; despawning the hair despawns them.
 #[derive(Component, Reflect, Debug, Default)]
 #[reflect(Component, Debug, Default)]
@@ -206,6 +214,7 @@ impl Plugin for HairMeshPlugin {
             .register_required_components::<Hair, shadow::HairShadowCaster>()
             .register_required_components::<Hair, shadow::GpuShadowJob>()
             .register_type::<HairTubesFacing>()
+            .register_type::<HairTubesClosed>()
             .register_required_components::<Hair, HairTubesFacing>()
             .register_type::<culling::HairCulling>()
             .register_type::<culling::HairInView>()
@@ -339,6 +348,7 @@ pub fn rebuild_strand_meshes(
                 Has<HairMeshBuiltOnGpu>,
                 &shadow::HairShadowCaster,
                 &mut HairTubesFacing,
+                Has<HairTubesClosed>,
             ),
             &GlobalTransform,
             &HairStrands,
@@ -368,7 +378,7 @@ pub fn rebuild_strand_meshes(
     for (
         hair,
         hair_assets,
-        (settings, per_strand, on_gpu, caster, mut facing),
+        (settings, per_strand, on_gpu, caster, mut facing, kept_closed),
         global,
         strand_list,
         mut computed,
@@ -451,17 +461,21 @@ pub fn rebuild_strand_meshes(
             limit => sides.min(usize::from(limit)).max(tube::MIN_SIDES),
         };
         let sides = section_sides(sides, settings, per_strand);
-        // Half tubes facing the one camera that sees the hair, where that holds (`HairLod`).
+        // Half tubes facing the one camera that sees the hair, where that holds (`HairLod`). A
+        // hair no camera sees keeps its tubes, as it keeps its level.
         let round = |s: LockSection| s == LockSection::Round;
-        let eye = (lod.half_tubes
+        let can_face = lod.half_tubes
+            && !kept_closed
             && on_gpu
-            && seen
             && *caster != shadow::HairShadowCaster::Tubes
             && round(settings.section)
             && settings.section_aspect >= 1.0
-            && per_strand.is_none_or(|p| p.0.iter().copied().all(round)))
-        .then(|| bounds.and_then(|b| only_camera_seeing(&b, &cameras)))
-        .flatten();
+            && per_strand.is_none_or(|p| p.0.iter().copied().all(round));
+        let eye = match (can_face, seen) {
+            (false, _) => None,
+            (true, true) => bounds.and_then(|b| only_camera_seeing(&b, &cameras)),
+            (true, false) => facing.0,
+        };
         facing.set_if_neq(HairTubesFacing(eye));
         let ring_sides = match eye {
             Some(_) => TubeTopology::facing_sides(sides),

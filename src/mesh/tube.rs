@@ -253,24 +253,19 @@ impl TubeTopology {
         }
     }
 
-    /// The half of a round tube of `sides` sides that a camera sees: each ring's vertices span
-    /// the half turn facing the eye ([`TubeParams::eye`]), at the full tube's angular step
-    /// (`sides / 2 + 1` vertices, at least 3), the ring's two ends on the tube's outline seen
-    /// from the eye. Half the triangles of the closed tube, the same outline and the same
-    /// normals where it is seen; the caps are half fans. `u` runs from `0.25` at one end of a
-    /// ring to `0.75` at the other, whichever way the tube has turned, so a texture around the
-    /// tube stays put on screen. Not closed: only for a tube seen by the one camera it faces.
+    /// The half of a closed tube of `sides` sides that a camera sees: each ring has
+    /// `sides / 2 + 1` vertices (rounded up, at least 3), the closed ring's vertices that bound
+    /// the faces turned to the eye ([`TubeParams::eye`]), chosen ring by ring. So it draws the
+    /// closed tube's front faces, its outline and normals, from half the triangles; the caps
+    /// are half fans. `u` runs from `0.25` at one end of a ring to `0.75` at the other,
+    /// whichever way the tube has turned, so a texture around the tube stays put on screen
+    /// rather than on the strand. Not closed: only for a tube seen by the one camera it faces.
     pub fn facing(rings: usize, sides: usize) -> Self {
         let rings = rings.clamp(MIN_RINGS, MAX_RINGS);
-        let closed_sides = sides.clamp(MIN_SIDES, MAX_SIDES);
+        let closed = Self::new(2, sides);
+        let closed_sides = closed.sides;
+        let cos_sin = closed.cos_sin;
         let sides = Self::facing_sides(sides);
-        let cos_sin = (0..sides)
-            .map(|k| {
-                let angle = std::f64::consts::PI * (k as f64 / (sides - 1) as f64 - 0.5);
-                let (sin, cos) = angle.sin_cos();
-                (cos as f32, sin as f32)
-            })
-            .collect();
         let at = |ring: usize, side: usize| (ring * sides + side) as u32;
         let mut indices = Vec::with_capacity(6 * (sides - 1) * rings);
         for r in 0..rings - 1 {
@@ -311,7 +306,7 @@ impl TubeTopology {
     }
 
     /// Sides of the closed tube: [`TubeTopology::sides`], or for a half tube the sides of the
-    /// tube it is half of (its outline is found on that tube's ring).
+    /// tube it is half of (its vertices are that tube's, its outline found on that ring).
     pub fn closed_sides(&self) -> usize {
         self.closed_sides
     }
@@ -322,7 +317,7 @@ impl TubeTopology {
         (sides.clamp(MIN_SIDES, MAX_SIDES).div_ceil(2) + 1).max(3)
     }
 
-    /// `(cos, sin)` of each side's angle around the ring.
+    /// `(cos, sin)` of each side's angle around the closed ring.
     #[cfg(feature = "render")]
     pub(crate) fn cos_sin(&self) -> &[(f32, f32)] {
         &self.cos_sin
@@ -517,7 +512,11 @@ pub fn build_tube(
     } = scratch;
     // The cross-section: each side's position, outward normal and direction of increasing u.
     // The same for every strand of a hair: filled again only when the key changes.
-    let key = (params.section, params.aspect.to_bits(), sides);
+    let key = (
+        params.section,
+        params.aspect.to_bits(),
+        topology.cos_sin.len(),
+    );
     if *section_for != Some(key) {
         fill_section(params.section, params.aspect, &topology.cos_sin, section);
         *section_for = Some(key);
@@ -607,35 +606,32 @@ pub fn build_tube(
         // The outward normal of a tube r(s) is radial - r'(s) T, normalised; radial ⟂ T.
         let radial_weight = (1.0 + slope * slope).sqrt().recip();
         let tangent_weight = -slope * radial_weight;
-        // A half tube spans the half turn facing the eye: its frame's normal points at it.
-        let (normal, binormal) = match params.eye {
+        // A half tube takes the closed ring's vertices from the one that starts the faces
+        // turned to the eye.
+        let start = match params.eye {
             Some(eye) if topology.facing => {
-                let to_eye = eye - samples[r];
-                let facing = (to_eye - tangent * tangent.dot(to_eye)).normalize_or(normal);
-                (facing, tangent.cross(facing))
+                facing_start(eye - samples[r], normal, binormal, section.len())
             }
-            _ => (normal, binormal),
+            _ => 0,
         };
-        // 4-wide vectors: this loop is most of the work.
-        let (n, b) = (Vec3A::from(normal), Vec3A::from(binormal));
-        let centre = Vec3A::from(samples[r]);
-        let axial = Vec3A::from(tangent) * tangent_weight;
         let range = r * sides..(r + 1) * sides;
-        let ring = positions[range.clone()]
-            .iter_mut()
-            .zip(&mut normals[range.clone()])
-            .zip(section.iter());
-        for ((position, normal_out), [(pc, ps), (nc, ns), _]) in ring {
-            let radial = n * *pc + b * *ps;
-            *position = (centre + radial * ring_radius).to_array();
-            let outward = n * *nc + b * *ns;
-            *normal_out = (outward * radial_weight + axial).to_array();
-        }
-        if let Some(tangents) = tangents.as_deref_mut() {
-            for (t, [_, _, (tc, ts)]) in tangents[range].iter_mut().zip(section.iter()) {
-                // (-sin, cos) in the circle's table: binormal * cos - normal * sin.
-                *t = (normal * *tc + binormal * *ts).extend(1.0).to_array();
-            }
+        let ring = RingOut {
+            positions: &mut positions[range.clone()],
+            normals: &mut normals[range.clone()],
+            tangents: tangents.as_deref_mut().map(|t| &mut t[range]),
+        };
+        let frame = RingFrame {
+            centre: samples[r],
+            normal,
+            binormal,
+            axial: tangent * tangent_weight,
+            radius: ring_radius,
+            radial_weight,
+        };
+        if topology.facing {
+            write_ring(ring, &frame, section.iter().cycle().skip(start).take(sides));
+        } else {
+            write_ring(ring, &frame, section.iter());
         }
     }
 
@@ -647,6 +643,71 @@ pub fn build_tube(
     if let Some(tangents) = tangents {
         tangents[root] = root_frame.1.extend(1.0).to_array();
         tangents[root + 1] = normal.extend(1.0).to_array();
+    }
+}
+
+/// One ring's vertices to write.
+struct RingOut<'a> {
+    positions: &'a mut [[f32; 3]],
+    normals: &'a mut [[f32; 3]],
+    tangents: Option<&'a mut [[f32; 4]]>,
+}
+
+/// One ring's frame, radius and normal tilt.
+struct RingFrame {
+    centre: Vec3,
+    normal: Vec3,
+    binormal: Vec3,
+    /// The normals' part along the strand (the taper's tilt).
+    axial: Vec3,
+    radius: f32,
+    radial_weight: f32,
+}
+
+/// Writes a ring's vertices from `table`, its cross-section's sides in order.
+#[inline(always)]
+fn write_ring<'a>(
+    out: RingOut<'_>,
+    frame: &RingFrame,
+    table: impl Iterator<Item = &'a SectionSide> + Clone,
+) {
+    // 4-wide vectors: this loop is most of the work.
+    let (n, b) = (Vec3A::from(frame.normal), Vec3A::from(frame.binormal));
+    let centre = Vec3A::from(frame.centre);
+    let axial = Vec3A::from(frame.axial);
+    let ring = out
+        .positions
+        .iter_mut()
+        .zip(out.normals.iter_mut())
+        .zip(table.clone());
+    for ((position, normal_out), [(pc, ps), (nc, ns), _]) in ring {
+        let radial = n * *pc + b * *ps;
+        *position = (centre + radial * frame.radius).to_array();
+        let outward = n * *nc + b * *ns;
+        *normal_out = (outward * frame.radial_weight + axial).to_array();
+    }
+    if let Some(tangents) = out.tangents {
+        for (t, [_, _, (tc, ts)]) in tangents.iter_mut().zip(table) {
+            // (-sin, cos) in the circle's table: binormal * cos - normal * sin.
+            *t = (frame.normal * *tc + frame.binormal * *ts)
+                .extend(1.0)
+                .to_array();
+        }
+    }
+}
+
+/// The closed ring's vertex (of `closed` around it, vertex `k` at angle `2 pi k / closed` from
+/// `normal` toward `binormal`, face `k` between vertices `k` and `k + 1`) that starts its faces
+/// turned to the eye, `to_eye`, seen from the ring's centre: the first face whose normal is
+/// less than a quarter turn from the way to the eye. A half tube draws it and the next ones.
+pub(crate) fn facing_start(to_eye: Vec3, normal: Vec3, binormal: Vec3, closed: usize) -> usize {
+    let angle = to_eye.dot(binormal).atan2(to_eye.dot(normal));
+    let step = std::f32::consts::TAU / closed.max(1) as f32;
+    let start = ((angle - std::f32::consts::FRAC_PI_2) / step - 0.5).floor() + 1.0;
+    if start.is_finite() {
+        (start as i64).rem_euclid(closed.max(1) as i64) as usize
+    } else {
+        0
     }
 }
 
@@ -1073,19 +1134,21 @@ mod tests {
         }
     }
 
-    /// A half tube has half the closed tube's triangles, every one facing the eye, its ring's
-    /// ends on the outline seen from the eye (as wide as the round tube) and its middle vertex
-    /// looking at the eye; without an eye it stays in the ring frame.
+    /// A half tube has half the closed tube's triangles and draws the closed tube's front: at
+    /// each ring the closed ring's vertices around the way to the eye, its ends two opposite
+    /// vertices (as wide as the closed tube), its middle vertex within half a side of the way
+    /// to the eye, no wall triangle turned away. Without an eye it starts at the frame's
+    /// vertex 0.
     #[test]
     fn a_half_tube_faces_the_eye_with_half_the_triangles() {
         let closed = TubeTopology::new(16, 8);
         let half = TubeTopology::facing(16, 8);
-        assert_eq!(half.sides(), 5);
-        assert_eq!(half.closed_sides(), 8);
+        assert_eq!((half.sides(), half.closed_sides()), (5, 8));
         assert!(half.is_facing() && !closed.is_facing());
         assert_eq!(2 * half.triangle_count(), closed.triangle_count());
         assert_eq!(half.vertex_count(), 16 * 5 + CAP_VERTICES);
         let particles = straight(6, 0.5);
+        let eighth = std::f32::consts::PI / 8.0;
         for eye in [
             Vec3::new(0.0, 0.2, 3.0),
             Vec3::new(-2.0, 0.4, 1.0),
@@ -1096,35 +1159,30 @@ mod tests {
                 ..params_up(0.05)
             };
             let b = build(&half, &particles, &params);
+            let at = |r: usize, k: usize| v3(b.positions[half.ring_vertex(r, k) as usize]);
             for r in 0..half.rings() {
                 let centre = Vec3::Y * (0.5 * r as f32 / 15.0);
                 let to_eye = eye - centre;
                 let across = (to_eye - Vec3::Y * to_eye.y).normalize();
-                let first = v3(b.positions[half.ring_vertex(r, 0) as usize]) - centre;
-                let last = v3(b.positions[half.ring_vertex(r, 4) as usize]) - centre;
+                let (first, last) = (at(r, 0) - centre, at(r, 4) - centre);
                 let middle = v3(b.normals[half.ring_vertex(r, 2) as usize]);
-                assert!(first.dot(across).abs() < 1e-5 && last.dot(across).abs() < 1e-5);
                 assert!(
-                    (first.distance(last) - 0.1).abs() < 1e-5,
-                    "ring {r}: as wide as the tube"
+                    (first + last).length() < 1e-5,
+                    "ring {r}: ends not opposite"
                 );
-                assert!(
-                    middle.distance(across) < 1e-5,
-                    "ring {r}: {middle:?} for {across:?}"
-                );
+                assert!(first.dot(across).abs() <= 0.05 * eighth.sin() + 1e-5);
+                assert!(middle.angle_between(across) <= eighth + 1e-4, "ring {r}");
             }
             for tri in half.indices.chunks(3).take(2 * 4 * 15) {
                 let [a, b2, c] = [0, 1, 2].map(|i| v3(b.positions[tri[i] as usize]));
-                let n = (b2 - a).cross(c - a);
-                assert!(
-                    n.dot(eye - (a + b2 + c) / 3.0) > 0.0,
-                    "a wall triangle faces away"
-                );
+                let n = (b2 - a).cross(c - a).normalize();
+                let facing = n.dot((eye - (a + b2 + c) / 3.0).normalize());
+                assert!(facing > -0.2, "a wall triangle turned away: {facing}");
             }
         }
-        // No eye: the ring frame's half, ring vertex 2 along its normal (+Z here).
+        // No eye: from the frame's vertex 0 (+Z here) on.
         let b = build(&half, &particles, &params_up(0.05));
-        assert!(v3(b.normals[half.ring_vertex(3, 2) as usize]).distance(Vec3::Z) < 1e-5);
+        assert!(v3(b.normals[half.ring_vertex(3, 0) as usize]).distance(Vec3::Z) < 1e-5);
         assert!(
             half.uvs[..5]
                 .iter()

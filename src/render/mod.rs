@@ -164,6 +164,10 @@ impl Plugin for ToonHairMaterialPlugin {
                 )
                     .in_set(HairSystems::Materials),
             )
+            .add_systems(
+                PostUpdate,
+                keep_surface_hatched_tubes_closed.before(HairSystems::BuildMesh),
+            )
             // Hatching works without the panel: materials that ask for it get a map.
             .add_systems(
                 PostUpdate,
@@ -275,6 +279,27 @@ fn apply_highlight_material(
         commands
             .entity(e)
             .insert(MeshMaterial3d(material.0.clone()));
+    }
+}
+
+/// Keeps the tubes of hairs whose material hatches on the surface closed
+/// ([`HairTubesClosed`](crate::mesh::HairTubesClosed)): the hatching runs around the tube.
+fn keep_surface_hatched_tubes_closed(
+    mut commands: Commands,
+    hairs: Query<(Entity, &HairMaterial, Has<crate::mesh::HairTubesClosed>)>,
+    materials: Res<Assets<ToonHairMaterial>>,
+) {
+    for (hair, material, closed) in &hairs {
+        let wanted = materials
+            .get(&material.0)
+            .is_some_and(|m| m.hatching == HatchingMode::Surface && m.tonal_art_map.is_some());
+        if wanted && !closed {
+            commands.entity(hair).insert(crate::mesh::HairTubesClosed);
+        } else if closed && !wanted {
+            commands
+                .entity(hair)
+                .remove::<crate::mesh::HairTubesClosed>();
+        }
     }
 }
 

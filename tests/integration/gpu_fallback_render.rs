@@ -122,7 +122,15 @@ fn spawn_spikes(r: &mut HeadlessRenderer, step: usize, transform: Transform) -> 
             ..default()
         },
     );
-    r.app.world_mut().entity_mut(hair).insert(transform);
+    // Closed tubes, so the GPU's picture is the CPU's to the pixel; half tubes have a test of
+    // their own (`half_tube_render`).
+    r.app.world_mut().entity_mut(hair).insert((
+        transform,
+        bevy_cartoon_hair::mesh::HairLod {
+            half_tubes: false,
+            ..default()
+        },
+    ));
     hair
 }
 

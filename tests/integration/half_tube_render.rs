@@ -38,10 +38,10 @@ fn tubes(r: &HeadlessRenderer, hair: Entity) -> Result<(bool, usize, Option<Vec3
 
 /// 240 round, tapered strands lit by the scene's light, drawn with closed tubes built on the
 /// CPU, then on the GPU as half tubes facing the camera: half the triangles, and the pictures
-/// differ in under 3% of the hair's pixels by more than 3 levels (the half tube's outline is
-/// the round tube's, the closed 8-sided tube's up to 8% narrower). The same after the head
-/// turns and with the camera moved round to the side. A second camera seeing the hair gives it
-/// closed tubes again.
+/// differ in under 1.5% of the hair's pixels by more than 3 levels (the closed tube's front
+/// faces, judged from each ring's centre). The same after the head turns and with the camera
+/// moved round to the side; out of view the hair keeps its half tubes and is drawn in the
+/// first frame back. A second camera seeing the hair gives it closed tubes again.
 fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<(), Failed> {
     let mut r = scene(Vec3::new(0.3, 0.8, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
     let ramp = ramps(&r).three_tone;
@@ -83,7 +83,7 @@ fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<
             )
             .into());
         }
-        if hair_px < 2_000 || diff * 100 > 3 * hair_px {
+        if hair_px < 2_000 || diff * 200 > 3 * hair_px {
             return Err(format!("{name}: {diff} of {hair_px} hair px differ").into());
         }
         Ok(())
@@ -100,6 +100,35 @@ fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<
         *t = Transform::from_xyz(2.6, 0.8, 1.2).looking_at(Vec3::ZERO, Vec3::Y);
     }
     compare(&mut r, "side")?;
+    // Out of view and back: the hair keeps its half tubes while no camera sees it and is drawn
+    // in the first frame back.
+    let seen_px = r.capture()?.count(|p| p != BACKGROUND);
+    let world = r.app.world_mut();
+    let mut cameras = world.query_filtered::<&mut Transform, With<Camera3d>>();
+    for mut t in cameras.iter_mut(world) {
+        *t = Transform::from_xyz(2.6, 0.8, 1.2).looking_at(Vec3::new(10.0, 0.8, 6.0), Vec3::Y);
+    }
+    for _ in 0..3 {
+        r.update();
+    }
+    let (away_facing, _, _) = tubes(&r, hair)?;
+    let world = r.app.world_mut();
+    let mut cameras = world.query_filtered::<&mut Transform, With<Camera3d>>();
+    for mut t in cameras.iter_mut(world) {
+        *t = Transform::from_xyz(2.6, 0.8, 1.2).looking_at(Vec3::ZERO, Vec3::Y);
+    }
+    r.update();
+    let back = r.capture()?;
+    let back_px = back.count(|p| p != BACKGROUND);
+    eprintln!(
+        "out of view: half tubes {away_facing}; back in view: {back_px} hair px of {seen_px}"
+    );
+    if !away_facing || back_px * 100 < seen_px * 97 {
+        return Err(format!(
+            "out of view half tubes {away_facing}; back in view {back_px} px of {seen_px}"
+        )
+        .into());
+    }
     // A second camera that sees the hair: closed tubes, whoever looks.
     let target = r.target();
     r.app.world_mut().spawn((

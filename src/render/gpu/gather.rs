@@ -17,7 +17,6 @@ use super::toolbox::vertex_offsets;
 use super::tubes::{GpuStrand, GpuTubeHair};
 use crate::mesh::highlights::GpuHighlightJob;
 use crate::mesh::shadow::GpuShadowJob;
-use crate::mesh::tube::TubeTopology;
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
     HairTubesFacing, LockSection, SectionSide, fill_section, mass_field,
@@ -210,25 +209,12 @@ pub(crate) fn gather_gpu_tube_inputs(
                 reference_normal: reference.normal.extend(0.0),
                 first: input.particles.len() as u32,
                 count: particles.positions.len() as u32,
-                section: (slot * sides * 2) as u32,
+                section: (slot * closed_sides * 2) as u32,
                 hair: 0,
             });
             input
                 .particles
                 .extend(particles.positions.iter().map(|p| p.extend(1.0)));
-        }
-        // A half tube's strands are all round: the closed ring's table follows theirs, and the
-        // stroke pass reads it.
-        if computed.topology.is_facing() {
-            let shift = input.sections.len() as u32;
-            let closed = TubeTopology::new(2, closed_sides);
-            fill_section(LockSection::Round, 1.0, closed.cos_sin(), table);
-            input.sections.extend(table.iter().flat_map(|[p, n, a]| {
-                [Vec4::new(p.0, p.1, n.0, n.1), Vec4::new(a.0, a.1, 0.0, 0.0)]
-            }));
-            for stroke in &mut input.strokes {
-                stroke.record.section_shift = shift;
-            }
         }
         // Drawn nearest first for the camera nearest the hair (the one it is largest in).
         let here = global.translation();
@@ -265,6 +251,7 @@ pub(crate) fn gather_gpu_tube_inputs(
             metric_y: metric.y_axis.extend(0.0),
             metric_z: metric.z_axis.extend(0.0),
             up: up.extend(0.0),
+            closed_sides: closed_sides as u32,
             eye: match facing.0 {
                 Some(eye) if computed.topology.is_facing() => eye.extend(1.0),
                 _ => Vec4::ZERO,

@@ -116,7 +116,8 @@ fn the_tube_pass_reads_the_rust_records_where_they_are_written() {
         eye: f(14),
         first_strand: u(15),
         frame_base: u(16),
-        pad: UVec2::ZERO,
+        closed_sides: u(17),
+        pad: 0,
     };
     let names = [
         "vertex_base",
@@ -147,7 +148,11 @@ fn the_tube_pass_reads_the_rust_records_where_they_are_written() {
     {
         expected.push((n, fw(8 + i as u32)));
     }
-    expected.extend([("first_strand", u(15)), ("frame_base", u(16))]);
+    expected.extend([
+        ("first_strand", u(15)),
+        ("frame_base", u(16)),
+        ("closed_sides", u(17)),
+    ]);
     check("gpu/tubes.wesl", "Hair", &hair, &expected);
 
     let strand = GpuStrand {
@@ -207,7 +212,7 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         first_strand: u(16),
         frame_base: u(17),
         first_invocation: u(18),
-        section_shift: u(19),
+        pad: 0,
     };
     let vectors = [
         "view_proj",
@@ -231,7 +236,6 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         "first_strand",
         "frame_base",
         "first_invocation",
-        "section_shift",
     ];
     let expected: Vec<(&str, u32)> = vectors
         .iter()

@@ -5,17 +5,11 @@
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
-};
-use bevy::render::render_resource::{
-    BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages, ShaderType,
-};
+use bevy::render::render_resource::{Buffer, PipelineCache, ShaderType};
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
 use super::toolbox::{
-    ComputePass, GpuBatch, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers,
-    vertex_offsets,
+    ComputePass, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers, vertex_offsets,
 };
 use crate::mesh::shadow::{GpuShadowRibbons, shadow_ribbon_vertex_count};
 
@@ -96,18 +90,9 @@ pub(crate) fn init_gpu_shadow_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    commands.insert_resource(GpuShadowPipeline(ComputePass::queue(
+    commands.insert_resource(GpuShadowPipeline(ComputePass::queue_frame_job(
         &pipeline_cache,
         "hair_gpu_shadows",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                uniform_buffer::<GpuBatch>(false),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_sized(false, None),
-            ),
-        ),
         load_embedded_asset!(asset_server.as_ref(), "shadows.wesl"),
     )));
 }
@@ -140,19 +125,8 @@ pub(crate) fn prepare_shadow_batch(
     batch: &mut ShadowBatch,
     group: &SlabGroup<&Buffer, (GpuShadowRecord, HairPlacement)>,
     tubes: TubeBatchBuffers<'_>,
-    (device, queue): (&RenderDevice, &RenderQueue),
+    render: (&RenderDevice, &RenderQueue),
     (pipeline, pipeline_cache): (&GpuShadowPipeline, &PipelineCache),
 ) {
-    batch.prepare(group, (device, queue), |header, records, slab| {
-        device.create_bind_group(
-            "hair_gpu_shadows",
-            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-            &BindGroupEntries::sequential((
-                header,
-                records,
-                tubes.frames.as_entire_binding(),
-                slab,
-            )),
-        )
-    });
+    batch.prepare_frame_job(group, tubes, render, (&pipeline.0, pipeline_cache));
 }

@@ -230,10 +230,12 @@ pub(super) fn choose_mesh_builder(
     for (hair, computed, on_gpu, fallback) in &hairs {
         let wanted = *builder == HairMeshBuilder::Gpu && support.supported;
         let mesh = computed.map(|c| c.mesh.id());
-        // Why this hair cannot be on the GPU now, if it cannot; `None` for waiting.
+        // Why this hair cannot be on the GPU now, if it cannot; `None` for waiting. Judged by
+        // its closed tubes, the mesh it has on the CPU (its half tubes are smaller), so the
+        // verdict does not change as it goes back there.
         let mut failure = None;
         if let Some(c) = computed
-            && !support.fits(c.strands, c.topology.rings(), c.topology.sides())
+            && !support.fits(c.strands, c.topology.rings(), c.topology.closed_sides())
         {
             failure = Some((
                 format!(
@@ -242,7 +244,7 @@ pub(super) fn choose_mesh_builder(
                      coarser HairMeshSettings fit)",
                     c.strands,
                     c.topology.rings(),
-                    c.topology.sides(),
+                    c.topology.closed_sides(),
                     support.max_binding_bytes
                 ),
                 mesh,

@@ -67,9 +67,8 @@ pub(crate) struct GpuStrokeRecord {
     pub frame_base: u32,
     /// The job's first invocation in its dispatch (set in the render world).
     pub first_invocation: u32,
-    /// Where its ring's sides start past the strand's own section, in vec4: the closed ring
-    /// after a half tube's sections (`0` for a closed tube).
-    pub section_shift: u32,
+    /// Padding.
+    pub pad: u32,
 }
 
 /// One camera's strokes of a hair, as the main world gathers them.

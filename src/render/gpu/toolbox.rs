@@ -7,11 +7,15 @@ use std::num::NonZeroU64;
 use bevy::mesh::MeshVertexAttributeId;
 use bevy::prelude::*;
 use bevy::render::mesh::allocator::MeshBufferSlice;
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
+};
 use bevy::render::render_resource::encase::internal::WriteInto;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupLayoutDescriptor, BindGroupLayoutEntry, BindingResource, Buffer,
-    BufferBinding, CachedComputePipelineId, ComputePass as WgpuComputePass,
-    ComputePipelineDescriptor, PipelineCache, ShaderType, StorageBuffer, UniformBuffer,
+    BindGroup, BindGroupEntries, BindGroupLayoutDescriptor, BindGroupLayoutEntries,
+    BindGroupLayoutEntry, BindingResource, Buffer, BufferBinding, CachedComputePipelineId,
+    ComputePass as WgpuComputePass, ComputePipelineDescriptor, PipelineCache, ShaderStages,
+    ShaderType, StorageBuffer, UniformBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::settings::WgpuLimits;
@@ -64,6 +68,30 @@ pub struct ComputePass {
 }
 
 impl ComputePass {
+    /// Queues a pass that reads a tube batch's ring frames and writes one vertex slab (the
+    /// highlight and shadow passes): its bind group is the batch header, its job records, the
+    /// frames and the slab.
+    pub fn queue_frame_job(
+        pipeline_cache: &PipelineCache,
+        name: &'static str,
+        shader: Handle<Shader>,
+    ) -> Self {
+        Self::queue(
+            pipeline_cache,
+            name,
+            &BindGroupLayoutEntries::sequential(
+                ShaderStages::COMPUTE,
+                (
+                    uniform_buffer::<GpuBatch>(false),
+                    storage_buffer_read_only_sized(false, None),
+                    storage_buffer_read_only_sized(false, None),
+                    storage_buffer_sized(false, None),
+                ),
+            ),
+            shader,
+        )
+    }
+
     /// Queues the pass `name` (its entry point `build` in `shader`, with [`shader_defs`]) with a
     /// bind group of `entries`.
     pub fn queue(
@@ -368,6 +396,34 @@ where
         self.prepared = Some(PreparedBatch {
             bind_group: bind(header, records, group.binding()),
             invocations,
+        });
+    }
+}
+
+impl<R: JobRecord> JobBatch<R>
+where
+    Vec<R>: ShaderType + WriteInto,
+{
+    /// Fills and uploads the batch of a [`ComputePass::queue_frame_job`] pass from `group`,
+    /// with its bind group over the tube batch's frames.
+    pub fn prepare_frame_job(
+        &mut self,
+        group: &SlabGroup<&Buffer, (R, HairPlacement)>,
+        tubes: TubeBatchBuffers<'_>,
+        (device, queue): (&RenderDevice, &RenderQueue),
+        (pass, pipeline_cache): (&ComputePass, &PipelineCache),
+    ) {
+        self.prepare(group, (device, queue), |header, records, slab| {
+            device.create_bind_group(
+                pass.layout.label.as_ref(),
+                &pipeline_cache.get_bind_group_layout(&pass.layout),
+                &BindGroupEntries::sequential((
+                    header,
+                    records,
+                    tubes.frames.as_entire_binding(),
+                    slab,
+                )),
+            )
         });
     }
 }

@@ -58,8 +58,11 @@ pub(crate) struct GpuTubeHair {
     pub first_strand: u32,
     /// Its first ring frame in the batch, in vec4 (set in the render world).
     pub frame_base: u32,
+    /// Sides in its cross-section tables: the closed ring's (a half tube's ring has fewer
+    /// vertices).
+    pub closed_sides: u32,
     /// Padding.
-    pub pad: UVec2,
+    pub pad: u32,
 }
 
 /// One strand of a batch (`common.wesl`'s `Strand`).
