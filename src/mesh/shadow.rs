@@ -243,9 +243,8 @@ pub fn build_shadow_ribbons(
         Query<(&PointLight, &GlobalTransform)>,
         Query<(&SpotLight, &GlobalTransform)>,
     ),
-    mut scratch: Local<(Vec<Vec3>, Vec<(u32, Entity)>)>,
+    mut order: Local<Vec<(u32, Entity)>>,
 ) {
-    let (centres, order) = &mut *scratch;
     for (hair, caster, settings, list, ribbons, in_view, computed, mut job, (sim, at), gpu) in
         &mut hairs
     {
@@ -341,17 +340,32 @@ pub fn build_shadow_ribbons(
         let radius = settings.radius * sim.size();
         let taper = settings.taper;
         let per_strand = 2 * shadow_ribbon_rings(rings);
-        for ((&(_, e), p), n) in order
-            .iter()
-            .zip(positions.chunks_mut(per_strand))
-            .zip(normals.chunks_mut(per_strand))
-        {
-            if let Ok((_, particles)) = strands.get(e) {
-                sample_spline(&particles.positions, rings, centres);
-                let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
-                ribbon_strand(centres, radius_at, light, p, n);
+        // In parallel over the strands, as the tubes are built.
+        let pool = crate::parallel::compute_pool();
+        let chunk = order.len().div_ceil(crate::parallel::workers(pool)).max(1);
+        let parts = positions
+            .chunks_mut(per_strand * chunk)
+            .zip(normals.chunks_mut(per_strand * chunk))
+            .zip(order.chunks(chunk));
+        let strands = &strands;
+        let build = |((positions, normals), group): (
+            (&mut [[f32; 3]], &mut [[f32; 3]]),
+            &[(u32, Entity)],
+        )| {
+            let mut centres = Vec::with_capacity(rings);
+            for ((&(_, e), p), n) in group
+                .iter()
+                .zip(positions.chunks_mut(per_strand))
+                .zip(normals.chunks_mut(per_strand))
+            {
+                if let Ok((_, particles)) = strands.get(e) {
+                    sample_spline(&particles.positions, rings, &mut centres);
+                    let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
+                    ribbon_strand(&centres, radius_at, light, p, n);
+                }
             }
-        }
+        };
+        crate::parallel::run_parts(pool, parts, &build);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
     }
