@@ -35,8 +35,8 @@ use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 #[derive(Component, Reflect, Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[reflect(Component, Default, Debug, PartialEq)]
 pub enum HairShadowCaster {
-    /// Ribbons as wide as the tubes, facing the shadow light (see the module docs): about an
-    /// eighth of the triangles of 8-sided tubes, the same shadow from that light.
+    /// Ribbons as wide as the tubes, facing the shadow light (see the module docs): a
+    /// sixteenth of the triangles of 8-sided tubes, the same shadow from that light.
     #[default]
     Ribbons,
     /// The tubes themselves, from every light alike.
