@@ -640,6 +640,23 @@ pub fn rebuild_strand_meshes(
     stats.set_if_neq(counted);
 }
 
+/// A hair's strands (`list`) in groom order, as `(index, entity)` in `out`; `false` when not
+/// all `count` of them are there yet.
+pub(crate) fn strands_in_order(
+    list: &HairStrands,
+    strands: &Query<(&Strand, &StrandParticles)>,
+    count: usize,
+    out: &mut Vec<(u32, Entity)>,
+) -> bool {
+    out.clear();
+    out.extend(
+        list.iter()
+            .filter_map(|e| strands.get(e).ok().map(|(s, _)| (s.index, e))),
+    );
+    out.sort_unstable_by_key(|(i, _)| *i);
+    out.len() == count
+}
+
 /// Where the one active camera whose frustum meets `bounds` is; `None` when none or several do.
 fn only_camera_seeing(
     bounds: &Aabb,

@@ -27,7 +27,10 @@ use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 
 use super::tube::sample_spline;
-use super::{ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshOf, HairMeshSettings};
+use super::{
+    ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshOf, HairMeshSettings,
+    strands_in_order,
+};
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
 
 /// What a hair casts into the shadow maps. A component on the [`Hair`] entity (inserted with
@@ -315,15 +318,9 @@ pub fn build_shadow_ribbons(
             });
             continue;
         }
-        order.clear();
-        order.extend(
-            list.iter()
-                .filter_map(|e| strands.get(e).ok().map(|(s, _)| (s.index, e))),
-        );
-        if order.len() != computed.strands {
+        if !strands_in_order(list, &strands, computed.strands, &mut order) {
             continue;
         }
-        order.sort_unstable_by_key(|(i, _)| *i);
         let Some(mut mesh) = meshes.get_mut(&handle) else {
             continue;
         };

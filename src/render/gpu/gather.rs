@@ -19,7 +19,7 @@ use crate::mesh::highlights::GpuHighlightJob;
 use crate::mesh::shadow::GpuShadowJob;
 use crate::mesh::{
     ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshSettings, HairStrandSections,
-    HairTubesFacing, LockSection, SectionSide, fill_section, mass_field,
+    HairTubesFacing, LockSection, SectionSide, fill_section, mass_field, strands_in_order,
 };
 use crate::silhouette::GpuStrokeJobs;
 use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
@@ -135,15 +135,9 @@ pub(crate) fn gather_gpu_tube_inputs(
             }
             continue;
         };
-        order.clear();
-        order.extend(
-            list.iter()
-                .filter_map(|e| strands.get(e).ok().map(|(s, _)| (s.index, e))),
-        );
-        if order.len() != computed.strands {
+        if !strands_in_order(list, &strands, computed.strands, order) {
             continue;
         }
-        order.sort_unstable_by_key(|(i, _)| *i);
         let (rings, sides) = (computed.topology.rings(), computed.topology.sides());
         let mut input = GpuTubeInput {
             mesh: computed.mesh.id(),

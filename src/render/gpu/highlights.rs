@@ -6,12 +6,9 @@
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::{Buffer, PipelineCache, ShaderType};
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::render_resource::{PipelineCache, ShaderType};
 
-use super::toolbox::{
-    ComputePass, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers, vertex_offsets,
-};
+use super::toolbox::{ComputePass, HairPlacement, JobBatch, JobRecord, vertex_offsets};
 
 use crate::math::finite_or;
 use crate::mesh::highlights::{GpuHighlights, gpu_highlight_vertex_count};
@@ -135,14 +132,3 @@ impl JobRecord for GpuHighlightRecord {
 
 /// One highlight batch in the render world.
 pub(crate) type HighlightBatch = JobBatch<GpuHighlightRecord>;
-
-/// Fills and uploads `batch` from `group`, with its bind group over the tube batch's buffers.
-pub(crate) fn prepare_highlight_batch(
-    batch: &mut HighlightBatch,
-    group: &SlabGroup<&Buffer, (GpuHighlightRecord, HairPlacement)>,
-    tubes: TubeBatchBuffers<'_>,
-    render: (&RenderDevice, &RenderQueue),
-    (pipeline, pipeline_cache): (&GpuHighlightPipeline, &PipelineCache),
-) {
-    batch.prepare_frame_job(group, tubes, render, (&pipeline.0, pipeline_cache));
-}

@@ -57,12 +57,9 @@ pub use gather::encode_gpu_inputs;
 use gather::{GpuTubeInput, gather_gpu_tube_inputs};
 use highlights::{
     GpuHighlightPipeline, HighlightBatch, highlight_vertices, init_gpu_highlight_pipeline,
-    prepare_highlight_batch,
 };
 use order::{GpuOrderPipeline, OrderBatch, OrderHairInput, init_gpu_order_pipeline};
-use shadows::{
-    GpuShadowPipeline, ShadowBatch, init_gpu_shadow_pipeline, prepare_shadow_batch, shadow_vertices,
-};
+use shadows::{GpuShadowPipeline, ShadowBatch, init_gpu_shadow_pipeline, shadow_vertices};
 use status::{GpuPassIds, choose_mesh_builder, report_pass_state};
 pub use status::{
     GpuPassState, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback, HairGpuMeshSupport,
@@ -381,12 +378,11 @@ fn prepare_gpu_batches(
             if shadows.len() <= used[4] {
                 shadows.push(ShadowBatch::default());
             }
-            prepare_shadow_batch(
-                &mut shadows[used[4]],
+            shadows[used[4]].prepare_frame_job(
                 group,
                 buffers,
                 render,
-                (&shadow_pipeline, &pipeline_cache),
+                (&shadow_pipeline.0, &pipeline_cache),
             );
             used[4] += 1;
         }
@@ -407,12 +403,11 @@ fn prepare_gpu_batches(
             if highlights.len() <= used[2] {
                 highlights.push(HighlightBatch::default());
             }
-            prepare_highlight_batch(
-                &mut highlights[used[2]],
+            highlights[used[2]].prepare_frame_job(
                 group,
                 buffers,
                 render,
-                (&highlight_pipeline, &pipeline_cache),
+                (&highlight_pipeline.0, &pipeline_cache),
             );
             used[2] += 1;
         }

@@ -5,12 +5,9 @@
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::{Buffer, PipelineCache, ShaderType};
-use bevy::render::renderer::{RenderDevice, RenderQueue};
+use bevy::render::render_resource::{PipelineCache, ShaderType};
 
-use super::toolbox::{
-    ComputePass, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers, vertex_offsets,
-};
+use super::toolbox::{ComputePass, HairPlacement, JobBatch, JobRecord, vertex_offsets};
 use crate::mesh::shadow::{GpuShadowRibbons, shadow_ribbon_vertex_count};
 
 /// One hair's shadow ribbons (`shadows.wesl`'s `Job`).
@@ -119,14 +116,3 @@ impl JobRecord for GpuShadowRecord {
 
 /// One shadow batch in the render world.
 pub(crate) type ShadowBatch = JobBatch<GpuShadowRecord>;
-
-/// Fills and uploads `batch` from `group`, with its bind group over the tube batch's buffers.
-pub(crate) fn prepare_shadow_batch(
-    batch: &mut ShadowBatch,
-    group: &SlabGroup<&Buffer, (GpuShadowRecord, HairPlacement)>,
-    tubes: TubeBatchBuffers<'_>,
-    render: (&RenderDevice, &RenderQueue),
-    (pipeline, pipeline_cache): (&GpuShadowPipeline, &PipelineCache),
-) {
-    batch.prepare_frame_job(group, tubes, render, (&pipeline.0, pipeline_cache));
-}
