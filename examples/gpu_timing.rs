@@ -14,7 +14,8 @@
 //! tubes' root radius in metres, in place of the default 0.016), `--silhouette-error PX`
 //! (`HairLod::silhouette_error`, 0 for the level's sides at any width), `--reverse-strands` (the
 //! strands drawn in the opposite order: how much a pass's overdraw depends on it),
-//! `--closed-tubes` (`HairLod::half_tubes` off), `--shadow-caster ribbons|tubes|off`
+//! `--closed-tubes` (`HairLod::half_tubes` off), `--ribbon-pixels PX` (`HairLod::ribbon_pixels`,
+//! 0 for no ribbons), `--shadow-caster ribbons|tubes|off`
 //! (`HairShadowCaster`). The hairs'
 //! strand width on screen and the tube resolution the level of detail chose are printed.
 //!
@@ -67,6 +68,7 @@ struct Args {
     sides: Option<u32>,
     radius: Option<f32>,
     silhouette_error: Option<f32>,
+    ribbon_pixels: Option<f32>,
     closed_tubes: bool,
     caster: bevy_cartoon_hair::mesh::HairShadowCaster,
 }
@@ -85,6 +87,7 @@ fn args() -> Result<Args, String> {
         sides: None,
         radius: None,
         silhouette_error: None,
+        ribbon_pixels: None,
         closed_tubes: false,
         caster: default(),
     };
@@ -132,6 +135,15 @@ fn args() -> Result<Args, String> {
                     return Err("--silhouette-error is from 0 to 16 px".into());
                 }
                 out.silhouette_error = Some(e);
+            }
+            "--ribbon-pixels" => {
+                let px: f32 = value("--ribbon-pixels")?
+                    .parse()
+                    .map_err(|_| "--ribbon-pixels is pixels")?;
+                if !(0.0..=64.0).contains(&px) {
+                    return Err("--ribbon-pixels is from 0 to 64 px".into());
+                }
+                out.ribbon_pixels = Some(px);
             }
             "--radius" => {
                 let r: f32 = value("--radius")?
@@ -271,6 +283,7 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
                 bevy_cartoon_hair::mesh::HairLod {
                     silhouette_error: args.silhouette_error.unwrap_or(lod.silhouette_error),
                     half_tubes: !args.closed_tubes,
+                    ribbon_pixels: args.ribbon_pixels.unwrap_or(lod.ribbon_pixels),
                     ..lod
                 },
                 args.caster,
@@ -304,7 +317,9 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
                 level.level,
                 mesh.topology.rings(),
                 mesh.topology.closed_sides(),
-                if mesh.topology.is_facing() {
+                if mesh.topology.is_ribbon() {
+                    ", ribbons".to_string()
+                } else if mesh.topology.is_facing() {
                     format!(", half tubes of {} vertices a ring", mesh.topology.sides())
                 } else {
                     String::new()

@@ -19,6 +19,10 @@
 //! starts from the most sides and comes down only with the hysteresis below, so a still hair
 //! has the sides of strands [`HairLod::hysteresis`] times wider than its own (2 px: 4 sides).
 //!
+//! Where half tubes hold (see [`HairLod::half_tubes`]), strands under
+//! [`HairLod::ribbon_pixels`] (default 3 px) wide on screen are drawn as ribbons turned to the
+//! camera: two triangles a segment with the round tube's outline.
+//!
 //! Going back up waits until the hair is [`HairLod::hysteresis`] times larger than the threshold
 //! it went down at, so a hair at the edge does not flicker between levels. The steps are as
 //! coarse as keeps a switch from showing: the test `lod_switches_move_the_silhouette_by_at_most_two_pixels`
@@ -59,6 +63,13 @@ pub struct HairLod {
     /// and no texture around the tube ([`HairTubesClosed`](super::HairTubesClosed): surface
     /// hatching). Default: `true`.
     pub half_tubes: bool,
+    /// Where half tubes hold, strands narrower than this on screen, in pixels, are drawn as
+    /// flat ribbons turned to the camera
+    /// ([`TubeTopology::ribbon`](super::tube::TubeTopology::ribbon)): the round tube's outline
+    /// from two triangles a segment, shaded with normals that only approximate the tube's
+    /// (unseen at that width). They turn back into half tubes once
+    /// [`HairLod::hysteresis`] times wider. `0` turns them off. Default: `3.0`.
+    pub ribbon_pixels: f32,
 }
 
 impl Default for HairLod {
@@ -69,6 +80,7 @@ impl Default for HairLod {
             hysteresis: 1.25,
             silhouette_error: 0.5,
             half_tubes: true,
+            ribbon_pixels: 3.0,
         }
     }
 }
@@ -88,6 +100,9 @@ pub struct HairLodLevel {
     /// The most sides that width needs ([`sides_for_width`]): `u8::MAX` when it needs more than a
     /// tube has, `0` before the first choice or with the rule off.
     pub sides: u8,
+    /// Whether its strands are narrow enough for ribbons ([`HairLod::ribbon_pixels`]); they
+    /// are drawn so where half tubes hold.
+    pub ribbons: bool,
 }
 
 impl HairLod {
@@ -153,6 +168,23 @@ impl HairLod {
         let up = self.up();
         // Fewer: only as few as a strand `up` times wider would need.
         to_limit(sides_for_width(width * up, error).min(current))
+    }
+}
+
+impl HairLod {
+    /// Whether strands `width` pixels wide on screen, drawn as ribbons (`current`) or not,
+    /// are ribbons now: under [`HairLod::ribbon_pixels`] they become ribbons, and go back only
+    /// at [`HairLod::hysteresis`] times it.
+    pub fn ribbons_for(&self, width: f32, current: bool) -> bool {
+        let limit = self.ribbon_pixels;
+        if !self.enabled || !limit.is_finite() || limit <= 0.0 || !width.is_finite() {
+            return false;
+        }
+        if current {
+            width < limit * self.up()
+        } else {
+            width < limit
+        }
     }
 }
 
@@ -501,7 +533,7 @@ mod tests {
 }
 
 #[cfg(test)]
-mod app_tests {
+pub(crate) mod app_tests {
     use bevy::camera::primitives::Frustum;
     use bevy::camera::{CameraProjection, RenderTargetInfo};
     use bevy::prelude::*;
@@ -512,7 +544,7 @@ mod app_tests {
     use crate::sim::{Hair, HairSimSettings};
 
     /// An app with the hair's simulation and meshes, no render app.
-    pub(super) fn lod_app() -> App {
+    pub(crate) fn lod_app() -> App {
         let mut app = crate::test_support::sim_app(60.0);
         app.add_plugins(HairMeshPlugin).init_asset::<Mesh>();
         app
@@ -520,7 +552,7 @@ mod app_tests {
 
     /// A 1280x720 camera at the origin looking down -Z (its frustum and projection set by hand:
     /// there is no render app).
-    pub(super) fn camera(world: &mut World) {
+    pub(crate) fn camera(world: &mut World) {
         let transform = Transform::IDENTITY;
         let projection = PerspectiveProjection {
             aspect_ratio: 16.0 / 9.0,
@@ -546,7 +578,7 @@ mod app_tests {
     }
 
     /// A hair in front of the camera at `z` (negative: in view).
-    pub(super) fn hair(app: &mut App, z: f32) -> (Entity, Entity) {
+    pub(crate) fn hair(app: &mut App, z: f32) -> (Entity, Entity) {
         let groom = HairGroom::from_strands(
             "head",
             (0..40).map(|i| {
@@ -617,6 +649,64 @@ mod app_tests {
             app.world().resource::<HairCullingStats>().reduced,
             [0, 0, 0]
         );
+    }
+
+    /// Built on the GPU for the one camera that sees it, a hair whose strands are 1.5 px wide
+    /// is drawn as ribbons (two triangles a segment); brought near, it gets half tubes back;
+    /// with `ribbon_pixels` 0 it keeps half tubes when far.
+    #[test]
+    fn thin_strands_on_the_gpu_path_become_ribbons() {
+        let mut app = lod_app();
+        camera(app.world_mut());
+        let (bone, far) = hair(&mut app, -20.0);
+        let (_, off) = hair(&mut app, -20.0);
+        app.world_mut()
+            .entity_mut(far)
+            .insert(crate::mesh::HairMeshBuiltOnGpu);
+        app.world_mut().entity_mut(off).insert((
+            crate::mesh::HairMeshBuiltOnGpu,
+            HairLod {
+                ribbon_pixels: 0.0,
+                ..default()
+            },
+        ));
+        for _ in 0..6 {
+            app.update();
+        }
+        let topology = |app: &App, hair: Entity| {
+            let c = app.world().get::<ComputedHairMesh>(hair).unwrap();
+            let t = &c.topology;
+            (t.is_facing(), t.is_ribbon(), t.triangle_count())
+        };
+        let level = *app.world().get::<HairLodLevel>(far).unwrap();
+        assert!(level.strand_pixels < 2.0 && level.ribbons, "{level:?}");
+        // Level 3: 4 rings, so 3 segments of 2 triangles.
+        assert_eq!(topology(&app, far), (true, true, 6));
+        let (facing, ribbon, _) = topology(&app, off);
+        assert!(facing && !ribbon, "ribbons with ribbon_pixels 0");
+        app.world_mut()
+            .get_mut::<Transform>(bone)
+            .unwrap()
+            .translation
+            .z = -0.8;
+        app.update();
+        app.update();
+        let (facing, ribbon, _) = topology(&app, far);
+        assert!(facing && !ribbon, "near: still ribbons");
+    }
+
+    /// Ribbons below `ribbon_pixels`, back to tubes only at `hysteresis` times it.
+    #[test]
+    fn ribbons_switch_with_hysteresis() {
+        let lod = HairLod::default();
+        assert!(lod.ribbons_for(2.9, false) && !lod.ribbons_for(3.0, false));
+        assert!(lod.ribbons_for(3.5, true) && !lod.ribbons_for(3.75, true));
+        assert!(!lod.ribbons_for(f32::NAN, true));
+        let off = HairLod {
+            enabled: false,
+            ..default()
+        };
+        assert!(!off.ribbons_for(1.0, false));
     }
 }
 

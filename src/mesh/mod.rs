@@ -213,6 +213,7 @@ impl Plugin for HairMeshPlugin {
             .register_type::<shadow::HairShadowMeshOf>()
             .register_required_components::<Hair, shadow::HairShadowCaster>()
             .register_required_components::<Hair, shadow::GpuShadowJob>()
+            .register_required_components::<Hair, shadow::TubeRingCentres>()
             .register_type::<HairTubesFacing>()
             .register_type::<HairTubesClosed>()
             .register_required_components::<Hair, HairTubesFacing>()
@@ -346,7 +347,7 @@ pub fn rebuild_strand_meshes(
                 &HairMeshSettings,
                 Option<&HairStrandSections>,
                 Has<HairMeshBuiltOnGpu>,
-                &shadow::HairShadowCaster,
+                (&shadow::HairShadowCaster, &mut shadow::TubeRingCentres),
                 &mut HairTubesFacing,
                 Has<HairTubesClosed>,
             ),
@@ -378,7 +379,7 @@ pub fn rebuild_strand_meshes(
     for (
         hair,
         hair_assets,
-        (settings, per_strand, on_gpu, caster, mut facing, kept_closed),
+        (settings, per_strand, on_gpu, (caster, mut centres), mut facing, kept_closed),
         global,
         strand_list,
         mut computed,
@@ -449,6 +450,7 @@ pub fn rebuild_strand_meshes(
                 pixels: px,
                 strand_pixels: strand_px,
                 sides: lod.sides_for(strand_px, level.sides),
+                ribbons: lod.ribbons_for(strand_px, level.ribbons),
             },
             _ if !lod.enabled => lod::HairLodLevel::default(),
             _ => *level,
@@ -477,7 +479,10 @@ pub fn rebuild_strand_meshes(
             (true, false) => facing.0,
         };
         facing.set_if_neq(HairTubesFacing(eye));
+        // Strands a few pixels wide facing the camera: ribbons.
+        let ribbon = eye.is_some() && level.ribbons;
         let ring_sides = match eye {
+            Some(_) if ribbon => tube::RIBBON_SIDES,
             Some(_) => TubeTopology::facing_sides(sides),
             None => sides,
         };
@@ -485,12 +490,15 @@ pub fn rebuild_strand_meshes(
             c.topology.rings() != rings
                 || c.topology.sides() != ring_sides
                 || c.topology.is_facing() != eye.is_some()
+                || c.topology.is_ribbon() != ribbon
+                || c.topology.closed_sides() != sides.clamp(tube::MIN_SIDES, tube::MAX_SIDES)
                 || c.strands != count
         });
         // Built on creation and on a topology change; read in place on every other frame.
         let mut created = None;
         if rebuild {
             let topology = match eye {
+                Some(_) if ribbon => TubeTopology::ribbon(rings, sides),
                 Some(_) => TubeTopology::facing(rings, sides),
                 None => TubeTopology::new(rings, sides),
             };
@@ -601,29 +609,54 @@ pub fn rebuild_strand_meshes(
         tangents.resize(positions.len(), [0.0, 1.0, 0.0, 1.0]);
         let chunk = scratch.len().div_ceil(parallel::workers(pool)).max(1);
         let topology = &computed.topology;
+        // The ring centres, kept for the shadow ribbons when the CPU builds them.
+        let rings = topology.rings();
+        let centres = &mut centres.0;
+        if *caster == shadow::HairShadowCaster::Ribbons && !on_gpu {
+            centres.resize(rings * scratch.len(), Vec3::ZERO);
+        } else {
+            centres.clear();
+        }
+        let centre_parts = centres
+            .chunks_mut(rings * chunk)
+            .map(Some)
+            .chain(std::iter::repeat_with(|| None));
         let parts = positions
             .chunks_mut(per * chunk)
             .zip(normals.chunks_mut(per * chunk))
             .zip(tangents.chunks_mut(per * chunk))
+            .zip(centre_parts)
             .zip(scratch.chunks(chunk));
         #[expect(
             clippy::type_complexity,
-            reason = "one part of the mesh per worker: its three buffers and its strands"
+            reason = "one part of the mesh per worker: its buffers and its strands"
         )]
-        let build = |(((pos, nrm), tan), group): (
-            ((&mut [[f32; 3]], &mut [[f32; 3]]), &mut [[f32; 4]]),
+        let build = |((((pos, nrm), tan), mut ctr), group): (
+            (
+                ((&mut [[f32; 3]], &mut [[f32; 3]]), &mut [[f32; 4]]),
+                Option<&mut [Vec3]>,
+            ),
             &[(u32, Vec<Vec3>)],
         )| {
             // Each worker thread keeps its spline buffers from frame to frame.
             TUBE_SCRATCH.with_borrow_mut(|tmp| {
-                for (((p, n), t), (index, particles)) in pos
+                for (s, (((p, n), t), (index, particles))) in pos
                     .chunks_mut(per)
                     .zip(nrm.chunks_mut(per))
                     .zip(tan.chunks_mut(per))
                     .zip(group)
+                    .enumerate()
                 {
                     let params = params_for(*index);
                     tube::build_tube(topology, particles, &params, tmp, p, n, Some(t));
+                    if let Some(c) = ctr
+                        .as_deref_mut()
+                        .and_then(|c| c.get_mut(s * rings..(s + 1) * rings))
+                    {
+                        for (c, r) in c.iter_mut().zip(tmp.ring_centres()) {
+                            *c = *r;
+                        }
+                    }
                     along_strand(n, t);
                     if let Some(mass) = &mass {
                         mass.apply(p, n);

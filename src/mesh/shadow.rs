@@ -26,12 +26,8 @@ use bevy::light::NotShadowCaster;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
 
-use super::tube::sample_spline;
-use super::{
-    ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshOf, HairMeshSettings,
-    strands_in_order,
-};
-use crate::sim::{ComputedHair, Hair, HairStrands, Strand, StrandParticles};
+use super::{ComputedHairMesh, HairInView, HairMeshBuiltOnGpu, HairMeshOf, HairMeshSettings};
+use crate::sim::{ComputedHair, Hair};
 
 /// What a hair casts into the shadow maps. A component on the [`Hair`] entity (inserted with
 /// the default when missing).
@@ -92,6 +88,13 @@ impl ShadowLight {
 /// (inserted with it), `None` inside while the CPU builds them or none are cast.
 #[derive(Component, Clone, Debug, Default, PartialEq)]
 pub struct GpuShadowJob(pub Option<GpuShadowRibbons>);
+
+/// The ring centres of a hair's tubes as the CPU built them this frame, strand after strand in
+/// groom order, [`TubeTopology::rings`](super::tube::TubeTopology::rings) a strand: the CPU
+/// builds the shadow ribbons from them, so a strand's spline is sampled once a frame. On the
+/// [`Hair`] entity (inserted with it); left empty while the hair casts no ribbons.
+#[derive(Component, Clone, Debug, Default)]
+pub struct TubeRingCentres(pub Vec<Vec3>);
 
 /// What the GPU needs to build a hair's shadow ribbons.
 #[derive(Clone, Debug, PartialEq)]
@@ -226,7 +229,7 @@ pub fn build_shadow_ribbons(
             Entity,
             &HairShadowCaster,
             &HairMeshSettings,
-            &HairStrands,
+            &TubeRingCentres,
             Option<&HairShadowMeshes>,
             &HairInView,
             &ComputedHairMesh,
@@ -236,7 +239,6 @@ pub fn build_shadow_ribbons(
         ),
         With<Hair>,
     >,
-    strands: Query<(&Strand, &StrandParticles)>,
     ribbon_meshes: Query<&Mesh3d, With<HairShadowMeshOf>>,
     mut visibility: Query<&mut Visibility, With<HairShadowMeshOf>>,
     mut aabbs: Query<&mut Aabb, Or<(With<HairMeshOf>, With<HairShadowMeshOf>)>>,
@@ -246,9 +248,8 @@ pub fn build_shadow_ribbons(
         Query<(&PointLight, &GlobalTransform)>,
         Query<(&SpotLight, &GlobalTransform)>,
     ),
-    mut order: Local<Vec<(u32, Entity)>>,
 ) {
-    for (hair, caster, settings, list, ribbons, in_view, computed, mut job, (sim, at), gpu) in
+    for (hair, caster, settings, centres, ribbons, in_view, computed, mut job, (sim, at), gpu) in
         &mut hairs
     {
         if job.0.is_some() {
@@ -318,7 +319,8 @@ pub fn build_shadow_ribbons(
             });
             continue;
         }
-        if !strands_in_order(list, &strands, computed.strands, &mut order) {
+        // The tubes' ring centres as the CPU built them this frame.
+        if rings == 0 || centres.0.len() != computed.strands * rings {
             continue;
         }
         let Some(mut mesh) = meshes.get_mut(&handle) else {
@@ -339,29 +341,25 @@ pub fn build_shadow_ribbons(
         let per_strand = 2 * shadow_ribbon_rings(rings);
         // In parallel over the strands, as the tubes are built.
         let pool = crate::parallel::compute_pool();
-        let chunk = order.len().div_ceil(crate::parallel::workers(pool)).max(1);
+        let chunk = computed
+            .strands
+            .div_ceil(crate::parallel::workers(pool))
+            .max(1);
         let parts = positions
             .chunks_mut(per_strand * chunk)
             .zip(normals.chunks_mut(per_strand * chunk))
-            .zip(order.chunks(chunk));
-        let strands = &strands;
-        let build = |((positions, normals), group): (
-            (&mut [[f32; 3]], &mut [[f32; 3]]),
-            &[(u32, Entity)],
-        )| {
-            let mut centres = Vec::with_capacity(rings);
-            for ((&(_, e), p), n) in group
-                .iter()
-                .zip(positions.chunks_mut(per_strand))
-                .zip(normals.chunks_mut(per_strand))
-            {
-                if let Ok((_, particles)) = strands.get(e) {
-                    sample_spline(&particles.positions, rings, &mut centres);
-                    let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
-                    ribbon_strand(&centres, radius_at, light, p, n);
+            .zip(centres.0.chunks(rings * chunk));
+        let build =
+            |((positions, normals), centres): ((&mut [[f32; 3]], &mut [[f32; 3]]), &[Vec3])| {
+                let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
+                for ((p, n), centres) in positions
+                    .chunks_mut(per_strand)
+                    .zip(normals.chunks_mut(per_strand))
+                    .zip(centres.chunks(rings))
+                {
+                    ribbon_strand(centres, radius_at, light, p, n);
                 }
-            }
-        };
+            };
         crate::parallel::run_parts(pool, parts, &build);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
@@ -410,6 +408,80 @@ mod tests {
                 d.dot(to).abs() < 1e-6,
                 "ring {i} is not across the way to the light"
             );
+        }
+    }
+
+    /// On the CPU path the ribbons run through the centres of the tube rings built the same
+    /// frame, strand by strand: each ribbon ring's midpoint is the mean of its tube ring's
+    /// vertices (a round section is symmetric about its centre), and its width the ring's
+    /// diameter.
+    #[test]
+    fn cpu_ribbons_run_through_this_frames_tube_rings() {
+        use crate::mesh::lod::app_tests::{camera, hair, lod_app};
+        let mut app = lod_app();
+        camera(app.world_mut());
+        app.world_mut().spawn((
+            DirectionalLight {
+                shadow_maps_enabled: true,
+                ..default()
+            },
+            Transform::from_xyz(1.0, 2.0, 1.0).looking_at(Vec3::ZERO, Vec3::Y),
+        ));
+        let (bone, hair) = hair(&mut app, -0.8);
+        for frame in 0..8 {
+            // The head moves every frame, so stale ribbons would lag the tubes.
+            app.world_mut()
+                .get_mut::<Transform>(bone)
+                .unwrap()
+                .translation
+                .x = 0.02 * frame as f32;
+            app.update();
+        }
+        let world = app.world();
+        let computed = world.get::<ComputedHairMesh>(hair).unwrap();
+        let (rings, sides) = (computed.topology.rings(), computed.topology.sides());
+        assert!(
+            !computed.topology.is_facing(),
+            "the CPU builds closed tubes"
+        );
+        let per = computed.vertices_per_strand();
+        let meshes = world.resource::<Assets<Mesh>>();
+        let positions = |handle: &Handle<Mesh>| -> Vec<Vec3> {
+            match meshes
+                .get(handle)
+                .unwrap()
+                .attribute(Mesh::ATTRIBUTE_POSITION)
+            {
+                Some(bevy::mesh::VertexAttributeValues::Float32x3(p)) => {
+                    p.iter().map(|v| Vec3::from(*v)).collect()
+                }
+                other => panic!("no positions: {other:?}"),
+            }
+        };
+        let tubes = positions(&computed.mesh);
+        let ribbon = world.get::<HairShadowMeshes>(hair).unwrap().iter().next();
+        let ribbon = world.get::<Mesh3d>(ribbon.unwrap()).unwrap().0.clone();
+        let ribbons = positions(&ribbon);
+        let n = shadow_ribbon_rings(rings);
+        assert_eq!(ribbons.len(), computed.strands * n * 2);
+        for s in 0..computed.strands {
+            for j in 0..n {
+                let i = (j * SHADOW_RING_STEP).min(rings - 1);
+                let ring = &tubes[s * per + i * sides..s * per + (i + 1) * sides];
+                let centre = ring.iter().sum::<Vec3>() / sides as f32;
+                let (a, b) = (ribbons[2 * (s * n + j)], ribbons[2 * (s * n + j) + 1]);
+                assert!(
+                    ((a + b) * 0.5).distance(centre) < 1e-4,
+                    "strand {s} ring {i}: ribbon at {}, tube at {centre}",
+                    (a + b) * 0.5
+                );
+                let diameter = 2.0 * ring[0].distance(centre);
+                assert!(
+                    (a.distance(b) - diameter).abs() < 1e-3 * diameter.max(1e-3),
+                    "strand {s} ring {i}: ribbon {} wide, tube {diameter}",
+                    a.distance(b)
+                );
+            }
         }
     }
 

@@ -1,11 +1,12 @@
 //! Render tests of half tubes (`mesh::tube::TubeTopology::facing`): round tubes built on the
 //! GPU for the one camera that sees them draw half the triangles and the picture the CPU's
-//! closed tubes draw.
+//! closed tubes draw; strands a few pixels wide draw as ribbons
+//! (`mesh::tube::TubeTopology::ribbon`) with the closed tubes' outline.
 
 use bevy::camera::RenderTarget;
 use bevy::prelude::*;
 use bevy_cartoon_hair::headless::HeadlessRenderer;
-use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairTubesFacing};
+use bevy_cartoon_hair::mesh::{ComputedHairMesh, HairLodLevel, HairTubesFacing};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::HairMeshBuilder;
 use libtest_mimic::Failed;
@@ -15,10 +16,16 @@ use crate::mass_render::spawn_still_hair;
 use crate::ring_render::spikes;
 use crate::toon_render::{BACKGROUND, ramps, save, scene};
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles",
-    half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles",
+        half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles,
+    ),
+    (
+        "thin_strands_draw_as_ribbons_with_the_tubes_outline",
+        thin_strands_draw_as_ribbons_with_the_tubes_outline,
+    ),
+];
 
 /// The hair's tube topology: whether it is a half tube, and its triangles.
 fn tubes(r: &HeadlessRenderer, hair: Entity) -> Result<(bool, usize, Option<Vec3>), Failed> {
@@ -144,6 +151,100 @@ fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<
     let (facing, _, eye) = tubes(&r, hair)?;
     if facing || eye.is_some() {
         return Err("two cameras see the hair, yet its tubes are half tubes".into());
+    }
+    Ok(())
+}
+
+/// The 240 spikes with strands about 2.5 px wide on screen: built on the GPU they are ribbons,
+/// two triangles a segment, and cover the pixels the CPU's closed tubes cover (the two hair
+/// masks differ in under 6% of their union, single pixels along the edges), their mean colour
+/// within 12 levels of the tubes'. With `ribbon_pixels` 0 the GPU draws half tubes again.
+fn thin_strands_draw_as_ribbons_with_the_tubes_outline() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.3, 0.8, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    let hair = spawn_still_hair(
+        r.app.world_mut(),
+        spikes(),
+        ToonHairMaterial { ramp, ..default() },
+        HairMeshSettings {
+            radius: 0.009,
+            taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
+            ..default()
+        },
+    );
+    let cpu = r.capture()?;
+    let (_, cpu_triangles, _) = tubes(&r, hair)?;
+    r.app.insert_resource(HairMeshBuilder::Gpu);
+    let gpu = r.capture()?;
+    let (_, gpu_triangles, _) = tubes(&r, hair)?;
+    let world = r.app.world();
+    let ribbon = world
+        .get::<ComputedHairMesh>(hair)
+        .is_some_and(|c| c.topology.is_ribbon());
+    let width = world
+        .get::<HairLodLevel>(hair)
+        .map_or(0.0, |l| l.strand_pixels);
+    save(&cpu, "ribbons_cpu_tubes")?;
+    save(&gpu, "ribbons_gpu")?;
+    let hair_px = |f: &bevy_cartoon_hair::headless::CapturedFrame| {
+        f.rgba
+            .chunks(4)
+            .map(|p| p[..3] != BACKGROUND[..3])
+            .collect::<Vec<bool>>()
+    };
+    let (a, b) = (hair_px(&cpu), hair_px(&gpu));
+    let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count();
+    let either = a.iter().zip(&b).filter(|(x, y)| **x != **y).count();
+    let mean = |f: &bevy_cartoon_hair::headless::CapturedFrame, mask: &[bool]| {
+        let (mut sum, mut n) = ([0.0f64; 3], 0usize);
+        for (p, _) in f.rgba.chunks(4).zip(mask).filter(|(_, m)| **m) {
+            for c in 0..3 {
+                sum[c] += f64::from(p[c]);
+            }
+            n += 1;
+        }
+        sum.map(|s| s / n.max(1) as f64)
+    };
+    let (mc, mg) = (mean(&cpu, &a), mean(&gpu, &b));
+    let colour = (0..3).map(|c| (mc[c] - mg[c]).abs()).fold(0.0, f64::max);
+    eprintln!(
+        "strands {width:.1} px wide; ribbons {ribbon}; triangles: closed {cpu_triangles}, \
+         ribbons {gpu_triangles}; hair px {} / {}, {either} of {union} differ; mean colour \
+         {mc:.0?} / {mg:.0?}",
+        a.iter().filter(|x| **x).count(),
+        b.iter().filter(|x| **x).count(),
+    );
+    if !ribbon || !(1.0..3.0).contains(&width) {
+        return Err(format!("strands {width} px wide, ribbons {ribbon}").into());
+    }
+    let rings = world
+        .get::<ComputedHairMesh>(hair)
+        .map_or(0, |c| c.topology.rings());
+    if gpu_triangles != 240 * 2 * (rings - 1) || gpu_triangles * 3 > cpu_triangles {
+        return Err(
+            format!("{gpu_triangles} ribbon triangles against {cpu_triangles} closed").into(),
+        );
+    }
+    if union < 2_000 || either * 100 > 6 * union || colour > 12.0 {
+        return Err(format!(
+            "{either} of {union} hair px differ, mean colour {colour:.1} levels apart"
+        )
+        .into());
+    }
+    r.app.world_mut().entity_mut(hair).insert(HairLod {
+        ribbon_pixels: 0.0,
+        ..default()
+    });
+    r.capture()?;
+    let (facing, _, _) = tubes(&r, hair)?;
+    let ribbon = r
+        .app
+        .world()
+        .get::<ComputedHairMesh>(hair)
+        .is_some_and(|c| c.topology.is_ribbon());
+    if !facing || ribbon {
+        return Err(format!("ribbon_pixels 0: half tubes {facing}, ribbons {ribbon}").into());
     }
     Ok(())
 }

@@ -247,6 +247,7 @@ pub(crate) fn gather_gpu_tube_inputs(
             up: up.extend(0.0),
             closed_sides: closed_sides as u32,
             eye: match facing.0 {
+                Some(eye) if computed.topology.is_ribbon() => eye.extend(2.0),
                 Some(eye) if computed.topology.is_facing() => eye.extend(1.0),
                 _ => Vec4::ZERO,
             },

@@ -51,8 +51,9 @@ pub(crate) struct GpuTubeHair {
     pub metric_z: Vec4,
     /// The bone's up axis, for the angel ring's tangents.
     pub up: Vec4,
-    /// The eye its half tubes face (`w = 1`; `w = 0`: closed tubes, see
-    /// [`TubeTopology::facing`](crate::mesh::tube::TubeTopology::facing)).
+    /// The eye its half tubes (`w = 1`) or ribbons (`w = 2`) face; `w = 0`: closed tubes (see
+    /// [`TubeTopology::facing`](crate::mesh::tube::TubeTopology::facing) and
+    /// [`TubeTopology::ribbon`](crate::mesh::tube::TubeTopology::ribbon)).
     pub eye: Vec4,
     /// Its first strand in the batch (set in the render world).
     pub first_strand: u32,
