@@ -105,6 +105,9 @@ pub struct GpuShadowRibbons {
     pub light: ShadowLight,
 }
 
+/// Hairs of fewer strands have their ribbons built on one thread.
+const PARALLEL_RIBBON_STRANDS: usize = 1024;
+
 /// The ribbons take every this many rings of the tube, and the tip's.
 pub const SHADOW_RING_STEP: usize = 2;
 
@@ -121,7 +124,7 @@ pub fn shadow_ribbon_vertex_count(strands: usize, rings: usize) -> usize {
 }
 
 /// A shadow ribbon mesh of `strands` strands for tubes of `rings` rings: positions (zero until
-/// built) and normals, and two triangles a ribbon segment (vertex `2 (strand * n + j) + side`
+/// built; the shadow passes read nothing else), and two triangles a ribbon segment (vertex `2 (strand * n + j) + side`
 /// for ribbon ring `j` of [`shadow_ribbon_rings`] `n`).
 pub fn shadow_ribbon_mesh(strands: usize, rings: usize) -> Mesh {
     let vertices = shadow_ribbon_vertex_count(strands, rings);
@@ -139,21 +142,18 @@ pub fn shadow_ribbon_mesh(strands: usize, rings: usize) -> Mesh {
         RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
     )
     .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32; 3]; vertices])
-    .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, vec![[0.0f32, 1.0, 0.0]; vertices])
     .with_inserted_indices(Indices::U32(indices))
 }
 
 /// Writes one strand's ribbon: at every [`SHADOW_RING_STEP`]th of `centres` (the tube's ring
 /// centres, root first) and the last, the centre minus and plus `radius_at(x)` (`x` from `0` at
-/// the root to `1` at the tip) across the strand and the way to `light`; normals toward the
-/// light. `positions` and `normals` hold two entries a ribbon ring
-/// ([`shadow_ribbon_rings`] of `centres.len()`).
+/// the root to `1` at the tip) across the strand and the way to `light`. `positions` holds two
+/// entries a ribbon ring ([`shadow_ribbon_rings`] of `centres.len()`).
 pub fn ribbon_strand(
     centres: &[Vec3],
     radius_at: impl Fn(f32) -> f32,
     light: ShadowLight,
     positions: &mut [[f32; 3]],
-    normals: &mut [[f32; 3]],
 ) {
     let n = centres.len();
     if n == 0 {
@@ -161,12 +161,17 @@ pub fn ribbon_strand(
     }
     let last = n.saturating_sub(1).max(1) as f32;
     let mut tangent = Vec3::Y;
-    for j in 0..shadow_ribbon_rings(n).min(positions.len().min(normals.len()) / 2) {
+    // A directional light's way is the same for every ring.
+    let sun = match light {
+        ShadowLight::Toward(d) => Some(d.normalize_or(Vec3::Y)),
+        ShadowLight::At(_) => None,
+    };
+    for j in 0..shadow_ribbon_rings(n).min(positions.len() / 2) {
         let i = (j * SHADOW_RING_STEP).min(n - 1);
         let c = centres[i];
         let (prev, next) = (centres[i.saturating_sub(1)], centres[(i + 1).min(n - 1)]);
         tangent = (next - prev).normalize_or(tangent);
-        let to_light = light.from(c, Vec3::Y);
+        let to_light = sun.unwrap_or_else(|| light.from(c, Vec3::Y));
         let across = tangent
             .cross(to_light)
             .normalize_or(tangent.any_orthonormal_vector());
@@ -180,8 +185,6 @@ pub fn ribbon_strand(
         };
         positions[2 * j] = a.to_array();
         positions[2 * j + 1] = b.to_array();
-        normals[2 * j] = to_light.to_array();
-        normals[2 * j + 1] = to_light.to_array();
     }
 }
 
@@ -331,38 +334,31 @@ pub fn build_shadow_ribbons(
         else {
             continue;
         };
-        let mut normals = match mesh.remove_attribute(Mesh::ATTRIBUTE_NORMAL) {
-            Some(bevy::mesh::VertexAttributeValues::Float32x3(n)) => n,
-            _ => vec![[0.0, 1.0, 0.0]; positions.len()],
-        };
-        normals.resize(positions.len(), [0.0, 1.0, 0.0]);
         let radius = settings.radius * sim.size();
         let taper = settings.taper;
         let per_strand = 2 * shadow_ribbon_rings(rings);
-        // In parallel over the strands, as the tubes are built.
-        let pool = crate::parallel::compute_pool();
-        let chunk = computed
-            .strands
-            .div_ceil(crate::parallel::workers(pool))
-            .max(1);
-        let parts = positions
-            .chunks_mut(per_strand * chunk)
-            .zip(normals.chunks_mut(per_strand * chunk))
-            .zip(centres.0.chunks(rings * chunk));
-        let build =
-            |((positions, normals), centres): ((&mut [[f32; 3]], &mut [[f32; 3]]), &[Vec3])| {
-                let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
-                for ((p, n), centres) in positions
-                    .chunks_mut(per_strand)
-                    .zip(normals.chunks_mut(per_strand))
-                    .zip(centres.chunks(rings))
-                {
-                    ribbon_strand(centres, radius_at, light, p, n);
-                }
-            };
-        crate::parallel::run_parts(pool, parts, &build);
+        let build = |(positions, centres): (&mut [[f32; 3]], &[Vec3])| {
+            let radius_at = |x: f32| radius * taper.eval(x).max(0.0);
+            for (p, centres) in positions.chunks_mut(per_strand).zip(centres.chunks(rings)) {
+                ribbon_strand(centres, radius_at, light, p);
+            }
+        };
+        // A few writes a ring: in parallel over the strands only where there are enough of them
+        // to pay for waking the workers.
+        if computed.strands < PARALLEL_RIBBON_STRANDS {
+            build((&mut positions, &centres.0));
+        } else {
+            let pool = crate::parallel::compute_pool();
+            let chunk = computed
+                .strands
+                .div_ceil(crate::parallel::workers(pool))
+                .max(1);
+            let parts = positions
+                .chunks_mut(per_strand * chunk)
+                .zip(centres.0.chunks(rings * chunk));
+            crate::parallel::run_parts(pool, parts, &build);
+        }
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, positions);
-        mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, normals);
     }
 }
 
@@ -381,9 +377,8 @@ mod tests {
         assert_eq!(shadow_ribbon_rings(6), 4);
         let rings = [0, 2, 4, 5];
         let mut p = vec![[0.0; 3]; 8];
-        let mut n = vec![[0.0; 3]; 8];
         let light = ShadowLight::Toward(Vec3::new(0.0, 0.0, 2.0));
-        ribbon_strand(&centres, |x| 0.01 * (1.2 - x), light, &mut p, &mut n);
+        ribbon_strand(&centres, |x| 0.01 * (1.2 - x), light, &mut p);
         for (j, &i) in rings.iter().enumerate() {
             let (a, b) = (Vec3::from(p[2 * j]), Vec3::from(p[2 * j + 1]));
             let width = a.distance(b);
@@ -396,11 +391,10 @@ mod tests {
             let d = (b - a).normalize_or_zero();
             assert!(d.dot(Vec3::Y).abs() < 1e-6 && d.dot(Vec3::Z).abs() < 1e-6);
             assert!(((a + b) * 0.5).distance(centres[i]) < 1e-6);
-            assert_eq!(n[2 * j], [0.0, 0.0, 1.0]);
         }
         // A point light: each ring faces the light from where it is.
         let at = Vec3::new(1.0, -0.2, 0.0);
-        ribbon_strand(&centres, |_| 0.01, ShadowLight::At(at), &mut p, &mut n);
+        ribbon_strand(&centres, |_| 0.01, ShadowLight::At(at), &mut p);
         for (j, &i) in rings.iter().enumerate() {
             let d = Vec3::from(p[2 * j + 1]) - Vec3::from(p[2 * j]);
             let to = (at - centres[i]).normalize();
@@ -490,9 +484,8 @@ mod tests {
     fn ribbons_never_hold_nan() {
         let centres = [Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Y];
         let mut p = vec![[1.0; 3]; 4];
-        let mut n = vec![[1.0; 3]; 4];
         let light = ShadowLight::Toward(Vec3::ZERO);
-        ribbon_strand(&centres, |_| f32::INFINITY, light, &mut p, &mut n);
+        ribbon_strand(&centres, |_| f32::INFINITY, light, &mut p);
         assert!(p.iter().flatten().all(|v| v.is_finite()), "{p:?}");
     }
 

@@ -20,10 +20,10 @@ pub(crate) struct GpuShadowRecord {
     pub vertex_base: u32,
     /// Words per vertex.
     pub stride: u32,
-    /// Word offsets in a vertex of the position and the normal.
+    /// Word offset in a vertex of the position.
     pub position_offset: u32,
-    /// See [`GpuShadowRecord::position_offset`].
-    pub normal_offset: u32,
+    /// Keeps the record a whole number of 16 bytes.
+    pub pad: u32,
     /// Rings per strand.
     pub rings: u32,
     /// Strands in the hair.
@@ -55,21 +55,13 @@ pub(crate) fn shadow_input(
     if mesh.count_vertices() != shadow_ribbon_vertex_count(strands, rings) || rings < 2 {
         return None;
     }
-    let [position, normal, _, stride] = vertex_offsets(
-        mesh,
-        [
-            Mesh::ATTRIBUTE_POSITION.id,
-            Mesh::ATTRIBUTE_NORMAL.id,
-            Mesh::ATTRIBUTE_NORMAL.id,
-        ],
-    )?;
+    let [position, _, _, stride] = vertex_offsets(mesh, [Mesh::ATTRIBUTE_POSITION.id; 3])?;
     Some(GpuShadowInput {
         mesh: job.mesh,
         record: GpuShadowRecord {
             light: job.light.to_vec4(),
             stride,
             position_offset: position,
-            normal_offset: normal,
             rings: rings as u32,
             strands: strands as u32,
             ..default()
