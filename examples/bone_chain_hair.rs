@@ -1,7 +1,7 @@
 //! Hair modelled as a mesh on hair-bone chains (as VRM, VRoid, Blender and MMD characters bring
 //! it), moved by the hair solver: the character of `assets/chain_hair/` (authored by
-//! `tools/blender/author_chain_hair.py`) has bangs, side locks and a ponytail skinned to chains
-//! of bones named `hair_*`. The chains swing, collide with the head and neck and take the wind
+//! `tools/blender/author_chain_hair.py`) has thick bangs, side locks, a back mass and a ponytail
+//! skinned to chains of bones named `hair_*`. The chains swing, collide with the head and neck and take the wind
 //! while the character turns its head, the hair mesh wears the crate's toon look, and the bangs
 //! throw the fringe shadow on the face.
 //!

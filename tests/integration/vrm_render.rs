@@ -397,18 +397,18 @@ fn a_vrm_character_swings_its_hair_mesh_on_its_springs_in_the_toon_look() -> Res
         with.deeper,
         without.deeper
     );
-    if (with.springs, with.colliders) != (8, 8) {
+    if (with.springs, with.colliders) != (13, 8) {
         return Err(format!(
-            "{} springs and {} colliders, not 8 and 8",
+            "{} springs and {} colliders, not 13 and 8",
             with.springs, with.colliders
         )
         .into());
     }
-    // Bangs see the head group (5 spheres); side locks also the body (7); the ponytail also the
-    // plane behind the neck (8).
+    // Bangs see the head group (5 spheres); side locks and the back mass also the body (7); the
+    // ponytail also the plane behind the neck (8).
     let mut seen = with.seen.clone();
     seen.sort_unstable();
-    if seen != [5, 5, 5, 5, 5, 7, 7, 8] {
+    if seen != [5, 5, 5, 5, 5, 7, 7, 7, 7, 7, 7, 7, 8] {
         return Err(format!("colliders per spring {:?}", with.seen).into());
     }
     if with.swing < 0.01 {
@@ -422,7 +422,7 @@ fn a_vrm_character_swings_its_hair_mesh_on_its_springs_in_the_toon_look() -> Res
         .into());
     }
     // Stated bound: no lock vertex 1 cm deeper into the head or body than it rests (the locks
-    // are 2.6 cm wide ribbons around their bones, which the colliders keep out).
+    // are up to 7 cm wide around their bones, which the colliders keep out).
     if with.deeper > 0.01 {
         return Err(format!("a hair vertex went {} m into the body", with.deeper).into());
     }
@@ -452,8 +452,9 @@ fn a_vrm_0_character_gets_its_bone_groups_and_converted_colliders() -> Result<()
          head collider centres {:?}",
         old.springs, old.colliders, old.seen, old.swing, old.back, old.head_centres
     );
-    // Three groups (bangs, sides, ponytail); 5 head spheres, 4 neck and 5 shoulder spheres.
-    if (old.springs, old.colliders) != (3, 14) {
+    // Four groups (bangs, sides, back mass, ponytail); 5 head spheres, 4 neck and 5 shoulder
+    // spheres.
+    if (old.springs, old.colliders) != (4, 14) {
         return Err(format!("{} groups and {} colliders", old.springs, old.colliders).into());
     }
     // Offsets were written in Unity's space (z negated): read back, they are the head

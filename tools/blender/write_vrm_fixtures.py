@@ -44,6 +44,8 @@ SPRINGS = [
      dict(stiffness=1.5, gravityPower=0.05, dragForce=0.4, hitRadius=0.008), ["head"]),
     ("sides", ["hair_side_L_0", "hair_side_R_0"],
      dict(stiffness=0.8, gravityPower=0.2, dragForce=0.4, hitRadius=0.01), ["head", "body"]),
+    ("back", ["hair_back_%d_0" % i for i in range(5)],
+     dict(stiffness=1.0, gravityPower=0.2, dragForce=0.4, hitRadius=0.012), ["head", "body"]),
     ("tail", ["hair_tail_0"],
      dict(stiffness=0.6, gravityPower=0.3, dragForce=0.3, hitRadius=0.015), ["head", "body", "back"]),
 ]

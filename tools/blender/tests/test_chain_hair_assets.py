@@ -14,7 +14,8 @@ import numpy as np
 import helpers
 
 GLB = os.path.join(helpers.REPO, "assets", "chain_hair", "chain_hair.glb")
-CHAINS = {"hair_bang_0": 3, "hair_bang_4": 3, "hair_side_L": 5, "hair_side_R": 5, "hair_tail": 7}
+CHAINS = {"hair_bang_0": 3, "hair_bang_4": 3, "hair_side_L": 5, "hair_side_R": 5, "hair_back_0": 5,
+          "hair_back_4": 5, "hair_tail": 7}
 
 
 class ChainHairAssets(unittest.TestCase):
@@ -28,7 +29,7 @@ class ChainHairAssets(unittest.TestCase):
     def test_chains_hang_from_the_head_one_child_at_a_time(self):
         head = self.node("head")
         starts = {self.names[c] for c in head.get("children", []) if self.names[c].startswith("hair_")}
-        self.assertEqual(len(starts), 8, starts)
+        self.assertEqual(len(starts), 13, starts)
         for chain, bones in CHAINS.items():
             self.assertIn(f"{chain}_0", starts)
             for k in range(bones):

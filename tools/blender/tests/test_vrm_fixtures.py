@@ -43,7 +43,7 @@ class VrmFixtures(unittest.TestCase):
         ext = doc["extensions"]["VRMC_springBone"]
         nodes = doc["nodes"]
         parent = {c: i for i, n in enumerate(nodes) for c in n.get("children", [])}
-        self.assertEqual(len(ext["springs"]), 8)
+        self.assertEqual(len(ext["springs"]), 13)
         self.assertEqual(len(ext["colliders"]), 8)
         owner = {}
         for s, spring in enumerate(ext["springs"]):
@@ -75,7 +75,7 @@ class VrmFixtures(unittest.TestCase):
             offset = collider["offset"]
             self.assertEqual((offset["x"], offset["y"], offset["z"]), (centre[0], centre[1], -centre[2]))
             self.assertEqual(collider["radius"], radius)
-        self.assertEqual([g["comment"] for g in sec["boneGroups"]], ["bangs", "sides", "tail"])
+        self.assertEqual([g["comment"] for g in sec["boneGroups"]], ["bangs", "sides", "back", "tail"])
         self.assertIn("stiffiness", sec["boneGroups"][0], "VRM 0.x spells it so")
 
 
