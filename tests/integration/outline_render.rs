@@ -7,6 +7,7 @@ use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use libtest_mimic::Failed;
 
+use crate::mass_render::spawn_still_hair;
 use crate::toon_render::{BACKGROUND, distinct_shades, ramps, save, scene, spawn_strand};
 
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
@@ -34,6 +35,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "outline_mass_inks_the_hair_not_its_strands",
         mass_outline_inks_the_hair_not_its_strands,
+    ),
+    (
+        "outline_runs_around_thin_tips_without_filling_them",
+        outline_runs_around_thin_tips_without_filling_them,
     ),
 ];
 
@@ -613,6 +618,90 @@ fn outline_is_anti_aliased_with_msaa() -> Result<(), Failed> {
         return Err(format!(
             "with MSAA the edge is off a straight line by {smooth:.3} px (without: {hard:.3}), \
              {smooth_partial} partly inked pixels"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Five locks hanging side by side, each narrowing from 12 px to a point, with the default mass
+/// outline (dilation 1): in the rows where a lock is 3 to 6 px wide, the lock keeps pixels of its
+/// own colour inside its inked edge (the dilation would fill it: a solid sliver), and ink lies
+/// within 2 px outside it on both sides (the line follows the point).
+fn outline_runs_around_thin_tips_without_filling_them() -> Result<(), Failed> {
+    let mut r = scene(Vec3::new(0.3, 1.0, 0.6), Vec3::new(0.0, 0.0, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    let locks = (0..5)
+        .map(|i| {
+            let x = -0.6 + 0.3 * i as f32;
+            (0..6)
+                .map(|k| Vec3::new(x, 0.9 - 0.36 * k as f32, 0.0))
+                .collect()
+        })
+        .collect();
+    spawn_still_hair(
+        r.app.world_mut(),
+        locks,
+        ToonHairMaterial { ramp, ..default() },
+        HairMeshSettings {
+            radius: 0.06,
+            taper: QuadraticCurve::new(0.0, -1.0, 1.0),
+            hair_resolution: 24,
+            shape_resolution: 16,
+            mass_normals: 0.0,
+            ..default()
+        },
+    );
+    let camera = camera(&mut r)?;
+    r.app
+        .world_mut()
+        .entity_mut(camera)
+        .insert(magenta(|o| o.enabled = false));
+    let reference = r.capture()?;
+    edit_outline(&mut r, |o| o.enabled = true);
+    let outlined = r.capture()?;
+    save(&reference, "outline_tips_reference")?;
+    save(&outlined, "outline_tips")?;
+    let (w, h) = (reference.width as i32, reference.height as i32);
+    let hair_at = |x: i32, y: i32| x >= 0 && x < w && is_hair(reference.pixel(x as u32, y as u32));
+    let ink_at = |x: i32, y: i32| x >= 0 && x < w && is_ink(outlined.pixel(x as u32, y as u32));
+    let (mut rows, mut cored, mut lined) = (0, 0, 0);
+    for y in 0..h {
+        let mut x = 0;
+        while x < w {
+            if !hair_at(x, y) {
+                x += 1;
+                continue;
+            }
+            let start = x;
+            while x < w && hair_at(x, y) {
+                x += 1;
+            }
+            let (first, last) = (start, x - 1);
+            if !(3..=6).contains(&(x - start)) || first == 0 || x >= w {
+                continue;
+            }
+            rows += 1;
+            if (first..=last).any(|c| is_hair(outlined.pixel(c as u32, y as u32))) {
+                cored += 1;
+            }
+            let left = (first - 2..first).any(|c| ink_at(c, y));
+            let right = (last + 1..=last + 2).any(|c| ink_at(c, y));
+            if left && right {
+                lined += 1;
+            }
+        }
+    }
+    eprintln!(
+        "thin tips: {rows} lock rows 3-6 px wide; {cored} keep their colour inside the ink, \
+         {lined} have ink outside on both sides"
+    );
+    if rows < 40 {
+        return Err(format!("only {rows} rows where a lock is 3-6 px wide").into());
+    }
+    if cored * 10 < rows * 8 || lined * 10 < rows * 8 {
+        return Err(format!(
+            "of {rows} thin rows, {cored} keep the lock's colour and {lined} are lined outside"
         )
         .into());
     }
