@@ -43,13 +43,9 @@ fn tubes(r: &HeadlessRenderer, hair: Entity) -> Result<(bool, usize, Option<Vec3
     ))
 }
 
-/// 240 round, tapered strands lit by the scene's light, drawn with closed tubes built on the
-/// CPU, then on the GPU as half tubes facing the camera: half the triangles, and the pictures
-/// differ in under 1.5% of the hair's pixels by more than 3 levels (the closed tube's front
-/// faces, judged from each ring's centre). The same after the head turns and with the camera
-/// moved round to the side; out of view the hair keeps its half tubes and is drawn in the
-/// first frame back. A second camera seeing the hair gives it closed tubes again.
-fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<(), Failed> {
+/// The 240 spikes, round and tapered, `radius` thick at the root, held still in the scene's light
+/// 3 m from the camera, built on the CPU to start with.
+fn lit_spikes(radius: f32) -> Result<(HeadlessRenderer, Entity), Failed> {
     let mut r = scene(Vec3::new(0.3, 0.8, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
     let ramp = ramps(&r).three_tone;
     r.app.insert_resource(HairMeshBuilder::Cpu);
@@ -58,11 +54,22 @@ fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<
         spikes(),
         ToonHairMaterial { ramp, ..default() },
         HairMeshSettings {
-            radius: 0.03,
+            radius,
             taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
             ..default()
         },
     );
+    Ok((r, hair))
+}
+
+/// 240 round, tapered strands lit by the scene's light, drawn with closed tubes built on the
+/// CPU, then on the GPU as half tubes facing the camera: half the triangles, and the pictures
+/// differ in under 1.5% of the hair's pixels by more than 3 levels (the closed tube's front
+/// faces, judged from each ring's centre). The same after the head turns and with the camera
+/// moved round to the side; out of view the hair keeps its half tubes and is drawn in the
+/// first frame back. A second camera seeing the hair gives it closed tubes again.
+fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<(), Failed> {
+    let (mut r, hair) = lit_spikes(0.03)?;
     let compare = |r: &mut HeadlessRenderer, name: &str| -> Result<(), Failed> {
         r.app.insert_resource(HairMeshBuilder::Cpu);
         let cpu = r.capture()?;
@@ -160,19 +167,7 @@ fn half_tubes_draw_the_closed_tubes_picture_from_half_the_triangles() -> Result<
 /// masks differ in under 6% of their union, single pixels along the edges), their mean colour
 /// within 12 levels of the tubes'. With `ribbon_pixels` 0 the GPU draws half tubes again.
 fn thin_strands_draw_as_ribbons_with_the_tubes_outline() -> Result<(), Failed> {
-    let mut r = scene(Vec3::new(0.3, 0.8, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
-    let ramp = ramps(&r).three_tone;
-    r.app.insert_resource(HairMeshBuilder::Cpu);
-    let hair = spawn_still_hair(
-        r.app.world_mut(),
-        spikes(),
-        ToonHairMaterial { ramp, ..default() },
-        HairMeshSettings {
-            radius: 0.009,
-            taper: QuadraticCurve::new(-0.4, -0.5, 1.0),
-            ..default()
-        },
-    );
+    let (mut r, hair) = lit_spikes(0.009)?;
     let cpu = r.capture()?;
     let (_, cpu_triangles, _) = tubes(&r, hair)?;
     r.app.insert_resource(HairMeshBuilder::Gpu);
