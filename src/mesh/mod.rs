@@ -674,7 +674,8 @@ pub fn rebuild_strand_meshes(
 }
 
 /// A hair's strands (`list`) in groom order, as `(index, entity)` in `out`; `false` when not
-/// all `count` of them are there yet.
+/// all `count` of them are there yet. The GPU path's gather reads the strands in this order.
+#[cfg(feature = "render")]
 pub(crate) fn strands_in_order(
     list: &HairStrands,
     strands: &Query<(&Strand, &StrandParticles)>,

@@ -665,26 +665,27 @@ pub fn build_tube(
         // A half tube takes the closed ring's vertices from the one that starts the faces
         // turned to the eye.
         let start = match params.eye {
-            Some(eye) if topology.facing => {
+            Some(eye) if topology.facing && !topology.ribbon => {
                 facing_start(eye - samples[r], normal, binormal, section.len())
             }
             _ => 0,
         };
         let range = r * sides..(r + 1) * sides;
+        let frame = RingFrame {
+            centre: samples[r],
+            normal,
+            binormal,
+            axial: tangent * tangent_weight,
+            radius: ring_radius,
+            radial_weight,
+        };
         if topology.ribbon {
             let to_eye = params.eye.map_or(normal, |eye| eye - samples[r]);
             write_ribbon_ring(
                 &mut positions[range.clone()],
                 &mut normals[range.clone()],
                 tangents.as_deref_mut().map(|t| &mut t[range]),
-                &RingFrame {
-                    centre: samples[r],
-                    normal,
-                    binormal,
-                    axial: tangent * tangent_weight,
-                    radius: ring_radius,
-                    radial_weight,
-                },
+                &frame,
                 tangent,
                 to_eye,
             );
@@ -694,14 +695,6 @@ pub fn build_tube(
             positions: &mut positions[range.clone()],
             normals: &mut normals[range.clone()],
             tangents: tangents.as_deref_mut().map(|t| &mut t[range]),
-        };
-        let frame = RingFrame {
-            centre: samples[r],
-            normal,
-            binormal,
-            axial: tangent * tangent_weight,
-            radius: ring_radius,
-            radial_weight,
         };
         if topology.facing {
             write_ring(ring, &frame, section.iter().cycle().skip(start).take(sides));
