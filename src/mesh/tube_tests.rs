@@ -33,6 +33,22 @@ struct Built {
     tangents: Vec<[f32; 4]>,
 }
 
+/// Eyes around a strand up the y axis: in front, to the left, below and behind.
+const EYES: [Vec3; 3] = [
+    Vec3::new(0.0, 0.2, 3.0),
+    Vec3::new(-2.0, 0.4, 1.0),
+    Vec3::new(1.0, -1.0, -1.0),
+];
+
+/// A straight 0.5 m strand up the y axis (6 particles), its tube 0.05 thick, built to face `eye`.
+fn built_for_eye(topology: &TubeTopology, eye: Vec3) -> Built {
+    let params = TubeParams {
+        eye: Some(eye),
+        ..params_up(0.05)
+    };
+    build(topology, &straight(6, 0.5), &params)
+}
+
 fn build(topology: &TubeTopology, particles: &[Vec3], params: &TubeParams) -> Built {
     let n = topology.vertex_count();
     let mut b = Built {
@@ -425,16 +441,8 @@ fn a_half_tube_faces_the_eye_with_half_the_triangles() {
     assert_eq!(half.vertex_count(), 16 * 5 + CAP_VERTICES);
     let particles = straight(6, 0.5);
     let eighth = std::f32::consts::PI / 8.0;
-    for eye in [
-        Vec3::new(0.0, 0.2, 3.0),
-        Vec3::new(-2.0, 0.4, 1.0),
-        Vec3::new(1.0, -1.0, -1.0),
-    ] {
-        let params = TubeParams {
-            eye: Some(eye),
-            ..params_up(0.05)
-        };
-        let b = build(&half, &particles, &params);
+    for eye in EYES {
+        let b = built_for_eye(&half, eye);
         let at = |r: usize, k: usize| v3(b.positions[half.ring_vertex(r, k) as usize]);
         for r in 0..half.rings() {
             let centre = Vec3::Y * (0.5 * r as f32 / 15.0);
@@ -479,16 +487,8 @@ fn a_ribbon_is_the_tubes_outline_turned_to_the_eye() {
     assert_eq!(ribbon.vertex_count(), 16 * 2 + CAP_VERTICES);
     assert!(ribbon.indices.iter().all(|&i| (i as usize) < 32));
     let particles = straight(6, 0.5);
-    for eye in [
-        Vec3::new(0.0, 0.2, 3.0),
-        Vec3::new(-2.0, 0.4, 1.0),
-        Vec3::new(1.0, -1.0, -1.0),
-    ] {
-        let params = TubeParams {
-            eye: Some(eye),
-            ..params_up(0.05)
-        };
-        let b = build(&ribbon, &particles, &params);
+    for eye in EYES {
+        let b = built_for_eye(&ribbon, eye);
         assert!(b.positions.iter().flatten().all(|v| v.is_finite()));
         let at = |r: usize, k: usize| v3(b.positions[ribbon.ring_vertex(r, k) as usize]);
         for r in 0..ribbon.rings() {
