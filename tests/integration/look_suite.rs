@@ -77,20 +77,26 @@ fn is_mask_hair([r, g, b, _]: [u8; 4]) -> bool {
 
 /// What the three renders of one view measured.
 #[derive(Debug, Default)]
-struct Measured {
+pub(crate) struct Measured {
     /// Hair pixels (from the mask render).
-    hair: usize,
+    pub(crate) hair: usize,
     /// Luma of the hair's 90th percentile minus its 10th, without outlines.
-    contrast: f32,
+    pub(crate) contrast: f32,
     /// Pure black hair pixels without outlines (what NaN shading gives).
-    black: usize,
+    pub(crate) black: usize,
     /// Share of the hair's boundary pixels with ink within 2 px.
-    boundary_inked: f32,
+    pub(crate) boundary_inked: f32,
     /// Share of the hair's inside (4+ px from its boundary) that is ink.
-    interior_inked: f32,
+    pub(crate) interior_inked: f32,
 }
 
-fn measure(mask: &CapturedFrame, plain: &CapturedFrame, shipped: &CapturedFrame) -> Measured {
+/// Measures one view from its mask render (the hair pure green), the look without outlines and
+/// the look as shipped.
+pub(crate) fn measure(
+    mask: &CapturedFrame,
+    plain: &CapturedFrame,
+    shipped: &CapturedFrame,
+) -> Measured {
     let (w, h) = (mask.width as i32, mask.height as i32);
     let idx = |x: i32, y: i32| (y * w + x) as usize;
     let hair: Vec<bool> = (0..w * h)
@@ -170,14 +176,14 @@ fn outlines(r: &mut HeadlessRenderer, on: bool, look: &HairPreset) {
 }
 
 /// Share of the hair's boundary an outlined look must ink (measured: 90-100%).
-const BOUNDARY_INKED_LEAST: f32 = 0.85;
+pub(crate) const BOUNDARY_INKED_LEAST: f32 = 0.85;
 /// Share of the hair's inside a look without lock lines may ink (measured: at most 0.5%).
-const OUTLINE_INSIDE_MOST: f32 = 0.02;
+pub(crate) const OUTLINE_INSIDE_MOST: f32 = 0.02;
 /// Share of the hair's inside a look with lock lines inks, at least and at most (measured:
 /// 0.8-11.9% over the four hairstyles and three views).
 const LOCK_LINES_INSIDE_LEAST: f32 = 0.003;
 /// See [`LOCK_LINES_INSIDE_LEAST`].
-const LOCK_LINES_INSIDE_MOST: f32 = 0.15;
+pub(crate) const LOCK_LINES_INSIDE_MOST: f32 = 0.15;
 
 /// Every shipped look on the spiky hair, and the long, bangs and twin-tails hairstyles in the
 /// anime_locks look (every look with `HAIR_LOOK_SUITE_ALL=1`), front, side and back, at the

@@ -9,6 +9,7 @@
 //! tests (the add-on round trip) follow the same rule as render tests when `bpy` is missing.
 
 mod assets;
+mod avatar_looks;
 mod chain_render;
 mod character_render;
 mod clip;
@@ -82,6 +83,7 @@ fn main() {
         .chain(see_through_render::RENDER_TESTS)
         .chain(shadow_render::RENDER_TESTS)
         .chain(half_tube_render::RENDER_TESTS)
+        .chain(avatar_looks::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
