@@ -169,9 +169,7 @@ impl HairLod {
         // Fewer: only as few as a strand `up` times wider would need.
         to_limit(sides_for_width(width * up, error).min(current))
     }
-}
 
-impl HairLod {
     /// Whether strands `width` pixels wide on screen, drawn as ribbons (`current`) or not,
     /// are ribbons now: under [`HairLod::ribbon_pixels`] they become ribbons, and go back only
     /// at [`HairLod::hysteresis`] times it.

@@ -124,8 +124,8 @@ pub fn shadow_ribbon_vertex_count(strands: usize, rings: usize) -> usize {
 }
 
 /// A shadow ribbon mesh of `strands` strands for tubes of `rings` rings: positions (zero until
-/// built; the shadow passes read nothing else), and two triangles a ribbon segment (vertex `2 (strand * n + j) + side`
-/// for ribbon ring `j` of [`shadow_ribbon_rings`] `n`).
+/// built; the shadow passes read nothing else), and two triangles a ribbon segment (vertex
+/// `2 (strand * n + j) + side` for ribbon ring `j` of [`shadow_ribbon_rings`] `n`).
 pub fn shadow_ribbon_mesh(strands: usize, rings: usize) -> Mesh {
     let vertices = shadow_ribbon_vertex_count(strands, rings);
     let rings = shadow_ribbon_rings(rings) as u32;

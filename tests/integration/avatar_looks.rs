@@ -15,7 +15,8 @@ use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied, ToonRamps
 use libtest_mimic::Failed;
 
 use crate::look_suite::{
-    BOUNDARY_INKED_LEAST, LOCK_LINES_INSIDE_MOST, OUTLINE_INSIDE_MOST, measure,
+    BOUNDARY_INKED_LEAST, LOCK_LINES_INSIDE_MOST, OUTLINE_INSIDE_MOST, mask_of, measure,
+    set_material,
 };
 use crate::toon_render::save;
 
@@ -89,21 +90,6 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
                 o.enabled = on;
             }
         };
-        let set_material = |r: &mut HeadlessRenderer, m: &ToonHairMaterial| {
-            if let Some(mut slot) = r
-                .app
-                .world_mut()
-                .resource_mut::<Assets<ToonHairMaterial>>()
-                .get_mut(&handle)
-            {
-                *slot = m.clone();
-            }
-        };
-        let mut mask_material = shipped.clone();
-        mask_material.base_color = Color::srgb(0.0, 1.0, 0.0);
-        mask_material.angel_ring = 0.0;
-        mask_material.specular_strength = 0.0;
-        mask_material.back_light_strength = 0.0;
         let lock_lines = look
             .outline
             .as_ref()
@@ -117,10 +103,10 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
                 .world_mut()
                 .entity_mut(character)
                 .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
-            set_material(&mut r, &mask_material);
+            set_material(&mut r, &handle, &mask_of(&shipped));
             set_outline(&mut r, false);
             let mask = r.capture()?;
-            set_material(&mut r, &shipped);
+            set_material(&mut r, &handle, &shipped);
             let plain = r.capture()?;
             set_outline(&mut r, true);
             let inked = r.capture()?;

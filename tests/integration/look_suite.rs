@@ -66,6 +66,33 @@ pub(crate) fn settle_and_freeze(r: &mut HeadlessRenderer) {
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
 }
 
+/// The mask render's material: `shipped` in flat pure green, nothing drawn over it.
+pub(crate) fn mask_of(shipped: &ToonHairMaterial) -> ToonHairMaterial {
+    let mut mask = shipped.clone();
+    mask.base_color = Color::srgb(0.0, 1.0, 0.0);
+    mask.angel_ring = 0.0;
+    mask.specular_strength = 0.0;
+    mask.back_light_strength = 0.0;
+    mask.hatching = HatchingMode::None;
+    mask
+}
+
+/// Replaces the material behind `handle` with `m`.
+pub(crate) fn set_material(
+    r: &mut HeadlessRenderer,
+    handle: &Handle<ToonHairMaterial>,
+    m: &ToonHairMaterial,
+) {
+    if let Some(mut slot) = r
+        .app
+        .world_mut()
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .get_mut(handle)
+    {
+        *slot = m.clone();
+    }
+}
+
 fn luma(p: [u8; 4]) -> f32 {
     0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2])
 }
@@ -265,26 +292,10 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
                 .get(&handle)
                 .cloned()
                 .ok_or("the hair material is missing")?;
-            let mut mask_material = shipped_material.clone();
-            mask_material.base_color = Color::srgb(0.0, 1.0, 0.0);
-            mask_material.angel_ring = 0.0;
-            mask_material.specular_strength = 0.0;
-            mask_material.back_light_strength = 0.0;
-            mask_material.hatching = HatchingMode::None;
-            let set_material = |r: &mut HeadlessRenderer, m: &ToonHairMaterial| {
-                if let Some(mut slot) = r
-                    .app
-                    .world_mut()
-                    .resource_mut::<Assets<ToonHairMaterial>>()
-                    .get_mut(&handle)
-                {
-                    *slot = m.clone();
-                }
-            };
-            set_material(&mut r, &mask_material);
+            set_material(&mut r, &handle, &mask_of(&shipped_material));
             outlines(&mut r, false, &look);
             let mask = r.capture()?;
-            set_material(&mut r, &shipped_material);
+            set_material(&mut r, &handle, &shipped_material);
             let plain = r.capture()?;
             outlines(&mut r, true, &look);
             let shipped = r.capture()?;

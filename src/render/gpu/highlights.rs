@@ -103,7 +103,7 @@ pub(crate) fn init_gpu_highlight_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue_frame_job(
+    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue_read_write(
         &pipeline_cache,
         "hair_gpu_highlights",
         load_embedded_asset!(asset_server.as_ref(), "highlights.wesl"),

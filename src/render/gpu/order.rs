@@ -6,16 +6,12 @@
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
-};
 use bevy::render::render_resource::{
-    BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages, ShaderType,
-    StorageBuffer,
+    BindGroupEntries, Buffer, PipelineCache, ShaderType, StorageBuffer,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::toolbox::{ComputePass, GpuBatch, PreparedBatch, RecordBuffers, SlabGroup};
+use super::toolbox::{ComputePass, PreparedBatch, RecordBuffers, SlabGroup};
 
 /// Writes into `out` the strands of a hair in the order to draw them: by the squared distance
 /// from `eye` to each strand's nearest particle, nearest first (ties and broken positions keep
@@ -85,18 +81,9 @@ pub(crate) fn init_gpu_order_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    commands.insert_resource(GpuOrderPipeline(ComputePass::queue(
+    commands.insert_resource(GpuOrderPipeline(ComputePass::queue_read_write(
         &pipeline_cache,
         "hair_gpu_draw_order",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                uniform_buffer::<GpuBatch>(false),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_sized(false, None),
-            ),
-        ),
         load_embedded_asset!(asset_server.as_ref(), "order.wesl"),
     )));
 }

@@ -79,7 +79,7 @@ pub(crate) fn init_gpu_shadow_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    commands.insert_resource(GpuShadowPipeline(ComputePass::queue_frame_job(
+    commands.insert_resource(GpuShadowPipeline(ComputePass::queue_read_write(
         &pipeline_cache,
         "hair_gpu_shadows",
         load_embedded_asset!(asset_server.as_ref(), "shadows.wesl"),

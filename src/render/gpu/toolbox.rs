@@ -68,10 +68,10 @@ pub struct ComputePass {
 }
 
 impl ComputePass {
-    /// Queues a pass that reads a tube batch's ring frames and writes one vertex slab (the
-    /// highlight and shadow passes): its bind group is the batch header, its job records, the
-    /// frames and the slab.
-    pub fn queue_frame_job(
+    /// Queues a pass whose bind group is the batch header, its job records, one buffer it reads
+    /// and one it writes: the highlight and shadow passes (the tube batch's ring frames in, a
+    /// vertex slab out) and the draw-order pass (the strands' sort keys in, the order out).
+    pub fn queue_read_write(
         pipeline_cache: &PipelineCache,
         name: &'static str,
         shader: Handle<Shader>,
@@ -404,7 +404,7 @@ impl<R: JobRecord> JobBatch<R>
 where
     Vec<R>: ShaderType + WriteInto,
 {
-    /// Fills and uploads the batch of a [`ComputePass::queue_frame_job`] pass from `group`,
+    /// Fills and uploads the batch of a [`ComputePass::queue_read_write`] pass from `group`,
     /// with its bind group over the tube batch's frames.
     pub fn prepare_frame_job(
         &mut self,
