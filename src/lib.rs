@@ -84,7 +84,8 @@
 //! | plugin | what it does | disable or replace when |
 //! |--------|--------------|-------------------------|
 //! | [`HairSchedulePlugin`] | Configures the chained [`HairSystems`] sets in `PostUpdate`, after animation and transform propagation. | Never: every other plugin puts its systems in these sets. |
-//! | [`asset::HairAssetPlugin`] | Registers `HairGroom`, `HeadCollision`, `HairAnimation` and their XML loaders. | Replace to load hair from another format: insert the same asset types yourself. |
+//! | [`asset::HairAssetPlugin`] | Registers `HairGroom`, `HeadCollision`, `HairAnimation` and their XML loaders, and reads the VRM spring bones of every glTF any glTF loader opens. | Replace to load hair from another format: insert the same asset types yourself. |
+//! | [`asset::VrmLoaderPlugin`] | Opens `*.vrm` files with Bevy's glTF loader. | Disable when another VRM crate (bevy_vrm1) registers its own `.vrm` loader: see the VRM guide. |
 //! | [`sim::HairSimulationPlugin`] | Attaches `Hair` to bones, spawns strand entities, steps springs, anchors and collisions. | Disable to drive `StrandParticles` yourself. |
 //! | [`mesh::HairMeshPlugin`] | Builds one tube mesh per hair from the strands each frame. | Disable to draw strands your own way from `StrandParticles`. |
 //! | [`silhouette::HairSilhouettePlugin`] | Extracts object-space silhouette strokes per strand each frame (`SilhouetteSettings`). | Disable for image-space outlines only, or none. |

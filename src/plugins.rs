@@ -36,7 +36,8 @@ pub fn compute_on_every_core() -> bevy::app::TaskPoolPlugin {
 /// | plugin | role |
 /// |--------|------|
 /// | [`HairSchedulePlugin`] | orders the [`HairSystems`](crate::schedule::HairSystems) sets |
-/// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders |
+/// | [`asset::HairAssetPlugin`] | groom, collision and animation assets and loaders; VRM spring bones read from any glTF |
+/// | [`asset::VrmLoaderPlugin`] | opens `*.vrm` files with Bevy's glTF loader (leave it out when another VRM crate loads them) |
 /// | [`sim::HairSimulationPlugin`] | attaches hair to bones and simulates strands |
 /// | [`mesh::HairMeshPlugin`] | tapered tube meshes swept along the strands |
 /// | [`silhouette::HairSilhouettePlugin`] | object-space outline strokes |
@@ -54,6 +55,7 @@ impl PluginGroup for CartoonHairPlugins {
         let group = PluginGroupBuilder::start::<Self>()
             .add(HairSchedulePlugin)
             .add(asset::HairAssetPlugin)
+            .add(asset::VrmLoaderPlugin)
             .add(sim::HairSimulationPlugin)
             .add(mesh::HairMeshPlugin)
             .add(silhouette::HairSilhouettePlugin);

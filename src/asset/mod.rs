@@ -16,7 +16,7 @@
 //! | [`HairGroom`] | `*.hair.xml` | [`HairGroomLoader`] |
 //! | [`HeadCollision`] | `*.collision.xml` | [`HeadCollisionLoader`] |
 //! | [`HairAnimation`] | `*.hairanim.xml` | [`HairAnimationLoader`] (keyframe grooms load as dependencies) |
-//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`]) |
+//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`], added by [`VrmLoaderPlugin`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`], whichever loader opens it) |
 
 mod animation;
 mod collision;
@@ -61,7 +61,7 @@ pub use vrm::{
     MAX_VRM_GROUPS, MAX_VRM_JOINTS, MAX_VRM_NAME, MAX_VRM_SPRINGS, VrmCollider, VrmError, VrmJoint,
     VrmShape, VrmSpring, VrmSprings, VrmVersion, parse_vrm_springs,
 };
-pub use vrm_gltf::{VrmLoader, VrmNode, VrmSpringBones};
+pub use vrm_gltf::{VrmLoader, VrmLoaderPlugin, VrmNode, VrmSpringBones};
 
 use bevy::prelude::*;
 
@@ -79,9 +79,5 @@ impl Plugin for HairAssetPlugin {
             .register_asset_loader(HeadCollisionLoader)
             .register_asset_loader(HairAnimationLoader);
         vrm_gltf::register_handler(app);
-    }
-
-    fn finish(&self, app: &mut App) {
-        vrm_gltf::register_vrm_loader(app);
     }
 }

@@ -136,8 +136,26 @@ pub(crate) fn register_handler(app: &mut App) {
         .push(Box::new(VrmExtensionHandler::default()));
 }
 
+/// Registers [`VrmLoader`] for `*.vrm` files. Part of
+/// [`CartoonHairPlugins`](crate::CartoonHairPlugins).
+///
+/// A game that loads its avatars with another VRM crate (such as bevy_vrm1, for MToon,
+/// expressions and look-at) leaves it out, so that crate's own `.vrm` loader opens the files:
+/// `CartoonHairPlugins.build().disable::<VrmLoaderPlugin>()`. The spring bones are read by a glTF
+/// extension handler that every glTF loader of the app runs, so the hair still finds them.
+#[derive(Default)]
+pub struct VrmLoaderPlugin;
+
+impl Plugin for VrmLoaderPlugin {
+    fn build(&self, _app: &mut App) {}
+
+    fn finish(&self, app: &mut App) {
+        register_vrm_loader(app);
+    }
+}
+
 /// Registers the `.vrm` loader (in `finish`, after Bevy's glTF loader, whose settings it copies).
-pub(crate) fn register_vrm_loader(app: &mut App) {
+fn register_vrm_loader(app: &mut App) {
     let Some(plugin) = app.get_added_plugins::<GltfPlugin>().first().map(|p| {
         (
             p.custom_vertex_attributes.clone(),

@@ -190,7 +190,7 @@ fn fit_quadratic(points: &[(f32, f32)]) -> QuadraticCurve {
 }
 
 /// A `.vrm` file that fails to load (a broken file, or textures in a format the game's Bevy
-/// features cannot decode, such as JPEG without Bevy's `jpeg` feature) is reported like a hair
+/// features cannot decode, such as WebP without Bevy's `webp` feature) is reported like a hair
 /// file: an error in the log naming the file and the loader's reason, and [`VrmSpringsFailed`]
 /// on every scene root that waits for it.
 pub(crate) fn report_failed_vrm_loads(
@@ -210,18 +210,32 @@ pub(crate) fn report_failed_vrm_loads(
         let file = event.path.without_label().to_string();
         // The loader's reason, without the backtrace Bevy attaches (never resolved for a glTF
         // error: resolving one reads the program's debug information).
-        let reason = match &event.error {
-            bevy::asset::AssetLoadError::AssetLoaderError(e) => e
-                .error()
-                .downcast_ref::<bevy::gltf::GltfError>()
-                .map(ToString::to_string),
+        let gltf_error = match &event.error {
+            bevy::asset::AssetLoadError::AssetLoaderError(e) => {
+                e.error().downcast_ref::<bevy::gltf::GltfError>()
+            }
             _ => None,
-        }
-        .unwrap_or_else(|| super::attach::load_failure(&event.error));
+        };
+        let reason = gltf_error
+            .map(ToString::to_string)
+            .unwrap_or_else(|| super::attach::load_failure(&event.error));
         let reason = reason.lines().next().unwrap_or_default();
+        // A texture Bevy cannot decode fails the whole file: say which features decode what.
+        let hint = if matches!(
+            gltf_error,
+            Some(
+                bevy::gltf::GltfError::ImageError(_)
+                    | bevy::gltf::GltfError::InvalidImageMimeType(_)
+            )
+        ) {
+            " (this crate turns on Bevy's `png`, `jpeg` and `ktx2` image features; add the \
+             feature of the texture's format to the game's `bevy` dependency)"
+        } else {
+            ""
+        };
         let error = format!(
-            "{file}: the VRM file did not load, so its character and springs are missing: {reason} \
-             (a VRM's textures need Bevy's `png` and `jpeg` features)"
+            "{file}: the VRM file did not load, so its character and springs are missing: \
+             {reason}{hint}"
         );
         error!("{error}");
         for (entity, root) in &roots {

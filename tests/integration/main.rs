@@ -30,6 +30,7 @@ mod see_through_render;
 mod shadow_render;
 mod silhouette_render;
 mod toon_render;
+mod vrm_interop_render;
 mod vrm_render;
 
 use libtest_mimic::{Arguments, Failed, Trial};
@@ -74,6 +75,7 @@ fn main() {
         .chain(look_suite::RENDER_TESTS)
         .chain(chain_render::RENDER_TESTS)
         .chain(vrm_render::RENDER_TESTS)
+        .chain(vrm_interop_render::RENDER_TESTS)
         .chain(fringe_render::RENDER_TESTS)
         .chain(lock_render::RENDER_TESTS)
         .chain(ring_render::RENDER_TESTS)

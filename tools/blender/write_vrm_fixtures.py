@@ -15,7 +15,12 @@ Both describe the same colliders: five head spheres (the ninja's head collision)
 (a string of spheres in VRM 0.x, which has only spheres), a capsule across the shoulders and, in
 VRM 1.0, a plane behind the neck that only the ponytail collides with.
 
-Only the JSON chunk changes; the binary chunk (meshes, skin, animation) is copied as is.
+Each file carries the character's thumbnail as a texture, as VRM exporters write it (its meta
+names it): JPEG in the VRM 1.0 file, PNG in the VRM 0.x file, both rendered by
+render_vrm_thumbnail.py. A game's Bevy build must decode both to load the files at all.
+
+The binary chunk (meshes, skin, animation) is the glb's, copied as is, with the thumbnail's bytes
+appended.
 """
 
 import json
@@ -72,6 +77,24 @@ def write_glb(path, doc, rest):
         f.write(header + struct.pack("<II", len(text), 0x4E4F534A) + text + rest)
 
 
+def add_thumbnail(doc, rest, path, mime):
+    """Appends the image at `path` to the binary chunk as a texture; returns (image index,
+    texture index, the new binary chunk)."""
+    length, kind = struct.unpack_from("<II", rest, 0)
+    data = rest[8:8 + length]
+    image = open(path, "rb").read()
+    offset = len(data)
+    data += image + b"\0" * (-len(image) % 4)
+    doc["buffers"][0]["byteLength"] = len(data)
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": offset, "byteLength": len(image)})
+    doc.setdefault("images", []).append(
+        {"name": "thumbnail", "bufferView": len(doc["bufferViews"]) - 1, "mimeType": mime})
+    doc.setdefault("samplers", []).append({"magFilter": 9729, "minFilter": 9729})
+    doc.setdefault("textures", []).append(
+        {"source": len(doc["images"]) - 1, "sampler": len(doc["samplers"]) - 1})
+    return len(doc["images"]) - 1, len(doc["textures"]) - 1, struct.pack("<II", len(data), kind) + data
+
+
 def node_index(doc):
     return {n.get("name"): i for i, n in enumerate(doc["nodes"])}
 
@@ -96,7 +119,7 @@ def add_end(doc, leaf):
     return len(doc["nodes"]) - 1
 
 
-def vrm1(doc):
+def vrm1(doc, thumbnail):
     ids = node_index(doc)
     head, neck, spine = ids["head"], ids["neck"], ids["spine"]
     colliders = [{"node": head, "shape": {"sphere": {"offset": list(c), "radius": r}}}
@@ -139,7 +162,7 @@ def vrm1(doc):
     doc["extensions"]["VRMC_vrm"] = {
         "specVersion": "1.0",
         "meta": {"name": "chain_hair", "version": "1", "authors": ["bevy_cartoon_hair"],
-                 "licenseUrl": "https://vrm.dev/licenses/1.0/"},
+                 "licenseUrl": "https://vrm.dev/licenses/1.0/", "thumbnailImage": thumbnail},
         "humanoid": {"humanBones": {"hips": {"node": ids["root"]}, "spine": {"node": spine},
                                     "neck": {"node": neck}, "head": {"node": head}}},
     }
@@ -154,7 +177,7 @@ def unity(v):
     return {"x": v[0], "y": v[1], "z": -v[2]}
 
 
-def vrm0(doc):
+def vrm0(doc, thumbnail):
     ids = node_index(doc)
     head, neck, spine = ids["head"], ids["neck"], ids["spine"]
     (a, b, r) = NECK
@@ -183,7 +206,8 @@ def vrm0(doc):
     doc.setdefault("extensions", {})["VRM"] = {
         "exporterVersion": "bevy_cartoon_hair write_vrm_fixtures.py",
         "specVersion": "0.0",
-        "meta": {"title": "chain_hair", "version": "1", "author": "bevy_cartoon_hair"},
+        "meta": {"title": "chain_hair", "version": "1", "author": "bevy_cartoon_hair",
+                 "texture": thumbnail},
         "secondaryAnimation": {"boneGroups": bone_groups, "colliderGroups": collider_groups},
     }
     used = doc.setdefault("extensionsUsed", [])
@@ -195,8 +219,12 @@ def vrm0(doc):
 def main(folder):
     source = os.path.join(folder, "chain_hair.glb")
     doc, rest = read_glb(source)
-    write_glb(os.path.join(folder, "chain_hair.vrm"), vrm1(json.loads(json.dumps(doc))), rest)
-    write_glb(os.path.join(folder, "chain_hair_vrm0.vrm"), vrm0(json.loads(json.dumps(doc))), rest)
+    one = json.loads(json.dumps(doc))
+    image, _, one_rest = add_thumbnail(one, rest, os.path.join(folder, "thumbnail.jpg"), "image/jpeg")
+    write_glb(os.path.join(folder, "chain_hair.vrm"), vrm1(one, image), one_rest)
+    zero = json.loads(json.dumps(doc))
+    _, texture, zero_rest = add_thumbnail(zero, rest, os.path.join(folder, "thumbnail.png"), "image/png")
+    write_glb(os.path.join(folder, "chain_hair_vrm0.vrm"), vrm0(zero, texture), zero_rest)
 
 
 if __name__ == "__main__":

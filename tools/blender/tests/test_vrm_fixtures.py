@@ -3,7 +3,8 @@
 tools/blender/write_vrm_fixtures.py from chain_hair.glb). No Blender needed.
 
 The files must be what the script writes now (so a stale fixture fails here), keep the glb's
-binary chunk byte for byte, and carry spring-bone JSON that follows the VRM rules the crate
+binary chunk byte for byte (the thumbnail appended), carry their thumbnail (JPEG in VRM 1.0, PNG
+in VRM 0.x), and carry spring-bone JSON that follows the VRM rules the crate
 enforces: joints each the parent of the next, no joint in two springs, indices in range,
 VRM 0.x offsets in Unity's space."""
 
@@ -24,7 +25,7 @@ FOLDER = os.path.join(helpers.REPO, "assets", "chain_hair")
 class VrmFixtures(unittest.TestCase):
     def test_the_committed_files_are_what_the_script_writes(self):
         with tempfile.TemporaryDirectory() as out:
-            for name in ("chain_hair.glb",):
+            for name in ("chain_hair.glb", "thumbnail.jpg", "thumbnail.png"):
                 with open(os.path.join(FOLDER, name), "rb") as src, open(os.path.join(out, name), "wb") as dst:
                     dst.write(src.read())
             write_vrm_fixtures.main(out)
@@ -36,7 +37,22 @@ class VrmFixtures(unittest.TestCase):
         _, glb_rest = write_vrm_fixtures.read_glb(os.path.join(FOLDER, "chain_hair.glb"))
         for name in ("chain_hair.vrm", "chain_hair_vrm0.vrm"):
             _, rest = write_vrm_fixtures.read_glb(os.path.join(FOLDER, name))
-            self.assertEqual(rest, glb_rest, name)
+            self.assertEqual(rest[8:len(glb_rest)], glb_rest[8:], name)
+
+    def test_thumbnails_are_a_jpeg_and_a_png_texture_the_meta_names(self):
+        magic = {"image/jpeg": b"\xff\xd8\xff", "image/png": b"\x89PNG\r\n\x1a\n"}
+        for name, mime in (("chain_hair.vrm", "image/jpeg"), ("chain_hair_vrm0.vrm", "image/png")):
+            doc, rest = write_vrm_fixtures.read_glb(os.path.join(FOLDER, name))
+            if name == "chain_hair.vrm":
+                image = doc["extensions"]["VRMC_vrm"]["meta"]["thumbnailImage"]
+            else:
+                image = doc["textures"][doc["extensions"]["VRM"]["meta"]["texture"]]["source"]
+            self.assertEqual(doc["images"][image]["mimeType"], mime, name)
+            self.assertIn(image, [t["source"] for t in doc["textures"]], "Bevy loads textures")
+            view = doc["bufferViews"][doc["images"][image]["bufferView"]]
+            data = rest[8 + view["byteOffset"]:8 + view["byteOffset"] + view["byteLength"]]
+            self.assertTrue(data.startswith(magic[mime]), name)
+            self.assertEqual(doc["buffers"][0]["byteLength"], len(rest) - 8, name)
 
     def test_vrm_1_springs_follow_the_rules(self):
         doc, _ = write_vrm_fixtures.read_glb(os.path.join(FOLDER, "chain_hair.vrm"))
