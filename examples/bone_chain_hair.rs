@@ -74,8 +74,9 @@ fn setup(
             WorldAssetRoot(scene),
             Character,
             ToonHairMeshes::matching(|name| name == "hair").with_material(look),
-            // The bangs' shadow on the face (read from the camera's prepasses).
-            FringeShadowMeshes::matching(|name| name == "skin", FringeShadow::default()),
+            // Everything but the hair cel-shaded too, the skin taking the bangs' shadow (read
+            // from the camera's prepasses).
+            FringeShadowMeshes::all_except(|name| name == "hair", FringeShadow::cel()),
         ))
         .id();
     commands.spawn((

@@ -45,6 +45,22 @@ pub struct FringeShadow {
     /// How far the shadow falls from the hair's edge, in the face mesh's own units (metres for
     /// a character at scale 1): larger throws it farther down the face. Default: `0.02`.
     pub width: f32,
+    /// Cel shading: the surface drawn in two flat tones under the scene's lights, as the hair's
+    /// toon material draws hair, instead of Bevy's PBR shading. The light reaching the surface
+    /// (every light, its colour and shadows) is measured as the hair's toon material measures
+    /// it ([`ToonLighting::Scene`](super::ToonLighting::Scene)); above
+    /// [`FringeShadow::cel_threshold`] the surface shows its base colour in the light's hue,
+    /// below it the base colour times [`FringeShadow::cel_shade`]. Default: `false`.
+    pub cel: bool,
+    /// The shade tone of cel shading: multiplies the base colour where the light is below the
+    /// threshold. Default: a warm rose, `srgb(0.80, 0.62, 0.64)`, as skin is drawn.
+    pub cel_shade: Color,
+    /// The light level, as a share of [`FringeShadow::full_light_lux`], where cel shading turns
+    /// from shade to lit. Default: `0.3`.
+    pub cel_threshold: f32,
+    /// The illuminance (lux) that counts as fully lit, as
+    /// [`ToonShading::full_light_lux`](super::ToonShading::full_light_lux). Default: `10000`.
+    pub full_light_lux: f32,
 }
 
 impl Default for FringeShadow {
@@ -53,6 +69,20 @@ impl Default for FringeShadow {
             tone: Color::srgb(0.78, 0.55, 0.58),
             strength: 1.0,
             width: 0.02,
+            cel: false,
+            cel_shade: Color::srgb(0.80, 0.62, 0.64),
+            cel_threshold: 0.3,
+            full_light_lux: 10_000.0,
+        }
+    }
+}
+
+impl FringeShadow {
+    /// The default fringe shadow on a cel-shaded surface: a face and body in the toon look.
+    pub fn cel() -> Self {
+        Self {
+            cel: true,
+            ..default()
         }
     }
 }
@@ -62,6 +92,7 @@ impl Default for FringeShadow {
 pub struct FringeShadowUniform {
     tone: Vec4,
     params: Vec4,
+    cel_shade: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> for FringeShadow {
@@ -76,7 +107,13 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
                 .to_vec4()
                 .truncate()
                 .extend(finite_or(self.strength, 1.0).clamp(0.0, 1.0)),
-            params: Vec4::new(finite_or(self.width, 0.02).clamp(0.0, 1e3), 0.0, 0.0, 0.0),
+            params: Vec4::new(
+                finite_or(self.width, 0.02).clamp(0.0, 1e3),
+                if self.cel { 1.0 } else { 0.0 },
+                finite_or(self.cel_threshold, 0.3).clamp(0.0, 1.0),
+                finite_or(self.full_light_lux, 10_000.0).max(1e-3),
+            ),
+            cel_shade: self.cel_shade.to_linear().to_vec4(),
         }
     }
 }
@@ -94,7 +131,8 @@ impl MaterialExtension for FringeShadow {
 
 /// Put on a character (a glTF or VRM scene root): its meshes whose entity name, node name or
 /// glTF material name passes `select` (the face, the skin) get their `StandardMaterial`
-/// extended with [`FringeShadow`], keeping every setting of the original.
+/// extended with [`FringeShadow`], keeping every setting of the original (colour, textures,
+/// alpha).
 ///
 /// ```no_run
 /// # use bevy::prelude::*;
@@ -103,6 +141,21 @@ impl MaterialExtension for FringeShadow {
 /// commands
 ///     .entity(character)
 ///     .insert(FringeShadowMeshes::matching(|name| name == "skin", FringeShadow::default()));
+/// # }
+/// ```
+///
+/// The toon look on the whole character: every mesh but the hair, cel-shaded, the skin taking
+/// the fringe's shadow. Meshes a [`ToonHairMeshes`](super::ToonHairMeshes) on the same character
+/// takes are dressed first and left out (they no longer wear a `StandardMaterial`).
+///
+/// ```no_run
+/// # use bevy::prelude::*;
+/// # use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMeshes, ToonHairMeshes};
+/// # fn setup(mut commands: Commands, character: Entity) {
+/// commands.entity(character).insert((
+///     ToonHairMeshes::matching(|name| name == "hair"),
+///     FringeShadowMeshes::all_except(|name| name == "hair", FringeShadow::cel()),
+/// ));
 /// # }
 /// ```
 #[derive(Component, Clone, Debug, Reflect)]
@@ -114,6 +167,8 @@ pub struct FringeShadowMeshes {
     pub select: BonePredicate,
     /// The shadow they receive.
     pub shadow: FringeShadow,
+    /// When set, the meshes taken are the others: those none of whose names pass `select`.
+    pub except: bool,
 }
 
 impl FringeShadowMeshes {
@@ -125,6 +180,20 @@ impl FringeShadowMeshes {
         Self {
             select: BonePredicate::new(test),
             shadow,
+            except: false,
+        }
+    }
+
+    /// Every mesh (with a `StandardMaterial`) except those whose name, node name or material
+    /// name passes `test`, receiving `shadow`: with [`FringeShadow::cel`], the toon look on a
+    /// whole character but its hair.
+    pub fn all_except(
+        test: impl Fn(&str) -> bool + Send + Sync + 'static,
+        shadow: FringeShadow,
+    ) -> Self {
+        Self {
+            except: true,
+            ..Self::matching(test, shadow)
         }
     }
 }
@@ -134,6 +203,15 @@ impl FringeShadowMeshes {
 #[reflect(Component, Debug)]
 pub struct FringeShadowMeshesApplied(pub Vec<Entity>);
 
+/// Whether a character is a scene root, has spawned, wants its hair meshes dressed and has them
+/// dressed.
+type CharacterState = (
+    Has<WorldAssetRoot>,
+    Has<CharacterSpawned>,
+    Has<super::ToonHairMeshes>,
+    Has<super::ToonHairMeshesApplied>,
+);
+
 /// Extends the selected meshes' materials of every spawned [`FringeShadowMeshes`] character.
 #[expect(
     clippy::too_many_arguments,
@@ -142,7 +220,7 @@ pub struct FringeShadowMeshesApplied(pub Vec<Entity>);
 pub(crate) fn apply_fringe_shadow(
     mut commands: Commands,
     characters: Query<(Entity, &FringeShadowMeshes), Without<FringeShadowMeshesApplied>>,
-    roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
+    roots: Query<CharacterState>,
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
@@ -153,16 +231,27 @@ pub(crate) fn apply_fringe_shadow(
     ),
 ) {
     for (character, wanted) in &characters {
+        // Not before the scene has spawned, nor before its hair meshes are dressed.
         if roots
             .get(character)
-            .is_ok_and(|(scene, spawned)| scene && !spawned)
+            .is_ok_and(|(scene, spawned, hair, dressed)| (scene && !spawned) || (hair && !dressed))
         {
             continue;
         }
         let mut done = Vec::new();
         // Meshes sharing a material share its extension.
         let mut made: Vec<(AssetId<StandardMaterial>, Handle<FringeShadowMaterial>)> = Vec::new();
-        for e in meshes_passing(character, &wanted.select, &children, &meshes, &names) {
+        let selected = if wanted.except {
+            let all = BonePredicate::new(|_| true);
+            let excluded = meshes_passing(character, &wanted.select, &children, &meshes, &names);
+            meshes_passing(character, &all, &children, &meshes, &names)
+                .into_iter()
+                .filter(|e| !excluded.contains(e))
+                .collect()
+        } else {
+            meshes_passing(character, &wanted.select, &children, &meshes, &names)
+        };
+        for e in selected {
             let Ok(MeshMaterial3d(handle)) = standard.get(e) else {
                 continue;
             };

@@ -156,8 +156,13 @@ impl Plugin for ToonHairMaterialPlugin {
                 PostUpdate,
                 (
                     apply_hair_materials,
-                    user_mesh::apply_toon_to_user_meshes,
-                    fringe_shadow::apply_fringe_shadow,
+                    // A character's hair meshes take the toon hair material before its other
+                    // meshes are extended, so a selection of "all but the hair" finds them taken.
+                    (
+                        user_mesh::apply_toon_to_user_meshes,
+                        fringe_shadow::apply_fringe_shadow,
+                    )
+                        .chain(),
                     apply_stroke_material,
                     apply_highlight_material,
                     (see_through::mark_named_parts, see_through::sync_overlays).chain(),

@@ -11,7 +11,10 @@ use bevy::time::TimeUpdateStrategy;
 use bevy::world_serialization::WorldAssetRoot;
 use bevy_cartoon_hair::headless::{CaptureSettings, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied, ToonRamps};
+use bevy_cartoon_hair::render::{
+    FringeShadow, FringeShadowMeshes, FringeShadowMeshesApplied, ToonHairMeshes,
+    ToonHairMeshesApplied, ToonRamps,
+};
 use libtest_mimic::Failed;
 
 use crate::look_suite::{
@@ -59,6 +62,8 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
                 ),
                 Transform::default(),
                 ToonHairMeshes::matching(|n| n == "hair").with_material(handle.clone()),
+                // The face and body in the toon look too, the face taking the fringe's shadow.
+                FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
             ))
             .id();
         world.spawn((
@@ -81,7 +86,9 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
         ));
         r.warm_up(|world| {
             let mut dressed = world.query::<&ToonHairMeshesApplied>();
+            let mut body = world.query::<&FringeShadowMeshesApplied>();
             dressed.iter(world).any(|d| !d.0.is_empty())
+                && body.iter(world).any(|d| !d.0.is_empty())
         })?;
         let set_outline = |r: &mut HeadlessRenderer, on: bool| {
             let world = r.app.world_mut();

@@ -13,10 +13,16 @@ use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMaterial};
 use libtest_mimic::Failed;
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face",
-    the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face",
+        the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face,
+    ),
+    (
+        "a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow",
+        a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow,
+    ),
+];
 
 /// The shadow's width in the scene (metres).
 const WIDTH: f32 = 0.02;
@@ -101,6 +107,18 @@ fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
 }
 
 impl Scene {
+    /// Cel shading on the face, or Bevy's PBR shading.
+    fn set_cel(&mut self, cel: bool) -> Result<(), Failed> {
+        let world = self.renderer.app.world_mut();
+        world
+            .resource_mut::<Assets<FringeShadowMaterial>>()
+            .get_mut(&self.face)
+            .ok_or("face material")?
+            .extension
+            .cel = cel;
+        Ok(())
+    }
+
     /// A frame with the shadow at `strength`.
     fn frame(&mut self, strength: f32) -> Result<CapturedFrame, Failed> {
         let world = self.renderer.app.world_mut();
@@ -281,6 +299,85 @@ fn the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face() -> Result<()
     let hair_changed = base.hair_changed + moved.hair_changed + far.hair_changed + big.hair_changed;
     if hair_changed > 0 {
         return Err(format!("the shadow changed {hair_changed} hair pixels").into());
+    }
+    Ok(())
+}
+
+/// The face's pixels (neither the fringe nor the background) and the share of them within 8
+/// levels of its two main tones (the most common colour, and the most common one more than 8
+/// levels from it: the frame's dither splits a flat tone into neighbouring levels).
+fn face_tones(frame: &CapturedFrame) -> (usize, f32) {
+    let mut count = std::collections::HashMap::new();
+    let mut face = Vec::new();
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            let p = frame.pixel(x, y);
+            // The face is a warm skin tone; the fringe is blue, the background dark.
+            if !is_fringe(p) && p[0] > 40 && p[0] >= p[2] {
+                *count.entry(p).or_insert(0usize) += 1;
+                face.push(p);
+            }
+        }
+    }
+    let near = |a: [u8; 4], b: [u8; 4]| (0..3).all(|k| a[k].abs_diff(b[k]) <= 8);
+    let mut counts: Vec<([u8; 4], usize)> = count.into_iter().collect();
+    counts.sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let Some(&(first, _)) = counts.first() else {
+        return (0, 0.0);
+    };
+    let second = counts
+        .iter()
+        .find(|(c, _)| !near(*c, first))
+        .map(|(c, _)| *c);
+    let flat = face
+        .iter()
+        .filter(|p| near(**p, first) || second.is_some_and(|s| near(**p, s)))
+        .count();
+    (face.len(), flat as f32 / face.len().max(1) as f32)
+}
+
+/// `FringeShadow::cel`: the face under a light from above is drawn in two flat tones (its base
+/// colour lit, times the shade tone where the light turns away), not PBR's gradient, and still
+/// takes the fringe's shadow below the fringe.
+fn a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow() -> Result<(), Failed> {
+    let mut s = scene(320, 240)?;
+    let pbr = s.frame(0.0)?;
+    s.set_cel(true)?;
+    let shadow = s.shadow()?;
+    let cel = s.frame(0.0)?;
+    if let Some(dir) = std::env::var_os("HAIR_TEST_PNG_DIR") {
+        let dir = std::path::Path::new(&dir);
+        pbr.save_png(dir.join("face_pbr.png"))?;
+        shadow.on.save_png(dir.join("face_cel.png"))?;
+    }
+    let (pbr_face, pbr_flat) = face_tones(&pbr);
+    let (cel_face, cel_flat) = face_tones(&cel);
+    let (fringe_bottom, rows) = shadow.band_below_fringe();
+    println!(
+        "face: PBR {pbr_face} px, {:.1}% in its 2 main tones; cel {cel_face} px, {:.1}%; the \
+         fringe's shadow on the cel face: {} px, {rows} rows below the fringe (row \
+         {fringe_bottom}); hair pixels changed {}",
+        100.0 * pbr_flat,
+        100.0 * cel_flat,
+        shadow.count(),
+        shadow.hair_changed
+    );
+    if cel_face < 2_000 || (cel_face as f32) < 0.8 * pbr_face as f32 {
+        return Err(format!("the cel face shows {cel_face} px against PBR's {pbr_face}").into());
+    }
+    if cel_flat < 0.9 {
+        return Err(format!("only {cel_flat} of the cel face in two tones").into());
+    }
+    if pbr_flat > 0.7 {
+        return Err(format!("PBR shading drew {pbr_flat} of the face in two tones").into());
+    }
+    if shadow.count() < 200 || rows == 0 || shadow.hair_changed > 0 {
+        return Err(format!(
+            "the cel face's fringe shadow: {} px, {rows} rows, {} hair px changed",
+            shadow.count(),
+            shadow.hair_changed
+        )
+        .into());
     }
     Ok(())
 }
