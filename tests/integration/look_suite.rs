@@ -109,6 +109,8 @@ pub(crate) struct Measured {
     pub(crate) hair: usize,
     /// Luma of the hair's 90th percentile minus its 10th, without outlines.
     pub(crate) contrast: f32,
+    /// The hair's mean luma, without outlines.
+    pub(crate) mean: f32,
     /// Pure black hair pixels without outlines (what NaN shading gives).
     pub(crate) black: usize,
     /// Share of the hair's boundary pixels with ink within 2 px.
@@ -174,6 +176,7 @@ pub(crate) fn measure(
     if !lumas.is_empty() {
         let q = |f: f32| lumas[((lumas.len() - 1) as f32 * f) as usize];
         m.contrast = q(0.9) - q(0.1);
+        m.mean = lumas.iter().sum::<f32>() / lumas.len() as f32;
     }
     m.boundary_inked = boundary_inked as f32 / boundary.max(1) as f32;
     m.interior_inked = inside_ink as f32 / inside.max(1) as f32;
@@ -216,7 +219,8 @@ pub(crate) const LOCK_LINES_INSIDE_MOST: f32 = 0.15;
 /// anime_locks look (every look with `HAIR_LOOK_SUITE_ALL=1`), front, side and back, at the
 /// same moment (0.67 s into the clip, time then held): the hair is there (covering 1% of the frame; without hatching, no pixel of it
 /// black, as NaN shading would be), its lit and shadow tones differ from the front and the side
-/// (luma p90 - p10 at least 10; from the back, away from the sun, it may be one tone), and, with either outline method
+/// (luma p90 - p10 at least 10; from the back, away from the sun, it may be one tone, except in
+/// anime_locks, whose back keeps both tones at 85% of the front's mean luma or more), and, with either outline method
 /// as the look ships it (the image-space outline in clean_anime, object-space strokes of the
 /// mass in thesis and sketch), ink covers at least 85% of the hair's boundary and at most 2% of
 /// its inside (measured: 99-100% and 0.0% for the outline; 100% and at most 0.5% for the
@@ -278,6 +282,7 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
             ));
         }
         let handle = r.app.world().resource::<NinjaScene>().hair_material.clone();
+        let mut front_mean = None;
         for (view, yaw) in VIEWS {
             let world = r.app.world_mut();
             let mut orbit = world.query::<&mut NinjaOrbit>();
@@ -304,8 +309,9 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
             let outlined = look.silhouettes.as_ref().is_some_and(|s| s.enabled)
                 || look.outline.as_ref().is_some_and(|o| o.enabled);
             eprintln!(
-                "{name} {view}: {} hair px, contrast {:.0}, {} black, boundary inked {:.0}%, inside inked {:.1}%",
+                "{name} {view}: {} hair px, mean luma {:.0}, contrast {:.0}, {} black, boundary inked {:.0}%, inside inked {:.1}%",
                 m.hair,
+                m.mean,
                 m.contrast,
                 m.black,
                 100.0 * m.boundary_inked,
@@ -320,6 +326,20 @@ fn look_suite_every_look_from_three_views() -> Result<(), Failed> {
             // back in clean_anime is): only the lit views must show both tones.
             if m.contrast < 10.0 && view != "back" {
                 failures.push(format!("{name} {view}: no lit and shadow tones: {m:?}"));
+            }
+            // The anime look keeps the back view as lit as the front: its rim light, against the
+            // sun, lights the hair turned away from it. Its back shows both tones, at least 85% as
+            // bright as the front on average.
+            if view == "front" {
+                front_mean = Some(m.mean);
+            }
+            if *look_name == "anime_locks"
+                && view == "back"
+                && (m.contrast < 10.0 || front_mean.is_some_and(|f| m.mean < 0.85 * f))
+            {
+                failures.push(format!(
+                    "{name} back: darker or flatter than the front ({front_mean:?}): {m:?}"
+                ));
             }
             // Lines between locks ink the inside on purpose; without them, the outline and the
             // mass's strokes keep to the boundary.
