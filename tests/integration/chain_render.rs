@@ -117,17 +117,7 @@ fn run(chains: bool) -> Result<Run, Failed> {
             .map(|(e, _)| e)
             .ok_or("the character has no head bone")?
     };
-    let in_head = |world: &World| -> Vec<Vec3> {
-        let h = world
-            .get::<GlobalTransform>(head)
-            .unwrap()
-            .affine()
-            .inverse();
-        joints
-            .iter()
-            .map(|j| h.transform_point3(world.get::<GlobalTransform>(*j).unwrap().translation()))
-            .collect()
-    };
+    let in_head = |world: &World| joints_in_head(world, head, &joints);
     // Settle for 1.5 s, still.
     for _ in 0..45 {
         renderer.update_by(1.0 / 30.0);
@@ -244,4 +234,24 @@ fn a_modelled_hair_mesh_swings_on_simulated_bone_chains() -> Result<(), Failed> 
         return Err(format!("after settling {settled} hair pixels differ from rest").into());
     }
     Ok(())
+}
+
+/// Where `joints` are in the head's space (each joint's world position under the head's
+/// inverse world transform).
+pub fn joints_in_head(world: &World, head: Entity, joints: &[Entity]) -> Vec<Vec3> {
+    let h = world
+        .get::<GlobalTransform>(head)
+        .expect("the head has a GlobalTransform")
+        .affine()
+        .inverse();
+    joints
+        .iter()
+        .map(|j| {
+            let p = world
+                .get::<GlobalTransform>(*j)
+                .expect("a joint has a GlobalTransform")
+                .translation();
+            h.transform_point3(p)
+        })
+        .collect()
 }

@@ -107,27 +107,26 @@ fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
 }
 
 impl Scene {
+    /// Changes the face's fringe shadow.
+    fn edit_face(&mut self, edit: impl FnOnce(&mut FringeShadow)) -> Result<(), Failed> {
+        let mut materials = self
+            .renderer
+            .app
+            .world_mut()
+            .resource_mut::<Assets<FringeShadowMaterial>>();
+        let mut face = materials.get_mut(&self.face).ok_or("face material")?;
+        edit(&mut face.extension);
+        Ok(())
+    }
+
     /// Cel shading on the face, or Bevy's PBR shading.
     fn set_cel(&mut self, cel: bool) -> Result<(), Failed> {
-        let world = self.renderer.app.world_mut();
-        world
-            .resource_mut::<Assets<FringeShadowMaterial>>()
-            .get_mut(&self.face)
-            .ok_or("face material")?
-            .extension
-            .cel = cel;
-        Ok(())
+        self.edit_face(|f| f.cel = cel)
     }
 
     /// A frame with the shadow at `strength`.
     fn frame(&mut self, strength: f32) -> Result<CapturedFrame, Failed> {
-        let world = self.renderer.app.world_mut();
-        world
-            .resource_mut::<Assets<FringeShadowMaterial>>()
-            .get_mut(&self.face)
-            .ok_or("face material")?
-            .extension
-            .strength = strength;
+        self.edit_face(|f| f.strength = strength)?;
         for _ in 0..3 {
             self.renderer.update();
         }

@@ -14,6 +14,8 @@ use bevy_cartoon_hair::sim::{BoneChainHairs, VrmSpringChains};
 use bevy_vrm1::prelude::{Initialized, SpringRoot, VrmHandle, VrmPlugin, VrmSystemSets};
 use libtest_mimic::Failed;
 
+use crate::chain_render::joints_in_head;
+
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
     "an_avatar_bevy_vrm1_loads_swings_its_hair_on_this_crates_solver",
     an_avatar_bevy_vrm1_loads_swings_its_hair_on_this_crates_solver,
@@ -107,17 +109,7 @@ fn run(with_bevy_vrm1: bool) -> Result<Trace, Failed> {
         .map(|(_, e)| *e)
         .collect();
     let head_rest = world.get::<Transform>(head).ok_or("head")?.rotation;
-    let in_head = |world: &World| -> Vec<Vec3> {
-        let h = world
-            .get::<GlobalTransform>(head)
-            .unwrap()
-            .affine()
-            .inverse();
-        joints
-            .iter()
-            .map(|j| h.transform_point3(world.get::<GlobalTransform>(*j).unwrap().translation()))
-            .collect()
-    };
+    let in_head = |world: &World| joints_in_head(world, head, &joints);
     for _ in 0..30 {
         renderer.update_by(1.0 / 60.0);
     }

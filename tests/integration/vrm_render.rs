@@ -16,6 +16,8 @@ use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied, ToonRamps
 use bevy_cartoon_hair::sim::{BoneChainHairs, HairCollidesOnly, VrmSpringChains, VrmSpringsFailed};
 use libtest_mimic::Failed;
 
+use crate::chain_render::joints_in_head;
+
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "a_vrm_character_swings_its_hair_mesh_on_its_springs_in_the_toon_look",
@@ -171,17 +173,7 @@ fn run(file: &'static str, colliders: bool) -> Result<Run, Failed> {
         .collect();
     let skin = hair_skin(world)?;
     let head_rest = world.get::<Transform>(head).unwrap().rotation;
-    let in_head = |world: &World| -> Vec<Vec3> {
-        let h = world
-            .get::<GlobalTransform>(head)
-            .unwrap()
-            .affine()
-            .inverse();
-        joints
-            .iter()
-            .map(|j| h.transform_point3(world.get::<GlobalTransform>(*j).unwrap().translation()))
-            .collect()
-    };
+    let in_head = |world: &World| joints_in_head(world, head, &joints);
     for _ in 0..45 {
         renderer.update_by(1.0 / 30.0);
     }
