@@ -185,7 +185,7 @@ impl FringeShadowMeshes {
     }
 
     /// Every mesh (with a `StandardMaterial`) except those whose name, node name or material
-    /// name passes `test`, receiving `shadow`: with [`FringeShadow::cel`], the toon look on a
+    /// name passes `test` (a mesh with none of these names is taken), receiving `shadow`: with [`FringeShadow::cel`], the toon look on a
     /// whole character but its hair.
     pub fn all_except(
         test: impl Fn(&str) -> bool + Send + Sync + 'static,
@@ -241,16 +241,14 @@ pub(crate) fn apply_fringe_shadow(
         let mut done = Vec::new();
         // Meshes sharing a material share its extension.
         let mut made: Vec<(AssetId<StandardMaterial>, Handle<FringeShadowMaterial>)> = Vec::new();
-        let selected = if wanted.except {
-            let all = BonePredicate::new(|_| true);
-            let excluded = meshes_passing(character, &wanted.select, &children, &meshes, &names);
-            meshes_passing(character, &all, &children, &meshes, &names)
-                .into_iter()
-                .filter(|e| !excluded.contains(e))
-                .collect()
-        } else {
-            meshes_passing(character, &wanted.select, &children, &meshes, &names)
-        };
+        let selected = meshes_passing(
+            character,
+            &wanted.select,
+            wanted.except,
+            &children,
+            &meshes,
+            &names,
+        );
         for e in selected {
             let Ok(MeshMaterial3d(handle)) = standard.get(e) else {
                 continue;
@@ -285,5 +283,91 @@ pub(crate) fn apply_fringe_shadow(
         commands
             .entity(character)
             .insert(FringeShadowMeshesApplied(done));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use bevy::asset::AssetPlugin;
+    use bevy::prelude::*;
+
+    use super::*;
+
+    /// A character with a hair mesh, a named face mesh, a mesh with no name of any kind and a
+    /// node that is not a mesh; the entities of those three meshes.
+    fn character(app: &mut App, fringe: FringeShadowMeshes) -> (Entity, [Entity; 3]) {
+        let material = app
+            .world_mut()
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial::default());
+        let world = app.world_mut();
+        let root = world.spawn((Transform::default(), fringe)).id();
+        let mut mesh = |name: Option<&str>| {
+            let e = world
+                .spawn((
+                    Mesh3d(Handle::default()),
+                    MeshMaterial3d(material.clone()),
+                    ChildOf(root),
+                ))
+                .id();
+            if let Some(name) = name {
+                world.entity_mut(e).insert(Name::new(name.to_string()));
+            }
+            e
+        };
+        let meshes = [mesh(Some("hair")), mesh(Some("face")), mesh(None)];
+        world.spawn((Name::new("head"), Transform::default(), ChildOf(root)));
+        (root, meshes)
+    }
+
+    fn app() -> App {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<StandardMaterial>()
+            .init_asset::<FringeShadowMaterial>()
+            .add_systems(Update, apply_fringe_shadow);
+        app
+    }
+
+    fn extended(app: &mut App, e: Entity) -> bool {
+        app.world().get::<MeshMaterial3d<FringeShadowMaterial>>(e).is_some()
+    }
+
+    #[test]
+    fn all_except_takes_every_other_mesh_once_nameless_ones_too() {
+        let mut app = app();
+        let (root, [hair, face, nameless]) = character(
+            &mut app,
+            FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
+        );
+        app.update();
+        let mut applied = app
+            .world()
+            .get::<FringeShadowMeshesApplied>(root)
+            .expect("the character is marked applied")
+            .0
+            .clone();
+        applied.sort();
+        let mut want = vec![face, nameless];
+        want.sort();
+        assert_eq!(applied, want, "each mesh but the hair, once");
+        assert!(extended(&mut app, face) && extended(&mut app, nameless));
+        assert!(!extended(&mut app, hair), "the hair keeps its material");
+        assert!(app.world().get::<MeshMaterial3d<StandardMaterial>>(hair).is_some());
+        // Meshes sharing a material share one extension.
+        assert_eq!(app.world().resource::<Assets<FringeShadowMaterial>>().len(), 1);
+    }
+
+    #[test]
+    fn matching_takes_only_the_named_meshes() {
+        let mut app = app();
+        let (root, [hair, face, nameless]) = character(
+            &mut app,
+            FringeShadowMeshes::matching(|n| n == "face", FringeShadow::default()),
+        );
+        app.update();
+        let applied = &app.world().get::<FringeShadowMeshesApplied>(root).unwrap().0;
+        assert_eq!(applied, &vec![face]);
+        assert!(!extended(&mut app, hair) && !extended(&mut app, nameless));
     }
 }

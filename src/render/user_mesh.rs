@@ -64,10 +64,12 @@ impl ToonHairMeshes {
 pub struct ToonHairMeshesApplied(pub Vec<Entity>);
 
 /// The mesh entities under `root` whose name, parent (node) name or glTF material name passes
-/// `select`.
+/// `select` (with `except`: none of whose names passes, a mesh without names included), in one
+/// walk of the hierarchy.
 pub(crate) fn meshes_passing(
     root: Entity,
     select: &BonePredicate,
+    except: bool,
     children: &Query<&Children>,
     meshes: &Query<MeshNames, With<Mesh3d>>,
     names: &Query<&Name>,
@@ -77,7 +79,7 @@ pub(crate) fn meshes_passing(
     while let Some(e) = stack.pop() {
         if let Ok((name, material_name, parent)) = meshes.get(e) {
             let parent_name = parent.and_then(|p| names.get(p.parent()).ok());
-            let selected = [
+            let passes = [
                 name.map(Name::as_str),
                 parent_name.map(Name::as_str),
                 material_name.map(|m| m.0.as_str()),
@@ -85,7 +87,7 @@ pub(crate) fn meshes_passing(
             .into_iter()
             .flatten()
             .any(|n| select.matches(n));
-            if selected {
+            if passes != except {
                 found.push(e);
             }
         }
@@ -139,7 +141,7 @@ pub(crate) fn apply_toon_to_user_meshes(
                 })
                 .clone(),
         };
-        let dressed = meshes_passing(character, &wanted.select, &children, &meshes, &names);
+        let dressed = meshes_passing(character, &wanted.select, false, &children, &meshes, &names);
         for &e in &dressed {
             commands
                 .entity(e)
