@@ -329,8 +329,10 @@ mod tests {
         app
     }
 
-    fn extended(app: &mut App, e: Entity) -> bool {
-        app.world().get::<MeshMaterial3d<FringeShadowMaterial>>(e).is_some()
+    fn extended(app: &App, e: Entity) -> bool {
+        app.world()
+            .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
+            .is_some()
     }
 
     #[test]
@@ -351,11 +353,18 @@ mod tests {
         let mut want = vec![face, nameless];
         want.sort();
         assert_eq!(applied, want, "each mesh but the hair, once");
-        assert!(extended(&mut app, face) && extended(&mut app, nameless));
-        assert!(!extended(&mut app, hair), "the hair keeps its material");
-        assert!(app.world().get::<MeshMaterial3d<StandardMaterial>>(hair).is_some());
+        assert!(extended(&app, face) && extended(&app, nameless));
+        assert!(!extended(&app, hair), "the hair keeps its material");
+        assert!(
+            app.world()
+                .get::<MeshMaterial3d<StandardMaterial>>(hair)
+                .is_some()
+        );
         // Meshes sharing a material share one extension.
-        assert_eq!(app.world().resource::<Assets<FringeShadowMaterial>>().len(), 1);
+        assert_eq!(
+            app.world().resource::<Assets<FringeShadowMaterial>>().len(),
+            1
+        );
     }
 
     #[test]
@@ -366,8 +375,12 @@ mod tests {
             FringeShadowMeshes::matching(|n| n == "face", FringeShadow::default()),
         );
         app.update();
-        let applied = &app.world().get::<FringeShadowMeshesApplied>(root).unwrap().0;
+        let applied = &app
+            .world()
+            .get::<FringeShadowMeshesApplied>(root)
+            .unwrap()
+            .0;
         assert_eq!(applied, &vec![face]);
-        assert!(!extended(&mut app, hair) && !extended(&mut app, nameless));
+        assert!(!extended(&app, hair) && !extended(&app, nameless));
     }
 }
