@@ -185,8 +185,8 @@ impl FringeShadowMeshes {
     }
 
     /// Every mesh (with a `StandardMaterial`) except those whose name, node name or material
-    /// name passes `test` (a mesh with none of these names is taken), receiving `shadow`: with [`FringeShadow::cel`], the toon look on a
-    /// whole character but its hair.
+    /// name passes `test` (a mesh with none of these names is taken), receiving `shadow`: with
+    /// [`FringeShadow::cel`], the toon look on a whole character but its hair.
     pub fn all_except(
         test: impl Fn(&str) -> bool + Send + Sync + 'static,
         shadow: FringeShadow,
