@@ -24,6 +24,8 @@ pub(crate) struct ChainPose {
     posed: Vec<(Entity, Quat, Affine3A)>,
     /// The collider shapes near the hair this frame.
     near: Vec<NearShape>,
+    /// The particles of the chain being posed.
+    particles: Vec<Vec3>,
 }
 
 /// A collider shape near a hair: the shape, whether it keeps particles inside, and where a
@@ -110,7 +112,7 @@ pub(crate) fn pose_bone_chains(
                     &mut computed,
                     &pose.near,
                     margin,
-                    &mut pose.posed,
+                    (&mut pose.posed, &mut pose.particles),
                     &|e| bind.get(e).ok().map(|(t, _)| *t),
                 );
             },
@@ -190,7 +192,7 @@ fn pose_hair(
     computed: &mut ComputedHair,
     near: &[NearShape],
     margin: f32,
-    posed: &mut Vec<(Entity, Quat, Affine3A)>,
+    (posed, particles): (&mut Vec<(Entity, Quat, Affine3A)>, &mut Vec<Vec3>),
     bind: &impl Fn(Entity) -> Option<Transform>,
 ) {
     let hair = hair_world.affine();
@@ -205,12 +207,16 @@ fn pose_hair(
         };
         let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
         let expected = chain.len() + usize::from(!tail_joint);
-        if s >= computed.lane_of.len()
-            || computed.particle_count(s) != expected
-            || (0..expected).any(|i| !computed.particle(s, i).is_finite())
-        {
+        if s >= computed.lane_of.len() || computed.particle_count(s) != expected {
             continue;
         }
+        // The chain's particles, read once (the solver's lanes are strided in memory).
+        particles.clear();
+        particles.extend((0..expected).map(|i| computed.particle(s, i)));
+        if !particles.iter().all(|p| p.is_finite()) {
+            continue;
+        }
+        let limits = driven.limits.get(s).map_or(&[][..], Vec::as_slice);
         // The hair hangs on the chains' parent bone with an identity transform.
         let (mut parent, mut parent_rotation) = (hair, hair_rotation);
         for (k, &joint) in chain.iter().enumerate() {
@@ -233,22 +239,16 @@ fn pose_hair(
             let from = parent
                 .matrix3
                 .mul_vec3(rest_rotation * (local.scale * child));
-            let mut to = computed.particle(s, k + 1) - origin;
+            let mut to = particles[k + 1] - origin;
             // The posed child sits at its bone's length: keep it off the colliders the particle
             // was kept off (a collider can hold a particle nearer than a bone).
             if let Some(kept) = keep_off(near, origin, to, from, margin) {
                 computed.set_particle(s, k + 1, origin + kept);
                 to = kept;
             }
-            if let Some(limit) = driven
-                .limits
-                .get(s)
-                .and_then(|l| l.get(k))
-                .copied()
-                .flatten()
-            {
-                let frame = limit_frame(at_rest_rotation, child, &limit);
-                let limited = limit_offset(frame, &limit, to);
+            if let Some(Some(limit)) = limits.get(k) {
+                let frame = limit_frame(at_rest_rotation, child, limit);
+                let limited = limit_offset(frame, limit, to);
                 if limited != to {
                     // The simulation goes on from the limited joint, as VRM's step does.
                     computed.set_particle(s, k + 1, origin + limited);
@@ -278,9 +278,15 @@ fn pose_hair(
     }
 }
 
-/// Rounds of [`keep_off`]: each pushes the child onto a collider's margin and back to the bone's
-/// length, nearer the margin each time.
+/// Rounds of [`keep_off`]: each turns the child onto the margin of a collider it is within
+/// (exactly for a sphere; for a capsule onto the sphere about the nearest point of its axis,
+/// which the next round corrects; for a box or plane pushed out and back to the bone's length,
+/// nearer the margin each time).
 const KEEP_OFF_ROUNDS: usize = 8;
+
+/// How far past a sphere's or capsule's margin [`keep_off`] puts the child, as a fraction of the
+/// margin's radius: enough for the next round to find it clear despite rounding.
+const SHELL_CLEARANCE: f32 = 1e-5;
 
 /// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
 /// length (`bone`'s), it would lie within `margin` of a collider in `shapes`: turned about the
@@ -292,16 +298,37 @@ fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32
     let length = bone.length();
     let mut dir = to.try_normalize()?;
     let mut moved = false;
+    // Measured from the joint: a character far from the world's origin rounds its world
+    // coordinates more coarsely than the clearance the shell step leaves.
+    let joint = Vec3A::from(joint);
     for _ in 0..KEEP_OFF_ROUNDS {
         let mut clear = true;
         for (shape, inside, lo, hi) in shapes {
-            let q = Vec3A::from(joint + dir * length);
-            if q.cmplt(*lo).any() || q.cmpgt(*hi).any() || (!inside && clear_of(shape, q, margin)) {
+            let offset = Vec3A::from(dir * length);
+            let q = joint + offset;
+            if q.cmplt(*lo).any()
+                || q.cmpgt(*hi).any()
+                || (!inside && clear_of(shape, joint, offset, margin))
+            {
                 continue;
             }
-            if let Some(out) = shape.resolve(q, margin, *inside)
-                && let Some(d) = (Vec3::from(out) - joint).try_normalize()
-            {
+            let turned = match (*inside, *shape) {
+                (false, ContactShape::Sphere { centre, radius }) => {
+                    onto_shell(centre - joint, dir.into(), length, radius + margin)
+                }
+                (false, ContactShape::Capsule { a, b, radius }) => {
+                    let (a, ab) = (a - joint, b - a);
+                    let t = ((offset - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+                    onto_shell(a + ab * t, dir.into(), length, radius + margin)
+                }
+                _ => None,
+            };
+            let turned = turned.or_else(|| {
+                shape
+                    .resolve(q, margin, *inside)
+                    .and_then(|out| Vec3::from(out - joint).try_normalize())
+            });
+            if let Some(d) = turned {
                 dir = d;
                 clear = false;
                 moved = true;
@@ -316,21 +343,119 @@ fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32
     (moved && kept.is_finite()).then_some(kept)
 }
 
-/// Whether `q` is certainly farther than `margin` outside `shape`, by squared distances (most
-/// joints near a head are clear of it: no square root, no call).
+/// The direction nearest `dir` from a joint whose point at `length` lies on the sphere of radius
+/// `reach` about `centre` (measured from the joint), a little outside it: the circle where that
+/// sphere meets the sphere of the bone's reach about the joint, at its point nearest `dir`.
+/// `None` when the two spheres do not meet (the bone cannot reach the surface, or cannot leave
+/// it).
+fn onto_shell(centre: Vec3A, dir: Vec3A, length: f32, reach: f32) -> Option<Vec3> {
+    let reach = reach * (1.0 + SHELL_CLEARANCE);
+    let d = centre.length();
+    if d <= f32::EPSILON * reach.max(length) {
+        return None;
+    }
+    let u = centre / d;
+    // The circle's plane lies `along` from the joint toward the centre; its radius is `across`.
+    let along = (length * length - reach * reach + d * d) / (2.0 * d);
+    let across_sq = length * length - along * along;
+    if across_sq.is_nan() || across_sq < 0.0 {
+        return None;
+    }
+    let side = (dir - u * dir.dot(u))
+        .try_normalize()
+        .unwrap_or_else(|| u.any_orthonormal_vector());
+    let turned = (u * along + side * across_sq.sqrt()) / length;
+    Some(Vec3::from(turned).normalize_or(Vec3::from(dir)))
+}
+
+/// Whether the point `offset` from `joint` is certainly farther than `margin` outside `shape`,
+/// by squared distances measured from the joint (most joints near a head are clear of it: no
+/// square root, no call).
 #[inline(always)]
-fn clear_of(shape: &ContactShape, q: Vec3A, margin: f32) -> bool {
+fn clear_of(shape: &ContactShape, joint: Vec3A, offset: Vec3A, margin: f32) -> bool {
     match *shape {
         ContactShape::Sphere { centre, radius } => {
             let reach = radius + margin;
-            q.distance_squared(centre) >= reach * reach
+            offset.distance_squared(centre - joint) >= reach * reach
         }
         ContactShape::Capsule { a, b, radius } => {
-            let ab = b - a;
-            let t = ((q - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
+            let (a, ab) = (a - joint, b - a);
+            let t = ((offset - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
             let reach = radius + margin;
-            q.distance_squared(a + ab * t) >= reach * reach
+            offset.distance_squared(a + ab * t) >= reach * reach
         }
         ContactShape::Plane { .. } | ContactShape::Box { .. } => false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sphere shape as posing sees it near a hair: bounds grown by the margin.
+    fn near_sphere(centre: Vec3A, radius: f32, margin: f32) -> NearShape {
+        let shape = ContactShape::Sphere { centre, radius };
+        let (lo, hi) = shape.bounds();
+        (shape, false, lo - margin, hi + margin)
+    }
+
+    #[test]
+    fn onto_shell_lands_on_the_margin_nearest_the_wanted_direction() {
+        let (length, reach) = (0.03, 0.1);
+        let centre = Vec3A::new(0.02, -0.09, 0.01);
+        let dir = Vec3A::new(0.1, -1.0, 0.2).normalize();
+        let turned = Vec3A::from(onto_shell(centre, dir, length, reach).unwrap());
+        assert!((turned.length() - 1.0).abs() < 1e-5, "{turned}");
+        let from_centre = (turned * length).distance(centre);
+        assert!(
+            from_centre >= reach && from_centre <= reach * (1.0 + 1e-4),
+            "{from_centre} from the centre, margin at {reach}"
+        );
+        // No direction on the circle where the two spheres meet is nearer the wanted one.
+        let u = centre.normalize();
+        let (e1, e2) = u.any_orthonormal_pair();
+        let along = (turned * length).dot(u);
+        let across = (length * length - along * along).sqrt();
+        for i in 0..3600 {
+            let a = i as f32 / 3600.0 * std::f32::consts::TAU;
+            let other = (u * along + (e1 * a.cos() + e2 * a.sin()) * across) / length;
+            assert!(
+                other.dot(dir) <= turned.dot(dir) + 1e-5,
+                "{other} nearer than {turned}"
+            );
+        }
+    }
+
+    #[test]
+    fn onto_shell_declines_a_surface_the_bone_cannot_reach() {
+        // The joint 0.5 from a sphere of reach 0.1, a bone of 0.03: the spheres do not meet.
+        assert!(onto_shell(Vec3A::new(0.0, -0.5, 0.0), Vec3A::NEG_Y, 0.03, 0.1).is_none());
+    }
+
+    #[test]
+    fn a_joint_far_from_the_origin_is_kept_off_in_a_couple_of_rounds() {
+        // A character a kilometre out: world coordinates round to about 0.1 mm there, coarser
+        // than the clearance; measured from the joint, the child still lands on the margin.
+        let (radius, margin, length) = (0.09, 0.01, 0.03);
+        for far in [0.0, 1000.0] {
+            let joint = Vec3::new(far, 1.6, -far);
+            let centre = Vec3A::from(joint) + Vec3A::new(0.01, -0.09, 0.0);
+            let shapes = [near_sphere(centre, radius, margin)];
+            let kept = keep_off(
+                &shapes,
+                joint,
+                Vec3::new(0.0, -length, 0.0),
+                Vec3::new(0.0, -length, 0.0),
+                margin,
+            )
+            .expect("the straight-down child lies inside the head");
+            assert!((kept.length() - length).abs() < 1e-6, "{kept}");
+            let from_centre = Vec3A::from(kept).distance(centre - Vec3A::from(joint));
+            assert!(
+                (from_centre - (radius + margin)).abs() < 1e-5,
+                "{far} m out: the child {from_centre} from the centre, margin at {}",
+                radius + margin
+            );
+        }
     }
 }

@@ -120,7 +120,8 @@ pub struct BoneChainHair {
     pub(super) tail: Vec<Vec3>,
     /// Per strand: its last joint is the tail (moved, not turned).
     pub(super) tail_joint: Vec<bool>,
-    /// Per strand: each joint's angle limit ([`ChainJointLimits`]), if any.
+    /// Per strand: each joint's angle limit ([`ChainJointLimits`]), if any; empty for a chain
+    /// without limits (posing it reads nothing here).
     pub(super) limits: Vec<Vec<Option<JointLimit>>>,
 }
 
@@ -320,13 +321,18 @@ pub(crate) fn build_bone_chains(
                         .collect(),
                 );
                 driven.tail_joint.push(chain.tail_joint);
-                driven.limits.push(
-                    chain
-                        .joints
-                        .iter()
-                        .map(|j| limits.and_then(|l| l.of(*j)))
-                        .collect(),
-                );
+                let chain_limits: Vec<_> = chain
+                    .joints
+                    .iter()
+                    .map(|j| limits.and_then(|l| l.of(*j)))
+                    .collect();
+                driven
+                    .limits
+                    .push(if chain_limits.iter().any(Option::is_some) {
+                        chain_limits
+                    } else {
+                        Vec::new()
+                    });
                 driven.joints.push(chain.joints);
                 driven.rest.push(rest);
                 driven.tail.push(tail);
