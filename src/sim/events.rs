@@ -121,9 +121,13 @@ pub struct HairAnimationMismatch {
 /// shown without simulated springs), it has no usable springs, or the `.vrm` file did not load
 /// at all (then `error` is the loader's reason, e.g. a texture format the game's Bevy features
 /// cannot decode).
+///
+/// A file that did not load while no scene root names it (a game that loads its avatars
+/// with another VRM crate, such as bevy_vrm1) is triggered on [`Entity::PLACEHOLDER`]: observe
+/// it with a global observer (`app.add_observer`).
 #[derive(EntityEvent, Clone, Debug, PartialEq)]
 pub struct VrmSpringsFailed {
-    /// The scene root.
+    /// The scene root, or [`Entity::PLACEHOLDER`] when no scene root waits for the file.
     pub entity: Entity,
     /// The file.
     pub file: String,

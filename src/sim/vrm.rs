@@ -192,11 +192,13 @@ fn fit_quadratic(points: &[(f32, f32)]) -> QuadraticCurve {
 /// A `.vrm` file that fails to load (a broken file, or textures in a format the game's Bevy
 /// features cannot decode, such as WebP without Bevy's `webp` feature) is reported like a hair
 /// file: an error in the log naming the file and the loader's reason, and [`VrmSpringsFailed`]
-/// on every scene root that waits for it.
+/// on every scene root that waits for it; when no scene root names the file (another crate,
+/// such as bevy_vrm1, loads it, or its scene is not spawned yet), on [`Entity::PLACEHOLDER`],
+/// so global observers still hear of it.
 pub(crate) fn report_failed_vrm_loads(
     mut commands: Commands,
     mut failed: MessageReader<bevy::asset::UntypedAssetLoadFailedEvent>,
-    roots: Query<(Entity, &WorldAssetRoot), Without<VrmSpringChains>>,
+    roots: Query<(Entity, &WorldAssetRoot, Has<VrmSpringChains>)>,
 ) {
     for event in failed.read() {
         let is_vrm = event
@@ -238,12 +240,16 @@ pub(crate) fn report_failed_vrm_loads(
              {reason}{hint}"
         );
         error!("{error}");
-        for (entity, root) in &roots {
-            let waits = root
+        // Every scene root of the file is told once; a file no scene root names, once on the
+        // placeholder.
+        let mut named = false;
+        for (entity, root, told) in &roots {
+            let of_file = root
                 .0
                 .path()
                 .is_some_and(|p| p.without_label() == event.path.without_label());
-            if waits {
+            named |= of_file;
+            if of_file && !told {
                 commands.trigger(VrmSpringsFailed {
                     entity,
                     file: file.clone(),
@@ -251,6 +257,13 @@ pub(crate) fn report_failed_vrm_loads(
                 });
                 commands.entity(entity).insert(VrmSpringChains::default());
             }
+        }
+        if !named {
+            commands.trigger(VrmSpringsFailed {
+                entity: Entity::PLACEHOLDER,
+                file,
+                error,
+            });
         }
     }
 }

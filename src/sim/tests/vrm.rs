@@ -471,6 +471,42 @@ fn a_broken_vrm_is_reported_once_and_simulates_nothing() {
     assert_eq!(strand_count(&mut app), 0);
 }
 
+/// A `.vrm` that fails to load while no scene root waits for it (a game that loads its avatars
+/// with bevy_vrm1) still reaches the game: the event goes to global observers, on the
+/// placeholder entity, naming the file and the loader's reason.
+#[test]
+fn a_failed_vrm_no_scene_root_waits_for_reaches_global_observers() {
+    use bevy::asset::io::AssetReaderError;
+    use bevy::asset::{AssetLoadError, AssetPath, UntypedAssetLoadFailedEvent};
+    let mut app = event_app();
+    app.add_message::<UntypedAssetLoadFailedEvent>();
+    #[derive(Resource, Default)]
+    struct Failed(Vec<(Entity, String, String)>);
+    app.init_resource::<Failed>()
+        .add_observer(|e: On<VrmSpringsFailed>, mut f: ResMut<Failed>| {
+            f.0.push((e.entity, e.file.clone(), e.error.clone()));
+        });
+    app.world_mut().write_message(UntypedAssetLoadFailedEvent {
+        id: AssetId::<Mesh>::default().untyped(),
+        path: AssetPath::from("avatars/missing.vrm").into_owned(),
+        error: AssetLoadError::AssetReaderError(AssetReaderError::NotFound(
+            "avatars/missing.vrm".into(),
+        )),
+    });
+    app.update();
+    app.update();
+    let failed = &app.world().resource::<Failed>().0;
+    assert_eq!(failed.len(), 1, "{failed:?}");
+    let (entity, file, error) = &failed[0];
+    assert_eq!(*entity, Entity::PLACEHOLDER);
+    assert_eq!(file, "avatars/missing.vrm");
+    assert!(
+        error.starts_with("avatars/missing.vrm: the VRM file did not load")
+            && error.contains("not found"),
+        "{error}"
+    );
+}
+
 /// A VRM whose spring-bone extension holds no springs (empty bone groups) simulates nothing
 /// and says so once, as an event a game can act on, naming the file.
 #[test]
