@@ -316,11 +316,12 @@ fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32
                 (false, ContactShape::Sphere { centre, radius }) => {
                     onto_shell(centre - joint, dir.into(), length, radius + margin)
                 }
-                (false, ContactShape::Capsule { a, b, radius }) => {
-                    let (a, ab) = (a - joint, b - a);
-                    let t = ((offset - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
-                    onto_shell(a + ab * t, dir.into(), length, radius + margin)
-                }
+                (false, ContactShape::Capsule { a, b, radius }) => onto_shell(
+                    nearest_on_axis(a - joint, b - joint, offset),
+                    dir.into(),
+                    length,
+                    radius + margin,
+                ),
                 _ => None,
             };
             let turned = turned.or_else(|| {
@@ -379,13 +380,18 @@ fn clear_of(shape: &ContactShape, joint: Vec3A, offset: Vec3A, margin: f32) -> b
             offset.distance_squared(centre - joint) >= reach * reach
         }
         ContactShape::Capsule { a, b, radius } => {
-            let (a, ab) = (a - joint, b - a);
-            let t = ((offset - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0);
             let reach = radius + margin;
-            offset.distance_squared(a + ab * t) >= reach * reach
+            offset.distance_squared(nearest_on_axis(a - joint, b - joint, offset)) >= reach * reach
         }
         ContactShape::Plane { .. } | ContactShape::Box { .. } => false,
     }
+}
+
+/// The point of the segment `a`-`b` nearest `q`.
+#[inline(always)]
+fn nearest_on_axis(a: Vec3A, b: Vec3A, q: Vec3A) -> Vec3A {
+    let ab = b - a;
+    a + ab * ((q - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0)
 }
 
 #[cfg(test)]

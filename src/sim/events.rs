@@ -127,7 +127,7 @@ pub struct HairAnimationMismatch {
 /// it with a global observer (`app.add_observer`).
 #[derive(EntityEvent, Clone, Debug, PartialEq)]
 pub struct VrmSpringsFailed {
-    /// The scene root, or [`Entity::PLACEHOLDER`] when no scene root waits for the file.
+    /// The scene root, or [`Entity::PLACEHOLDER`] when no scene root names the file.
     pub entity: Entity,
     /// The file.
     pub file: String,

@@ -471,9 +471,10 @@ fn a_broken_vrm_is_reported_once_and_simulates_nothing() {
     assert_eq!(strand_count(&mut app), 0);
 }
 
-/// A `.vrm` that fails to load while no scene root waits for it (a game that loads its avatars
+/// A `.vrm` that fails to load while no scene root names it (a game that loads its avatars
 /// with bevy_vrm1) still reaches the game: the event goes to global observers, on the
-/// placeholder entity, naming the file and the loader's reason.
+/// placeholder entity, naming the file and the loader's reason. A scene root already told of
+/// the file is not told again, and then nothing goes to the placeholder.
 #[test]
 fn a_failed_vrm_no_scene_root_waits_for_reaches_global_observers() {
     use bevy::asset::io::AssetReaderError;
@@ -486,15 +487,29 @@ fn a_failed_vrm_no_scene_root_waits_for_reaches_global_observers() {
         .add_observer(|e: On<VrmSpringsFailed>, mut f: ResMut<Failed>| {
             f.0.push((e.entity, e.file.clone(), e.error.clone()));
         });
-    app.world_mut().write_message(UntypedAssetLoadFailedEvent {
-        id: AssetId::<Mesh>::default().untyped(),
-        path: AssetPath::from("avatars/missing.vrm").into_owned(),
-        error: AssetLoadError::AssetReaderError(AssetReaderError::NotFound(
-            "avatars/missing.vrm".into(),
-        )),
-    });
-    app.update();
-    app.update();
+    let fail = |app: &mut App| {
+        app.world_mut().write_message(UntypedAssetLoadFailedEvent {
+            id: AssetId::<Mesh>::default().untyped(),
+            path: AssetPath::from("avatars/missing.vrm").into_owned(),
+            error: AssetLoadError::AssetReaderError(AssetReaderError::NotFound(
+                "avatars/missing.vrm".into(),
+            )),
+        });
+        app.update();
+        app.update();
+    };
+    fail(&mut app);
+    // A scene root of the file that was told already (it has its empty chains).
+    app.init_asset::<bevy::world_serialization::WorldAsset>();
+    let scene = app
+        .world()
+        .resource::<AssetServer>()
+        .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("avatars/missing.vrm"));
+    app.world_mut().spawn((
+        bevy::world_serialization::WorldAssetRoot(scene),
+        VrmSpringChains::default(),
+    ));
+    fail(&mut app);
     let failed = &app.world().resource::<Failed>().0;
     assert_eq!(failed.len(), 1, "{failed:?}");
     let (entity, file, error) = &failed[0];
