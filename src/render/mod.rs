@@ -14,6 +14,7 @@ use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
 mod gpu;
+mod highlight;
 mod outline;
 mod ramps;
 mod see_through;
@@ -35,6 +36,7 @@ pub use gpu::{
     GpuPassState, GpuTubesPlugin, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback,
     HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder, PassDispatches,
 };
+pub use highlight::{HairHighlightMaterial, HairHighlightQuads, highlight_material};
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
     MAX_OUTLINE_DILATION, OutlineSource,
@@ -109,6 +111,7 @@ impl Plugin for ToonHairMaterialPlugin {
             MaterialPlugin::<ToonHairMaterial>::default(),
             MaterialPlugin::<HairStrokeMaterial>::default(),
             MaterialPlugin::<FringeShadowMaterial>::default(),
+            MaterialPlugin::<HairHighlightMaterial>::default(),
             MaterialPlugin::<SeenThroughHairMaterial>::default(),
         ))
         .register_type::<ShowThroughHair>()
@@ -135,8 +138,8 @@ impl Plugin for ToonHairMaterialPlugin {
             .add(highlight_texture_image());
         let highlight = HighlightMaterial(
             app.world_mut()
-                .resource_mut::<Assets<StandardMaterial>>()
-                .add(StandardMaterial {
+                .resource_mut::<Assets<HairHighlightMaterial>>()
+                .add(highlight_material(StandardMaterial {
                     base_color: Color::srgba(1.0, 1.0, 0.95, 0.9),
                     base_color_texture: Some(highlight_texture),
                     unlit: true,
@@ -144,7 +147,7 @@ impl Plugin for ToonHairMaterialPlugin {
                     cull_mode: None,
                     double_sided: true,
                     ..default()
-                }),
+                })),
         );
         shadow_caster::build(app);
         app.insert_resource(ramps)
@@ -265,9 +268,10 @@ fn apply_stroke_material(
     }
 }
 
-/// The material specular sampling quads are drawn with (unlit, alpha-blended highlight texture).
+/// The material specular sampling quads are drawn with (unlit, alpha-blended highlight texture;
+/// change its `base` to change their look).
 #[derive(Resource, Clone, Debug)]
-pub struct HighlightMaterial(pub Handle<StandardMaterial>);
+pub struct HighlightMaterial(pub Handle<HairHighlightMaterial>);
 
 fn apply_highlight_material(
     mut commands: Commands,
@@ -275,7 +279,7 @@ fn apply_highlight_material(
         Entity,
         (
             With<crate::mesh::highlights::HairHighlightsOf>,
-            Without<MeshMaterial3d<StandardMaterial>>,
+            Without<MeshMaterial3d<HairHighlightMaterial>>,
         ),
     >,
     material: Res<HighlightMaterial>,

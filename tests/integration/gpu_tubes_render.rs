@@ -27,8 +27,16 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         gpu_built_strokes_ink_where_the_cpus_do,
     ),
     (
+        "gpu_built_strokes_draw_only_the_quads_that_ink",
+        gpu_built_strokes_draw_only_the_quads_that_ink,
+    ),
+    (
         "gpu_built_highlights_shine_where_the_cpus_do",
         gpu_built_highlights_shine_where_the_cpus_do,
+    ),
+    (
+        "gpu_built_highlights_draw_only_the_quads_that_shine",
+        gpu_built_highlights_draw_only_the_quads_that_shine,
     ),
 ];
 
@@ -281,13 +289,109 @@ fn gpu_built_strokes_ink_where_the_cpus_do() -> Result<(), Failed> {
     compare(&mut r, "spiky_mass_turned", spiky)
 }
 
-/// Specular quads of a hair of 240 spiky strands, lit from above and in front, as it is and
-/// turned and shrunk to 0.7 at run time, from the CPU
-/// (24 samples a strand) and from the GPU (a sample a ring, from the tube pass's frames): the
-/// highlight covers as many pixels within a factor of 1.5, and each picture's highlight pixels
-/// lie within 3 px of the other's (the samples fall at other places along the strands).
-fn gpu_built_highlights_shine_where_the_cpus_do() -> Result<(), Failed> {
-    use bevy_cartoon_hair::mesh::highlights::GpuHighlightJob;
+/// The mean over a few frames of the render diagnostic `path` (Bevy's pipeline statistics,
+/// which arrive a few frames late: read once they have settled).
+fn settled_diagnostic(
+    r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
+    path: &str,
+) -> Result<f64, Failed> {
+    for _ in 0..6 {
+        r.update();
+    }
+    let mut sum = 0.0;
+    for _ in 0..3 {
+        r.update();
+        let store = r
+            .app
+            .world()
+            .resource::<bevy::diagnostic::DiagnosticsStore>();
+        sum += store
+            .get_measurement(&bevy::diagnostic::DiagnosticPath::new(path.to_string()))
+            .map(|m| m.value)
+            .ok_or_else(|| format!("no {path} measured"))?;
+    }
+    Ok(sum / 3.0)
+}
+
+/// Every strand's outline of a hair of 240 spiky strands, seen from the front (many strands
+/// end on, many rim edges no silhouette): the GPU's stroke mesh holds a quad for every ring
+/// segment of both contours and every rim edge, but the main pass draws only the triangles of
+/// the quads that ink (the stroke pass counts them into an indirect draw), as many as the
+/// CPU's strokes within a factor of 1.5, and the picture is the same as when every quad was
+/// drawn (the strokes' ink within 2 px of the CPU's).
+fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
+    const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
+    let mut r = silhouette_scene()?;
+    r.app
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin);
+    let hair = spawn_still_hair(
+        r.app.world_mut(),
+        spikes(),
+        ToonHairMaterial::default(),
+        HairMeshSettings {
+            radius: 0.03,
+            ..default()
+        },
+    );
+    r.app
+        .world_mut()
+        .entity_mut(hair)
+        .insert(SilhouetteSettings {
+            color: Color::BLACK,
+            scope: StrokeScope::Strands,
+            ..default()
+        });
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    let cpu = r.capture()?;
+    let cpu_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    r.app.insert_resource(HairMeshBuilder::Gpu);
+    let gpu = r.capture()?;
+    save(&gpu, "gpu_strokes_live_quads")?;
+    let gpu_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    if !r.app.world().entity(hair).contains::<HairMeshBuiltOnGpu>() {
+        return Err("the hair was not built on the GPU".into());
+    }
+    let gpu_mesh = mesh_triangles(
+        &mut r,
+        hair,
+        |of: &bevy_cartoon_hair::silhouette::HairStrokesOf| of.0,
+    );
+    let (cpu_ink, cpu_covered) = ink_covered(&cpu, &gpu, 2);
+    let (gpu_ink, gpu_covered) = ink_covered(&gpu, &cpu, 2);
+    eprintln!(
+        "strokes drawn: CPU {cpu_drawn:.0} triangles; GPU {gpu_drawn:.0} of its mesh's \
+         {gpu_mesh}; ink: CPU {cpu_ink} px ({:.1}% near the GPU's), GPU {gpu_ink} px ({:.1}% \
+         near the CPU's)",
+        100.0 * cpu_covered,
+        100.0 * gpu_covered
+    );
+    if gpu_mesh == 0 || cpu_drawn < 1000.0 {
+        return Err(format!("{gpu_mesh} GPU stroke triangles, {cpu_drawn} CPU").into());
+    }
+    if gpu_drawn >= 0.9 * gpu_mesh as f64 {
+        return Err(format!(
+            "the GPU's strokes drew {gpu_drawn} of their mesh's {gpu_mesh} triangles: the \
+             collapsed quads were drawn too"
+        )
+        .into());
+    }
+    if !(cpu_drawn / 1.5..=cpu_drawn * 1.5).contains(&gpu_drawn) {
+        return Err(
+            format!("the GPU's strokes drew {gpu_drawn} triangles, the CPU's {cpu_drawn}").into(),
+        );
+    }
+    if cpu_ink < 300 || cpu_covered < 0.9 || gpu_covered < 0.9 {
+        return Err(format!(
+            "CPU {cpu_ink} ink px, {cpu_covered:.3} near the GPU's; GPU {gpu_ink}, \
+             {gpu_covered:.3} near the CPU's"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A hair of 240 spiky strands with specular quads, lit from above and in front.
+fn highlighted_spikes() -> Result<(bevy_cartoon_hair::headless::HeadlessRenderer, Entity), Failed> {
     let mut r = scene(Vec3::new(0.0, 1.0, 1.0), Vec3::new(0.0, 0.3, 3.0))?;
     let ramp = ramps(&r).three_tone;
     let hair = spawn_still_hair(
@@ -311,6 +415,82 @@ fn gpu_built_highlights_shine_where_the_cpus_do() -> Result<(), Failed> {
         width: 1.0,
         ..default()
     });
+    Ok((r, hair))
+}
+
+/// Triangles in the meshes of `hair`'s entities of kind `of` (its stroke or highlight
+/// meshes), as the main world made them.
+fn mesh_triangles<C: Component>(
+    r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
+    hair: Entity,
+    owner: impl Fn(&C) -> Entity,
+) -> usize {
+    let world = r.app.world_mut();
+    let mut parts = world.query::<(&C, &Mesh3d)>();
+    let meshes: Vec<Handle<Mesh>> = parts
+        .iter(world)
+        .filter(|(of, _)| owner(of) == hair)
+        .map(|(_, m)| m.0.clone())
+        .collect();
+    let assets = world.resource::<Assets<Mesh>>();
+    meshes
+        .iter()
+        .filter_map(|m| assets.get(m))
+        .map(|m| m.indices().map_or(0, |i| i.len() / 3))
+        .sum()
+}
+
+/// The specular quads of the hair of [`highlighted_spikes`] (which draws no strokes, so the
+/// transparent pass draws only them): built on the CPU, their mesh holds the runs that shine;
+/// built on the GPU, it holds a quad for every ring segment of every strand, but the main pass
+/// draws only the triangles of the quads that shine: under half the mesh, and within 10% of
+/// the CPU's (both find the runs ring by ring).
+fn gpu_built_highlights_draw_only_the_quads_that_shine() -> Result<(), Failed> {
+    use bevy_cartoon_hair::mesh::highlights::HairHighlightsOf;
+    const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
+    let (mut r, hair) = highlighted_spikes()?;
+    r.app
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin);
+    r.app.insert_resource(HairMeshBuilder::Gpu);
+    let gpu = r.capture()?;
+    save(&gpu, "gpu_highlights_live_quads")?;
+    let gpu_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    let gpu_mesh = mesh_triangles(&mut r, hair, |of: &HairHighlightsOf| of.0);
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    r.capture()?;
+    let cpu_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    let cpu_mesh = mesh_triangles(&mut r, hair, |of: &HairHighlightsOf| of.0);
+    eprintln!(
+        "specular quads: CPU mesh {cpu_mesh} triangles, {cpu_drawn:.0} drawn; GPU mesh \
+         {gpu_mesh}, {gpu_drawn:.0} drawn"
+    );
+    if cpu_mesh == 0 || (cpu_drawn - cpu_mesh as f64).abs() > 0.5 {
+        return Err(format!(
+            "the CPU's quads: {cpu_drawn} triangles drawn of a mesh of {cpu_mesh}: the \
+             transparent pass draws something else"
+        )
+        .into());
+    }
+    if !(gpu_drawn > 0.0 && gpu_drawn <= 0.5 * gpu_mesh as f64)
+        || (gpu_drawn - cpu_drawn).abs() > 0.1 * cpu_drawn
+    {
+        return Err(format!(
+            "the specular quads drew {gpu_drawn} of their mesh's {gpu_mesh} triangles (the \
+             CPU's {cpu_drawn}): the quads that do not shine were drawn too"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Specular quads of a hair of 240 spiky strands, lit from above and in front, as it is and
+/// turned and shrunk to 0.7 at run time, from the CPU
+/// (24 samples a strand) and from the GPU (a sample a ring, from the tube pass's frames): the
+/// highlight covers as many pixels within a factor of 1.5, and each picture's highlight pixels
+/// lie within 3 px of the other's (the samples fall at other places along the strands).
+fn gpu_built_highlights_shine_where_the_cpus_do() -> Result<(), Failed> {
+    use bevy_cartoon_hair::mesh::highlights::GpuHighlightJob;
+    let (mut r, hair) = highlighted_spikes()?;
     let white = |p: [u8; 4]| p[..3].iter().all(|c| *c > 200);
     for (name, turned) in [("", false), ("_turned", true)] {
         if turned {

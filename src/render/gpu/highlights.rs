@@ -1,14 +1,26 @@
 //! The highlight pass: the specular sampling quads of every hair of a tube batch whose highlight
 //! meshes share a vertex slab, in one dispatch (`highlights.wesl`). It reads the ring frames the
-//! tube pass left and writes the highlight strips straight into the hairs' highlight meshes.
+//! tube pass left and writes the highlight strips straight into the hairs' highlight meshes,
+//! and the triangles of the quads that show at the front of the meshes' indices
+//! ([`quad_draw`](super::quad_draw)).
 //! The mesh stage decides what is built
 //! ([`GpuHighlightJob`](crate::mesh::highlights::GpuHighlightJob)).
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::{PipelineCache, ShaderType};
+use bevy::render::render_resource::binding_types::{
+    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
+};
+use bevy::render::render_resource::{
+    BindGroupEntries, BindGroupLayoutEntries, PipelineCache, ShaderStages, ShaderType,
+};
+use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::toolbox::{ComputePass, HairPlacement, JobBatch, JobRecord, vertex_offsets};
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord};
+use super::toolbox::{
+    BindingLimits, ComputePass, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers,
+    vertex_offsets,
+};
 
 use crate::math::finite_or;
 use crate::mesh::highlights::{GpuHighlights, gpu_highlight_vertex_count};
@@ -39,6 +51,13 @@ pub(crate) struct GpuHighlightRecord {
     pub frame_base: u32,
     /// The job's first invocation in its dispatch (set in the render world).
     pub first_invocation: u32,
+    /// The mesh's first index in the batch's index binding, in 4-byte words (set in the render
+    /// world).
+    pub index_base: u32,
+    /// The word of the batch's draws that counts the job's indices (set in the render world).
+    pub draw: u32,
+    /// Padding.
+    pub pad: UVec2,
 }
 
 /// A hair's highlights, as the main world gathers them.
@@ -103,9 +122,20 @@ pub(crate) fn init_gpu_highlight_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue_read_write(
+    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue(
         &pipeline_cache,
         "hair_gpu_highlights",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::COMPUTE,
+            (
+                uniform_buffer::<GpuBatch>(false),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_read_only_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+            ),
+        ),
         load_embedded_asset!(asset_server.as_ref(), "highlights.wesl"),
     )));
 }
@@ -130,5 +160,43 @@ impl JobRecord for GpuHighlightRecord {
     }
 }
 
+impl QuadRecord for GpuHighlightRecord {
+    fn with_indices(self, index_base: u32, draw: u32) -> Self {
+        Self {
+            index_base,
+            draw,
+            ..self
+        }
+    }
+}
+
 /// One highlight batch in the render world.
-pub(crate) type HighlightBatch = JobBatch<GpuHighlightRecord>;
+pub(crate) type HighlightBatch = QuadBatch<GpuHighlightRecord>;
+
+/// Fills and uploads `batch` from `group` (its meshes' indices in one index slab), with its
+/// bind group over the tube batch's frames. Returns `false` when the device cannot bind the
+/// group's indices.
+pub(crate) fn prepare_highlight_batch(
+    batch: &mut HighlightBatch,
+    group: &QuadGroup<'_, GpuHighlightRecord>,
+    tubes: TubeBatchBuffers<'_>,
+    render: (&RenderDevice, &RenderQueue, BindingLimits),
+    (pipeline, pipeline_cache): (&GpuHighlightPipeline, &PipelineCache),
+    draws: (&mut GpuQuadDraws, bool),
+) -> bool {
+    let device = render.0;
+    batch.prepare(group, render, draws, |header, records, slab, quads| {
+        device.create_bind_group(
+            "hair_gpu_highlights",
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
+            &BindGroupEntries::sequential((
+                header,
+                records,
+                tubes.frames.as_entire_binding(),
+                slab,
+                quads.indices,
+                quads.draws,
+            )),
+        )
+    })
+}

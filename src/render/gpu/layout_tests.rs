@@ -212,7 +212,9 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         first_strand: u(16),
         frame_base: u(17),
         first_invocation: u(18),
-        pad: 0,
+        index_base: u(19),
+        draw: u(20),
+        pad: UVec2::ZERO,
     };
     let vectors = [
         "view_proj",
@@ -236,6 +238,8 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         "first_strand",
         "frame_base",
         "first_invocation",
+        "index_base",
+        "draw",
     ];
     let expected: Vec<(&str, u32)> = vectors
         .iter()
@@ -257,6 +261,9 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         strands: u(8),
         frame_base: u(9),
         first_invocation: u(10),
+        index_base: u(11),
+        draw: u(12),
+        pad: UVec2::ZERO,
     };
     let expected = [
         ("eye", fw(0)),
@@ -270,6 +277,8 @@ fn the_stroke_highlight_and_shadow_passes_read_the_rust_records_where_they_are_w
         ("strands", u(8)),
         ("frame_base", u(9)),
         ("first_invocation", u(10)),
+        ("index_base", u(11)),
+        ("draw", u(12)),
     ];
     check("gpu/highlights.wesl", "Job", &highlight, &expected);
 

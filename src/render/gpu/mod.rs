@@ -29,20 +29,28 @@
 //! its strokes, on the CPU: the reference. [`status`] keeps a hair visible and moving when the
 //! GPU cannot build it.
 
+use bevy::core_pipeline::core_3d::Transparent3d;
 use bevy::core_pipeline::schedule::camera_driver;
 use bevy::prelude::*;
+use bevy::render::batching::NoAutomaticBatching;
 use bevy::render::diagnostic::RecordDiagnostics;
+use bevy::render::erased_render_asset::prepare_erased_assets;
 use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::mesh::RenderMesh;
 use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
+use bevy::render::render_asset::ExtractedAssets;
+use bevy::render::render_phase::AddRenderCommand;
 use bevy::render::render_resource::{Buffer, BufferUsages, ComputePassDescriptor, PipelineCache};
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderGraph, RenderQueue};
 use bevy::render::{Render, RenderApp, RenderStartup, RenderSystems};
 
+use crate::render::{HairHighlightMaterial, HairStrokeMaterial};
 use crate::schedule::HairSystems;
 
 mod gather;
 mod highlights;
 mod order;
+mod quad_draw;
 mod shadows;
 mod status;
 mod strokes;
@@ -57,8 +65,13 @@ pub use gather::encode_gpu_inputs;
 use gather::{GpuTubeInput, gather_gpu_tube_inputs};
 use highlights::{
     GpuHighlightPipeline, HighlightBatch, highlight_vertices, init_gpu_highlight_pipeline,
+    prepare_highlight_batch,
 };
 use order::{GpuOrderPipeline, OrderBatch, OrderHairInput, init_gpu_order_pipeline};
+use quad_draw::{
+    DrawQuads, GpuQuadDraws, QuadGroup, QuadIndices, group_quads, prepare_view_quad_draws,
+    use_quad_draw_function,
+};
 use shadows::{GpuShadowPipeline, ShadowBatch, init_gpu_shadow_pipeline, shadow_vertices};
 use status::{GpuPassIds, choose_mesh_builder, report_pass_state};
 pub use status::{
@@ -90,6 +103,12 @@ impl Plugin for GpuTubesPlugin {
             .init_resource::<HairGpuMeshSupport>()
             .insert_resource(passes.clone())
             .register_type::<HairMeshBuilder>()
+            // Each stroke mesh is a draw of its own (its indirect draw counts its own indices).
+            .register_required_components::<crate::silhouette::HairStrokesOf, NoAutomaticBatching>()
+            .register_required_components::<
+                crate::mesh::highlights::HairHighlightsOf,
+                NoAutomaticBatching,
+            >()
             .add_plugins(ExtractComponentPlugin::<GpuTubeInput>::default())
             .add_systems(
                 PostUpdate,
@@ -106,6 +125,8 @@ impl Plugin for GpuTubesPlugin {
         render_app
             .insert_resource(passes)
             .init_resource::<GpuBatches>()
+            .init_resource::<GpuQuadDraws>()
+            .add_render_command::<Transparent3d, DrawQuads>()
             .add_systems(
                 RenderStartup,
                 (
@@ -124,7 +145,15 @@ impl Plugin for GpuTubesPlugin {
                 Render,
                 (
                     report_pass_state.in_set(RenderSystems::Prepare),
-                    prepare_gpu_batches.in_set(RenderSystems::PrepareBindGroups),
+                    use_quad_draw_function::<HairStrokeMaterial>
+                        .in_set(RenderSystems::PrepareAssets)
+                        .after(prepare_erased_assets::<MeshMaterial3d<HairStrokeMaterial>>),
+                    use_quad_draw_function::<HairHighlightMaterial>
+                        .in_set(RenderSystems::PrepareAssets)
+                        .after(prepare_erased_assets::<MeshMaterial3d<HairHighlightMaterial>>),
+                    (prepare_gpu_batches, prepare_view_quad_draws)
+                        .chain()
+                        .in_set(RenderSystems::PrepareBindGroups),
                 ),
             )
             .add_systems(RenderGraph, build_gpu_batches.before(camera_driver));
@@ -178,9 +207,9 @@ fn name_gpu_passes(
 /// What the render device allows.
 fn gpu_support(device: &RenderDevice) -> HairGpuMeshSupport {
     let limits = device.limits();
-    let reason = if limits.max_storage_buffers_per_shader_stage < 5 {
+    let reason = if limits.max_storage_buffers_per_shader_stage < 7 {
         Some(format!(
-            "the device allows {} storage buffers in a shader stage, the passes need 5",
+            "the device allows {} storage buffers in a shader stage, the passes need 7",
             limits.max_storage_buffers_per_shader_stage
         ))
     } else if limits.max_compute_workgroup_size_x < toolbox::WORKGROUP_SIZE {
@@ -232,11 +261,18 @@ fn prepare_gpu_batches(
     pipelines: PassPipelines<'_>,
     pipeline_cache: Res<PipelineCache>,
     (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
+    (mut quad_draws, uploaded): (ResMut<GpuQuadDraws>, Res<ExtractedAssets<RenderMesh>>),
 ) {
     let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline, shadow_pipeline) =
         pipelines;
     let render = (device.as_ref(), queue.as_ref());
     let limits = BindingLimits::of(&device.limits());
+    quad_draws.forget_uploaded(&uploaded);
+    // Quads are drawn by the count the passes write where the device takes a first instance
+    // in indirect draws; elsewhere their meshes are drawn whole.
+    let compact = device
+        .features()
+        .contains(bevy::render::settings::WgpuFeatures::INDIRECT_FIRST_INSTANCE);
     let batches = batches.as_mut();
     batches.used = [0; 5];
     let inputs: Vec<_> = inputs.iter_mut().collect();
@@ -330,12 +366,15 @@ fn prepare_gpu_batches(
                 shadow_spans.push(span);
             }
             for job in &input.strokes {
+                let vertices = stroke_vertices(&job.record);
                 if let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
+                    && let Some(index_slice) = mesh_allocator.mesh_index_slice(&job.mesh)
+                    && let Some(indices) = QuadIndices::of(job.mesh, &slice, &index_slice, vertices)
                     && let Some(span) = SlabSpan::new(
-                        (job.record, placement),
+                        (job.record, placement, indices),
                         &slice,
                         job.record.stride,
-                        stroke_vertices(&job.record),
+                        vertices,
                     )
                 {
                     stroke_spans.push(span);
@@ -343,8 +382,15 @@ fn prepare_gpu_batches(
             }
             if let Some(job) = &input.highlights
                 && let Some(slice) = mesh_allocator.mesh_vertex_slice(&job.mesh)
+                && let Some(index_slice) = mesh_allocator.mesh_index_slice(&job.mesh)
+                && let Some(indices) = QuadIndices::of(
+                    job.mesh,
+                    &slice,
+                    &index_slice,
+                    highlight_vertices(&job.record),
+                )
                 && let Some(span) = SlabSpan::new(
-                    (job.record, placement),
+                    (job.record, placement, indices),
                     &slice,
                     job.record.stride,
                     highlight_vertices(&job.record),
@@ -356,13 +402,12 @@ fn prepare_gpu_batches(
         // The device binds a hair's stroke or highlight mesh when it binds its tubes
         // (`HairGpuMeshSupport::fits`); should it refuse one, the hair goes back to the CPU
         // rather than lose its strokes.
-        let (groups, refused) = group_by_slab(stroke_spans, Buffer::id, limits);
-        let (highlight_groups, refused_highlights) =
-            group_by_slab(highlight_spans, Buffer::id, limits);
+        let (groups, refused) = group_quads(stroke_spans, limits);
+        let (highlight_groups, refused_highlights) = group_quads(highlight_spans, limits);
         let (shadow_groups, refused_shadows) = group_by_slab(shadow_spans, Buffer::id, limits);
-        let refused_hairs = refused.iter().map(|(_, h)| h);
+        let refused_hairs = refused.iter().map(|(_, h, _)| h);
         for hair in refused_hairs
-            .chain(refused_highlights.iter().map(|(_, h)| h))
+            .chain(refused_highlights.iter().map(|(_, h, _)| h))
             .chain(refused_shadows.iter().map(|(_, h)| h))
         {
             passes.refuse(
@@ -390,27 +435,49 @@ fn prepare_gpu_batches(
             if strokes.len() <= used[1] {
                 strokes.push(StrokeBatch::default());
             }
-            prepare_stroke_batch(
+            if !prepare_stroke_batch(
                 &mut strokes[used[1]],
                 group,
                 buffers,
-                render,
+                (&device, &queue, limits),
                 (&stroke_pipeline, &pipeline_cache),
-            );
+                (&mut quad_draws, compact),
+            ) {
+                refuse_indices(&passes, group, limits);
+            }
             used[1] += 1;
         }
         for group in &highlight_groups {
             if highlights.len() <= used[2] {
                 highlights.push(HighlightBatch::default());
             }
-            highlights[used[2]].prepare_frame_job(
+            if !prepare_highlight_batch(
+                &mut highlights[used[2]],
                 group,
                 buffers,
-                render,
-                (&highlight_pipeline.0, &pipeline_cache),
-            );
+                (&device, &queue, limits),
+                (&highlight_pipeline, &pipeline_cache),
+                (&mut quad_draws, compact),
+            ) {
+                refuse_indices(&passes, group, limits);
+            }
             used[2] += 1;
         }
+    }
+}
+
+/// Puts the hairs of `group` back on the CPU: the device cannot bind their quad meshes'
+/// indices.
+fn refuse_indices<R>(passes: &HairGpuPasses, group: &QuadGroup<'_, R>, limits: BindingLimits) {
+    for ((_, hair, _), _) in &group.members {
+        passes.refuse(
+            hair.hair_mesh,
+            format!(
+                "its stroke or highlight meshes' indices are larger than this device binds as \
+                 storage ({} bytes); it is built on the CPU",
+                limits.max_bytes
+            ),
+        );
     }
 }
 
@@ -469,7 +536,7 @@ fn build_gpu_batches(
     batches: Res<GpuBatches>,
     pipelines: PassPipelines<'_>,
     pipeline_cache: Res<PipelineCache>,
-    (device, passes): (Res<RenderDevice>, Res<HairGpuPasses>),
+    (device, passes, quad_draws): (Res<RenderDevice>, Res<HairGpuPasses>, Res<GpuQuadDraws>),
 ) {
     let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline, shadow_pipeline) =
         pipelines;
@@ -483,17 +550,19 @@ fn build_gpu_batches(
             .get_compute_pipeline(tube_pipeline.0.pipeline)
             .is_none()
     {
+        // Views that began drawing a quad mesh built before still get its count.
+        quad_draws.copy_to_views(render_context.command_encoder());
         passes.set_dispatches(dispatches);
         return;
     }
     // Strokes and highlights read the frames the tube pass wrote (wgpu orders the passes).
     let strokes: Vec<&PreparedBatch> = batches.strokes[..batches.used[1]]
         .iter()
-        .filter_map(|b| b.prepared.as_ref())
+        .filter_map(|b| b.jobs.prepared.as_ref())
         .collect();
     let highlights: Vec<&PreparedBatch> = batches.highlights[..batches.used[2]]
         .iter()
-        .filter_map(|b| b.prepared.as_ref())
+        .filter_map(|b| b.jobs.prepared.as_ref())
         .collect();
     let order: Vec<&PreparedBatch> = batches.order[..batches.used[3]]
         .iter()
@@ -569,5 +638,23 @@ fn build_gpu_batches(
         }
         span.end(&mut pass);
     }
+    // The quads the stroke and highlight passes counted, into their meshes' draws (of the
+    // passes that ran).
+    let ran = [
+        dispatches.strokes.dispatches > 0,
+        dispatches.highlights.dispatches > 0,
+    ];
+    let encoder = render_context.command_encoder();
+    if ran[0] {
+        for batch in &batches.strokes[..batches.used[1]] {
+            batch.copy_counts(encoder, &quad_draws);
+        }
+    }
+    if ran[1] {
+        for batch in &batches.highlights[..batches.used[2]] {
+            batch.copy_counts(encoder, &quad_draws);
+        }
+    }
+    quad_draws.copy_to_views(encoder);
     passes.set_dispatches(dispatches);
 }

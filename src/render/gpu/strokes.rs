@@ -12,12 +12,13 @@ use bevy::render::render_resource::binding_types::{
     storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
 };
 use bevy::render::render_resource::{
-    BindGroupEntries, BindGroupLayoutEntries, Buffer, PipelineCache, ShaderStages, ShaderType,
+    BindGroupEntries, BindGroupLayoutEntries, PipelineCache, ShaderStages, ShaderType,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord};
 use super::toolbox::{
-    ComputePass, GpuBatch, HairPlacement, JobBatch, JobRecord, SlabGroup, TubeBatchBuffers,
+    BindingLimits, ComputePass, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers,
     vertex_offsets,
 };
 
@@ -67,8 +68,13 @@ pub(crate) struct GpuStrokeRecord {
     pub frame_base: u32,
     /// The job's first invocation in its dispatch (set in the render world).
     pub first_invocation: u32,
+    /// The stroke mesh's first index in the batch's index binding, in 4-byte words (set in the
+    /// render world).
+    pub index_base: u32,
+    /// The word of the batch's draws that counts the job's indices (set in the render world).
+    pub draw: u32,
     /// Padding.
-    pub pad: u32,
+    pub pad: UVec2,
 }
 
 /// One camera's strokes of a hair, as the main world gathers them.
@@ -173,6 +179,8 @@ pub(crate) fn init_gpu_stroke_pipeline(
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_read_only_sized(false, None),
                 storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
+                storage_buffer_sized(false, None),
             ),
         ),
         load_embedded_asset!(asset_server.as_ref(), "strokes.wesl"),
@@ -204,18 +212,32 @@ impl JobRecord for GpuStrokeRecord {
     }
 }
 
-/// One stroke batch in the render world.
-pub(crate) type StrokeBatch = JobBatch<GpuStrokeRecord>;
+impl QuadRecord for GpuStrokeRecord {
+    fn with_indices(self, index_base: u32, draw: u32) -> Self {
+        Self {
+            index_base,
+            draw,
+            ..self
+        }
+    }
+}
 
-/// Fills and uploads `batch` from `group`, with its bind group over the tube batch's buffers.
+/// One stroke batch in the render world.
+pub(crate) type StrokeBatch = QuadBatch<GpuStrokeRecord>;
+
+/// Fills and uploads `batch` from `group` (its meshes' indices in one index slab), with its
+/// bind group over the tube batch's buffers. Returns `false` when the device cannot bind the
+/// group's indices.
 pub(crate) fn prepare_stroke_batch(
     batch: &mut StrokeBatch,
-    group: &SlabGroup<&Buffer, (GpuStrokeRecord, HairPlacement)>,
+    group: &QuadGroup<'_, GpuStrokeRecord>,
     tubes: TubeBatchBuffers<'_>,
-    (device, queue): (&RenderDevice, &RenderQueue),
+    render: (&RenderDevice, &RenderQueue, BindingLimits),
     (pipeline, pipeline_cache): (&GpuStrokePipeline, &PipelineCache),
-) {
-    batch.prepare(group, (device, queue), |header, records, slab| {
+    draws: (&mut GpuQuadDraws, bool),
+) -> bool {
+    let device = render.0;
+    batch.prepare(group, render, draws, |header, records, slab, quads| {
         device.create_bind_group(
             "hair_gpu_strokes",
             &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
@@ -226,7 +248,9 @@ pub(crate) fn prepare_stroke_batch(
                 tubes.points.as_entire_binding(),
                 tubes.frames.as_entire_binding(),
                 slab,
+                quads.indices,
+                quads.draws,
             )),
         )
-    });
+    })
 }

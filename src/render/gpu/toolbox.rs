@@ -22,7 +22,7 @@ use bevy::render::settings::WgpuLimits;
 use bevy::shader::ShaderDefVal;
 
 use crate::mesh::shadow::SHADOW_RING_STEP;
-use crate::mesh::tube::{CAP_VERTICES, MIN_RINGS, MIN_SIDES};
+use crate::mesh::tube::{CAP_VERTICES, MAX_RINGS, MAX_SIDES, MIN_RINGS, MIN_SIDES};
 
 /// Invocations in a workgroup of every pass (`constants::WORKGROUP_SIZE`).
 pub const WORKGROUP_SIZE: u32 = 64;
@@ -43,6 +43,9 @@ pub fn shader_defs() -> Vec<ShaderDefVal> {
         uint("TUBE_CAP_VERTICES", CAP_VERTICES as u32),
         uint("MIN_RINGS", MIN_RINGS as u32),
         uint("MIN_SIDES", MIN_SIDES as u32),
+        uint("MAX_RINGS", MAX_RINGS as u32),
+        uint("MAX_SIDES", MAX_SIDES as u32),
+        uint("NO_DRAW", super::quad_draw::NO_DRAW),
         uint("SHADOW_RING_STEP", SHADOW_RING_STEP as u32),
     ]
 }
@@ -69,8 +72,8 @@ pub struct ComputePass {
 
 impl ComputePass {
     /// Queues a pass whose bind group is the batch header, its job records, one buffer it reads
-    /// and one it writes: the highlight and shadow passes (the tube batch's ring frames in, a
-    /// vertex slab out) and the draw-order pass (the strands' sort keys in, the order out).
+    /// and one it writes: the shadow pass (the tube batch's ring frames in, a vertex slab out)
+    /// and the draw-order pass (the strands' sort keys in, the order out).
     pub fn queue_read_write(
         pipeline_cache: &PipelineCache,
         name: &'static str,
@@ -500,6 +503,8 @@ mod tests {
             ("RING_FRAME_VEC4S", 3),
             ("TUBE_CAP_VERTICES", 2),
             ("QUAD_VERTICES", 4),
+            ("MAX_RINGS", 256),
+            ("MAX_SIDES", 64),
         ] {
             assert!(
                 defs.iter()
