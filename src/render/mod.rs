@@ -63,6 +63,7 @@ pub use user_mesh::{ToonHairMeshes, ToonHairMeshesApplied};
 pub const SHADER_LIBRARY: &[(&str, &str)] = &[
     ("curves.wesl", include_str!("curves.wesl")),
     ("gpu/common.wesl", include_str!("gpu/common.wesl")),
+    ("gpu/quads.wesl", include_str!("gpu/quads.wesl")),
 ];
 
 /// The entry-point shaders of the crate's materials, as `(name, source)`.
@@ -92,6 +93,7 @@ impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "curves.wesl");
         load_shader_library!(app, "gpu/common.wesl");
+        load_shader_library!(app, "gpu/quads.wesl");
     }
 }
 

@@ -333,14 +333,15 @@ fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
     use super::PASS_SHADERS;
     // Each pass's bindings are the ones render/gpu lays out: the batch header first; the tube
     // pass then its hairs, strands and points, the vertex slab and the ring frames it writes;
-    // the stroke pass its jobs, the strands, points and frames, and the stroke slab; the
-    // highlight pass its jobs, the frames and the highlight slab; the shadow pass the same with
-    // the ribbon slab.
+    // the stroke pass its jobs, the strands, points and frames, the stroke slab, and (6, 7) the
+    // stroke meshes' indices and the batch's draws; the highlight pass its jobs, the frames and
+    // the highlight slab, and the same 6 and 7; the shadow pass its jobs, the frames and the
+    // ribbon slab.
     let defs = super::gpu::shader_defs();
     for (file, bindings) in [
         ("gpu/tubes.wesl", &[0u32, 1, 2, 3, 4, 5][..]),
-        ("gpu/strokes.wesl", &[0, 1, 2, 3, 4, 5][..]),
-        ("gpu/highlights.wesl", &[0, 1, 2, 3][..]),
+        ("gpu/strokes.wesl", &[0, 1, 2, 3, 4, 5, 6, 7][..]),
+        ("gpu/highlights.wesl", &[0, 1, 2, 3, 6, 7][..]),
         ("gpu/shadows.wesl", &[0, 1, 2, 3][..]),
     ] {
         let (name, source) = PASS_SHADERS
@@ -357,11 +358,12 @@ fn the_gpu_tube_stroke_and_highlight_passes_compose_and_validate() {
             .expect("the build entry point");
         assert_eq!(entry.stage, naga::ShaderStage::Compute);
         assert_eq!(entry.workgroup_size, [64, 1, 1]);
-        let found: Vec<u32> = module
+        let mut found: Vec<u32> = module
             .global_variables
             .iter()
             .filter_map(|(_, g)| g.binding.as_ref().map(|b| b.binding))
             .collect();
+        found.sort_unstable();
         assert_eq!(found, bindings, "{file}");
         // Without the constants from Rust the passes do not compile: none is copied by hand.
         assert!(

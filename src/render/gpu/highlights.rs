@@ -8,17 +8,12 @@
 
 use bevy::asset::load_embedded_asset;
 use bevy::prelude::*;
-use bevy::render::render_resource::binding_types::{
-    storage_buffer_read_only_sized, storage_buffer_sized, uniform_buffer,
-};
-use bevy::render::render_resource::{
-    BindGroupEntries, BindGroupLayoutEntries, PipelineCache, ShaderStages, ShaderType,
-};
+use bevy::render::render_resource::{BindGroupEntries, PipelineCache, ShaderType};
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord};
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord, quad_entries};
 use super::toolbox::{
-    BindingLimits, ComputePass, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers,
+    BindingLimits, ComputePass, HairPlacement, JobRecord, TubeBatchBuffers, read_write_entries,
     vertex_offsets,
 };
 
@@ -122,20 +117,12 @@ pub(crate) fn init_gpu_highlight_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
+    let mut entries = read_write_entries();
+    entries.extend(quad_entries());
     commands.insert_resource(GpuHighlightPipeline(ComputePass::queue(
         &pipeline_cache,
         "hair_gpu_highlights",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                uniform_buffer::<GpuBatch>(false),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-            ),
-        ),
+        &entries,
         load_embedded_asset!(asset_server.as_ref(), "highlights.wesl"),
     )));
 }
@@ -189,13 +176,13 @@ pub(crate) fn prepare_highlight_batch(
         device.create_bind_group(
             "hair_gpu_highlights",
             &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
-            &BindGroupEntries::sequential((
-                header,
-                records,
-                tubes.frames.as_entire_binding(),
-                slab,
-                quads.indices,
-                quads.draws,
+            &BindGroupEntries::with_indices((
+                (0, header),
+                (1, records),
+                (2, tubes.frames.as_entire_binding()),
+                (3, slab),
+                (6, quads.indices),
+                (7, quads.draws),
             )),
         )
     })

@@ -9,6 +9,8 @@
 //! - the stroke pass ([`strokes`], `strokes.wesl`) finds each strand's contours for each camera
 //!   from those frames and writes the stroke strips into the cameras' stroke meshes;
 //! - the highlight pass ([`highlights`], `highlights.wesl`) writes the specular quads;
+//! - both also write the triangles of the quads that draw something at the front of their
+//!   meshes' indices and count them, and the main pass draws only those ([`quad_draw`]);
 //! - the shadow pass ([`shadows`], `shadows.wesl`) writes the ribbons the hair casts its
 //!   shadow with ([`crate::mesh::shadow`]);
 //! - the draw-order pass ([`order`], `order.wesl`) rewrites each hair mesh's index buffer so

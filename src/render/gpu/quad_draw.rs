@@ -38,8 +38,9 @@ use bevy::render::render_phase::{
     TrackedRenderPass, ViewSortedRenderPhases,
 };
 use bevy::render::render_resource::encase::internal::WriteInto;
+use bevy::render::render_resource::binding_types::storage_buffer_sized;
 use bevy::render::render_resource::{
-    BindGroup, BindingResource, Buffer, BufferBinding, BufferDescriptor, BufferUsages,
+    BindGroup, BindGroupLayoutEntry, BindingResource, ShaderStages, Buffer, BufferBinding, BufferDescriptor, BufferUsages,
     CommandEncoder, IndexFormat, ShaderType,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
@@ -56,6 +57,12 @@ pub const NO_DRAW: u32 = u32::MAX;
 /// first instance.
 const DRAW_WORDS: u32 = 5;
 const DRAW_BYTES: u64 = DRAW_WORDS as u64 * 4;
+
+/// The bindings a quad pass adds to its layout (`quads.wesl`): the meshes' indices (6) and the
+/// batch's draws (7), both written.
+pub(crate) fn quad_entries() -> [BindGroupLayoutEntry; 2] {
+    [6, 7].map(|b| storage_buffer_sized(false, None).build(b, ShaderStages::COMPUTE))
+}
 
 /// Where a quad mesh's indices lie.
 #[derive(Clone, Copy, Debug)]

@@ -16,7 +16,7 @@ use bevy::render::render_resource::{
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord};
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord, quad_entries};
 use super::toolbox::{
     BindingLimits, ComputePass, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers,
     vertex_offsets,
@@ -167,22 +167,23 @@ pub(crate) fn init_gpu_stroke_pipeline(
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
+    let mut entries = BindGroupLayoutEntries::sequential(
+        ShaderStages::COMPUTE,
+        (
+            uniform_buffer::<GpuBatch>(false),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_sized(false, None),
+        ),
+    )
+    .to_vec();
+    entries.extend(quad_entries());
     commands.insert_resource(GpuStrokePipeline(ComputePass::queue(
         &pipeline_cache,
         "hair_gpu_strokes",
-        &BindGroupLayoutEntries::sequential(
-            ShaderStages::COMPUTE,
-            (
-                uniform_buffer::<GpuBatch>(false),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_read_only_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-                storage_buffer_sized(false, None),
-            ),
-        ),
+        &entries,
         load_embedded_asset!(asset_server.as_ref(), "strokes.wesl"),
     )));
 }

@@ -79,20 +79,7 @@ impl ComputePass {
         name: &'static str,
         shader: Handle<Shader>,
     ) -> Self {
-        Self::queue(
-            pipeline_cache,
-            name,
-            &BindGroupLayoutEntries::sequential(
-                ShaderStages::COMPUTE,
-                (
-                    uniform_buffer::<GpuBatch>(false),
-                    storage_buffer_read_only_sized(false, None),
-                    storage_buffer_read_only_sized(false, None),
-                    storage_buffer_sized(false, None),
-                ),
-            ),
-            shader,
-        )
+        Self::queue(pipeline_cache, name, &read_write_entries(), shader)
     }
 
     /// Queues the pass `name` (its entry point `build` in `shader`, with [`shader_defs`]) with a
@@ -114,6 +101,21 @@ impl ComputePass {
         });
         Self { layout, pipeline }
     }
+}
+
+/// The bindings of a [`ComputePass::queue_read_write`] pass: the batch header, its job
+/// records, the buffer it reads and the one it writes (0 to 3).
+pub fn read_write_entries() -> Vec<BindGroupLayoutEntry> {
+    BindGroupLayoutEntries::sequential(
+        ShaderStages::COMPUTE,
+        (
+            uniform_buffer::<GpuBatch>(false),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_read_only_sized(false, None),
+            storage_buffer_sized(false, None),
+        ),
+    )
+    .to_vec()
 }
 
 /// Word offsets of three attributes in `mesh`'s interleaved vertex, then the words per vertex;
