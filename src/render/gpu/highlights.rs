@@ -49,7 +49,8 @@ pub(crate) struct GpuHighlightRecord {
     /// The mesh's first index in the batch's index binding, in 4-byte words (set in the render
     /// world).
     pub index_base: u32,
-    /// The word of the batch's draws that counts the job's indices (set in the render world).
+    /// The word of the batch's counts that counts the job's indices, or `quad_draw::NO_DRAW`
+    /// (set in the render world).
     pub draw: u32,
     /// Padding.
     pub pad: UVec2,
@@ -182,7 +183,7 @@ pub(crate) fn prepare_highlight_batch(
                 (2, tubes.frames.as_entire_binding()),
                 (3, slab),
                 (6, quads.indices),
-                (7, quads.draws),
+                (7, quads.counts),
             )),
         )
     })

@@ -1,7 +1,7 @@
 //! Drawing the GPU-built strokes and specular quads only where they exist. A stroke or
 //! highlight mesh holds a quad for every place a stroke or highlight may be; the passes write
 //! the triangles of the quads that draw something at the front of the mesh's indices and count
-//! them into an indexed indirect draw per job ([`QuadBatch`]). After the passes each count is
+//! them, a count per job ([`QuadBatch`]). After the passes each count is
 //! copied to its mesh ([`GpuQuadDraws`]), and from there, every frame, into the draw of each
 //! view that draws the mesh, whose other words (first index, base vertex, and the first
 //! instance: the mesh's place among Bevy's mesh data this frame, from the view's transparent
@@ -37,11 +37,11 @@ use bevy::render::render_phase::{
     DrawFunctions, PhaseItem, RenderCommand, RenderCommandResult, SetItemPipeline,
     TrackedRenderPass, ViewSortedRenderPhases,
 };
-use bevy::render::render_resource::encase::internal::WriteInto;
 use bevy::render::render_resource::binding_types::storage_buffer_sized;
+use bevy::render::render_resource::encase::internal::WriteInto;
 use bevy::render::render_resource::{
-    BindGroup, BindGroupLayoutEntry, BindingResource, ShaderStages, Buffer, BufferBinding, BufferDescriptor, BufferUsages,
-    CommandEncoder, IndexFormat, ShaderType,
+    BindGroup, BindGroupLayoutEntry, BindingResource, Buffer, BufferBinding, BufferDescriptor,
+    BufferUsages, CommandEncoder, IndexFormat, ShaderStages, ShaderType,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::view::{ExtractedView, RetainedViewEntity};
@@ -53,13 +53,12 @@ use super::toolbox::{
 /// `Job::draw` of a job whose quads are not compacted (the device cannot draw them by count).
 pub const NO_DRAW: u32 = u32::MAX;
 
-/// Words of an indexed indirect draw: index count, instance count, first index, base vertex,
+/// Bytes of an indexed indirect draw: index count, instance count, first index, base vertex,
 /// first instance.
-const DRAW_WORDS: u32 = 5;
-const DRAW_BYTES: u64 = DRAW_WORDS as u64 * 4;
+const DRAW_BYTES: u64 = 20;
 
 /// The bindings a quad pass adds to its layout (`quads.wesl`): the meshes' indices (6) and the
-/// batch's draws (7), both written.
+/// batch's index counts (7), both written.
 pub(crate) fn quad_entries() -> [BindGroupLayoutEntry; 2] {
     [6, 7].map(|b| storage_buffer_sized(false, None).build(b, ShaderStages::COMPUTE))
 }
@@ -101,7 +100,7 @@ impl<'a> QuadIndices<'a> {
 /// A job record of a pass that writes quads and their live triangles.
 pub(crate) trait QuadRecord: JobRecord {
     /// The record with its mesh's first index in the batch's index binding (in words) and its
-    /// draw's index-count word (or [`NO_DRAW`]).
+    /// index count's word in the batch's counts (or [`NO_DRAW`]).
     fn with_indices(self, index_base: u32, draw: u32) -> Self;
 }
 
@@ -134,17 +133,16 @@ pub(crate) fn group_quads<'a, R>(
     (groups, refused)
 }
 
-/// One batch of a quad pass in the render world, reused frame to frame: its jobs, their draws
-/// (one indexed indirect draw each, whose index count the pass counts) and which mesh each
-/// count goes to.
+/// One batch of a quad pass in the render world, reused frame to frame: its jobs, their index
+/// counts (a word each, which the pass counts up) and which mesh each count goes to.
 pub(crate) struct QuadBatch<R>
 where
     Vec<R>: ShaderType + WriteInto,
 {
     /// The jobs' table and this frame's bind group.
     pub jobs: JobBatch<R>,
-    draws: Option<Buffer>,
-    /// Each job's draw: its byte offset in `draws`, its mesh.
+    index_counts: Option<Buffer>,
+    /// Each job's index count: its byte offset in `index_counts`, its mesh.
     counts: Vec<(u64, AssetId<Mesh>)>,
 }
 
@@ -155,16 +153,17 @@ where
     fn default() -> Self {
         Self {
             jobs: JobBatch::default(),
-            draws: None,
+            index_counts: None,
             counts: Vec::new(),
         }
     }
 }
 
-/// The bindings a quad pass adds to its bind group: the indices of its meshes and its draws.
+/// The bindings a quad pass adds to its bind group: the indices of its meshes and its index
+/// counts.
 pub(crate) struct QuadBindings<'a> {
     pub indices: BufferBinding<'a>,
-    pub draws: BufferBinding<'a>,
+    pub counts: BufferBinding<'a>,
 }
 
 impl<R: QuadRecord> QuadBatch<R>
@@ -172,7 +171,7 @@ where
     Vec<R>: ShaderType + WriteInto,
 {
     /// Fills and uploads the batch from `group` (its meshes' indices all in one index slab);
-    /// each job's draw starts with no indices; with `compact`, each mesh gets its draw in
+    /// each job's index count starts at 0; with `compact`, each mesh gets its draw in
     /// `quad_draws`. `bind` makes the bind group. Returns `false` when the device cannot bind
     /// the group's indices.
     pub fn prepare(
@@ -206,7 +205,7 @@ where
         if hi - lo > limits.max_bytes {
             return false;
         }
-        let mut draws = Vec::with_capacity(group.members.len() * DRAW_WORDS as usize);
+        let jobs_in_group = group.members.len();
         let members = group
             .members
             .iter()
@@ -214,11 +213,10 @@ where
             .map(|(j, &((record, hair, indices), vertex_base))| {
                 let mut draw = NO_DRAW;
                 if compact {
-                    draw = j as u32 * DRAW_WORDS;
+                    draw = j as u32;
                     self.counts.push((u64::from(draw) * 4, indices.mesh));
                     quad_draws.place(device, indices);
                 }
-                draws.extend([0, 1, indices.first_index, indices.base_vertex, 0]);
                 let index_base = ((u64::from(indices.first_index) * 4 - lo) / 4) as u32;
                 ((record.with_indices(index_base, draw), hair), vertex_base)
             })
@@ -229,20 +227,19 @@ where
             size: group.size,
             members,
         };
-        let bytes = (draws.len() * 4) as u64;
-        if self.draws.as_ref().is_none_or(|b| b.size() < bytes) {
-            self.draws = Some(device.create_buffer(&BufferDescriptor {
-                label: Some("hair_gpu_quad_draws"),
+        let bytes = (jobs_in_group * 4) as u64;
+        if self.index_counts.as_ref().is_none_or(|b| b.size() < bytes) {
+            self.index_counts = Some(device.create_buffer(&BufferDescriptor {
+                label: Some("hair_gpu_quad_counts"),
                 size: bytes.next_power_of_two(),
                 usage: BufferUsages::STORAGE | BufferUsages::COPY_SRC | BufferUsages::COPY_DST,
                 mapped_at_creation: false,
             }));
         }
-        let Some(draw_buffer) = self.draws.as_ref() else {
+        let Some(count_buffer) = self.index_counts.as_ref() else {
             return true;
         };
-        let words: Vec<u8> = draws.iter().flat_map(|w| w.to_le_bytes()).collect();
-        queue.write_buffer(draw_buffer, 0, &words);
+        queue.write_buffer(count_buffer, 0, &vec![0; bytes as usize]);
         self.jobs
             .prepare(&jobs, (device, queue), |header, records, slab| {
                 bind(
@@ -255,8 +252,8 @@ where
                             offset: lo,
                             size: NonZeroU64::new(hi - lo),
                         },
-                        draws: BufferBinding {
-                            buffer: draw_buffer,
+                        counts: BufferBinding {
+                            buffer: count_buffer,
                             offset: 0,
                             size: NonZeroU64::new(bytes),
                         },
@@ -268,7 +265,7 @@ where
 
     /// Copies the index counts the pass wrote to their meshes (after the pass).
     pub fn copy_counts(&self, encoder: &mut CommandEncoder, quad_draws: &GpuQuadDraws) {
-        let (Some(from), Some(_)) = (&self.draws, &self.jobs.prepared) else {
+        let (Some(from), Some(_)) = (&self.index_counts, &self.jobs.prepared) else {
             return;
         };
         for &(at, mesh) in &self.counts {

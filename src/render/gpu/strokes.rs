@@ -71,7 +71,8 @@ pub(crate) struct GpuStrokeRecord {
     /// The stroke mesh's first index in the batch's index binding, in 4-byte words (set in the
     /// render world).
     pub index_base: u32,
-    /// The word of the batch's draws that counts the job's indices (set in the render world).
+    /// The word of the batch's counts that counts the job's indices, or `quad_draw::NO_DRAW`
+    /// (set in the render world).
     pub draw: u32,
     /// Padding.
     pub pad: UVec2,
@@ -250,7 +251,7 @@ pub(crate) fn prepare_stroke_batch(
                 tubes.frames.as_entire_binding(),
                 slab,
                 quads.indices,
-                quads.draws,
+                quads.counts,
             )),
         )
     })
