@@ -33,8 +33,8 @@ pub use fringe_shadow::{
 #[doc(hidden)]
 pub use gpu::encode_gpu_inputs;
 pub use gpu::{
-    GpuPassState, GpuTubesPlugin, HairGpuBuildFailed, HairGpuDispatches, HairGpuFallback,
-    HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder, PassDispatches,
+    GpuPassState, GpuTubesPlugin, HairCompactQuads, HairGpuBuildFailed, HairGpuDispatches,
+    HairGpuFallback, HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder, PassDispatches,
 };
 pub use highlight::{HairHighlightMaterial, HairHighlightQuads, highlight_material};
 pub use outline::{

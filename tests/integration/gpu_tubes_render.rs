@@ -318,12 +318,14 @@ fn settled_diagnostic(
 /// segment of both contours and every rim edge, but the main pass draws only the triangles of
 /// the quads that ink (the stroke pass counts them into an indirect draw), as many as the
 /// CPU's strokes within a factor of 1.5, and the picture is the same as when every quad was
-/// drawn (the strokes' ink within 2 px of the CPU's).
+/// drawn (the strokes' ink within 2 px of the CPU's). With `HairCompactQuads` on; switched off
+/// again, the whole mesh is drawn and the picture stays.
 fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
     const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
     let mut r = silhouette_scene()?;
     r.app
-        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin);
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
+        .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(true));
     let hair = spawn_still_hair(
         r.app.world_mut(),
         spikes(),
@@ -384,6 +386,20 @@ fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
         return Err(format!(
             "CPU {cpu_ink} ink px, {cpu_covered:.3} near the GPU's; GPU {gpu_ink}, \
              {gpu_covered:.3} near the CPU's"
+        )
+        .into());
+    }
+    // Switched off, the mesh is drawn whole again, its triangles put back in place.
+    r.app
+        .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(false));
+    let whole = r.capture()?;
+    let whole_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    let (whole_ink, whole_covered) = ink_covered(&whole, &cpu, 2);
+    eprintln!("switched off: {whole_drawn:.0} triangles drawn, {whole_ink} ink px");
+    if (whole_drawn - gpu_mesh as f64).abs() > 0.5 || whole_covered < 0.9 {
+        return Err(format!(
+            "switched off, the strokes drew {whole_drawn} of {gpu_mesh} triangles, \
+             {whole_covered:.3} of their ink near the CPU's"
         )
         .into());
     }
@@ -450,7 +466,8 @@ fn gpu_built_highlights_draw_only_the_quads_that_shine() -> Result<(), Failed> {
     const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
     let (mut r, hair) = highlighted_spikes()?;
     r.app
-        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin);
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
+        .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(true));
     r.app.insert_resource(HairMeshBuilder::Gpu);
     let gpu = r.capture()?;
     save(&gpu, "gpu_highlights_live_quads")?;

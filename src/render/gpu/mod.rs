@@ -38,6 +38,7 @@ use bevy::render::batching::NoAutomaticBatching;
 use bevy::render::diagnostic::RecordDiagnostics;
 use bevy::render::erased_render_asset::prepare_erased_assets;
 use bevy::render::extract_component::ExtractComponentPlugin;
+use bevy::render::extract_resource::ExtractResourcePlugin;
 use bevy::render::mesh::RenderMesh;
 use bevy::render::mesh::allocator::{MeshAllocator, MeshAllocatorSettings};
 use bevy::render::render_asset::ExtractedAssets;
@@ -70,6 +71,7 @@ use highlights::{
     prepare_highlight_batch,
 };
 use order::{GpuOrderPipeline, OrderBatch, OrderHairInput, init_gpu_order_pipeline};
+pub use quad_draw::HairCompactQuads;
 use quad_draw::{
     DrawQuads, GpuQuadDraws, QuadGroup, QuadIndices, group_quads, prepare_view_quad_draws,
     use_quad_draw_function,
@@ -105,13 +107,19 @@ impl Plugin for GpuTubesPlugin {
             .init_resource::<HairGpuMeshSupport>()
             .insert_resource(passes.clone())
             .register_type::<HairMeshBuilder>()
-            // Each stroke mesh is a draw of its own (its indirect draw counts its own indices).
+            // Each stroke and highlight mesh is a draw of its own (its indirect draw has its own
+            // index count and instance).
             .register_required_components::<crate::silhouette::HairStrokesOf, NoAutomaticBatching>()
             .register_required_components::<
                 crate::mesh::highlights::HairHighlightsOf,
                 NoAutomaticBatching,
             >()
-            .add_plugins(ExtractComponentPlugin::<GpuTubeInput>::default())
+            .init_resource::<HairCompactQuads>()
+            .register_type::<HairCompactQuads>()
+            .add_plugins((
+                ExtractComponentPlugin::<GpuTubeInput>::default(),
+                ExtractResourcePlugin::<HairCompactQuads>::default(),
+            ))
             .add_systems(
                 PostUpdate,
                 (
@@ -263,18 +271,23 @@ fn prepare_gpu_batches(
     pipelines: PassPipelines<'_>,
     pipeline_cache: Res<PipelineCache>,
     (device, queue, passes): (Res<RenderDevice>, Res<RenderQueue>, Res<HairGpuPasses>),
-    (mut quad_draws, uploaded): (ResMut<GpuQuadDraws>, Res<ExtractedAssets<RenderMesh>>),
+    (mut quad_draws, uploaded, compact_quads): (
+        ResMut<GpuQuadDraws>,
+        Res<ExtractedAssets<RenderMesh>>,
+        Res<HairCompactQuads>,
+    ),
 ) {
     let (tube_pipeline, stroke_pipeline, highlight_pipeline, order_pipeline, shadow_pipeline) =
         pipelines;
     let render = (device.as_ref(), queue.as_ref());
     let limits = BindingLimits::of(&device.limits());
     quad_draws.forget_uploaded(&uploaded);
-    // Quads are drawn by the count the passes write where the device takes a first instance
-    // in indirect draws; elsewhere their meshes are drawn whole.
-    let compact = device
-        .features()
-        .contains(bevy::render::settings::WgpuFeatures::INDIRECT_FIRST_INSTANCE);
+    // Quads are drawn by the count the passes write when asked and where the device takes a
+    // first instance in indirect draws; elsewhere their meshes are drawn whole.
+    let compact = compact_quads.0
+        && device
+            .features()
+            .contains(bevy::render::settings::WgpuFeatures::INDIRECT_FIRST_INSTANCE);
     let batches = batches.as_mut();
     batches.used = [0; 5];
     let inputs: Vec<_> = inputs.iter_mut().collect();

@@ -10,8 +10,9 @@
 //!
 //! A mesh the passes have not built since Bevy last uploaded it (one the CPU fills, or one just
 //! made) has no draw and is drawn whole, as Bevy draws any mesh. Each quad mesh is a batch of its
-//! own (`NoAutomaticBatching`), so its phase item's instance is its own. A device without
-//! `INDIRECT_FIRST_INSTANCE` keeps the meshes whole (nothing is compacted).
+//! own (`NoAutomaticBatching`), so its phase item's instance is its own. Only with
+//! [`HairCompactQuads`] on and a device with `INDIRECT_FIRST_INSTANCE`; otherwise the meshes
+//! are drawn whole.
 
 use std::any::TypeId;
 use std::num::NonZeroU64;
@@ -30,6 +31,7 @@ use bevy::pbr::{
 use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::render::erased_render_asset::ErasedRenderAssets;
+use bevy::render::extract_resource::ExtractResource;
 use bevy::render::mesh::RenderMesh;
 use bevy::render::mesh::allocator::{MeshAllocator, MeshBufferSlice};
 use bevy::render::render_asset::ExtractedAssets;
@@ -50,8 +52,23 @@ use super::toolbox::{
     BindingLimits, HairPlacement, JobBatch, JobRecord, SlabGroup, SlabSpan, group_by_slab,
 };
 
-/// `Job::draw` of a job whose quads are not compacted (the device cannot draw them by count).
+/// `Job::draw` of a job whose quads are not compacted (its mesh is drawn whole).
 pub const NO_DRAW: u32 = u32::MAX;
+/// `Job::draw` of a job whose mesh was compacted and is drawn whole from now on: the pass writes
+/// every quad's triangles back in place.
+pub const RESTORE_DRAW: u32 = u32::MAX - 1;
+
+/// Whether GPU-built strokes and specular quads are drawn only where they exist, by the count
+/// of quads the passes find (fewer triangles: W1's strokes 4,286 primitives instead of 6,000).
+/// Off by default: the passes then write the strands' triangles in the order the GPU finishes
+/// them, so where strokes overlap they may blend in another order from one frame or run to the
+/// next (a level of rounding), and recorded clips must be the same from run to run. Can be
+/// switched at any time. Needs `INDIRECT_FIRST_INSTANCE` (Vulkan, Metal, DX12); elsewhere the
+/// meshes are drawn whole.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect, ExtractResource)]
+#[extract_app(bevy::render::RenderApp)]
+#[reflect(Resource, Default, Debug, PartialEq)]
+pub struct HairCompactQuads(pub bool);
 
 /// Bytes of an indexed indirect draw: index count, instance count, first index, base vertex,
 /// first instance.
@@ -216,6 +233,10 @@ where
                     draw = j as u32;
                     self.counts.push((u64::from(draw) * 4, indices.mesh));
                     quad_draws.place(device, indices);
+                } else if quad_draws.0.remove(&indices.mesh).is_some() {
+                    // Compacted until now: its indices are put back whole this frame, as it is
+                    // drawn whole.
+                    draw = RESTORE_DRAW;
                 }
                 let index_base = ((u64::from(indices.first_index) * 4 - lo) / 4) as u32;
                 ((record.with_indices(index_base, draw), hair), vertex_base)

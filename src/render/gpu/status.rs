@@ -33,7 +33,7 @@ pub enum HairMeshBuilder {
 }
 
 /// Whether this render device can build tubes and strokes on the GPU: compute shaders of 64
-/// invocations, five storage buffers in a compute stage (`max_storage_buffers_per_shader_stage`)
+/// invocations, seven storage buffers in a compute stage (`max_storage_buffers_per_shader_stage`)
 /// and vertex buffers usable as storage. Set when the render plugin finishes.
 #[derive(Resource, Clone, Debug, Default, PartialEq, Eq)]
 pub struct HairGpuMeshSupport {

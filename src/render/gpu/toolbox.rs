@@ -46,6 +46,7 @@ pub fn shader_defs() -> Vec<ShaderDefVal> {
         uint("MAX_RINGS", MAX_RINGS as u32),
         uint("MAX_SIDES", MAX_SIDES as u32),
         uint("NO_DRAW", super::quad_draw::NO_DRAW),
+        uint("RESTORE_DRAW", super::quad_draw::RESTORE_DRAW),
         uint("SHADOW_RING_STEP", SHADOW_RING_STEP as u32),
     ]
 }
