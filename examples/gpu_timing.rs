@@ -9,7 +9,8 @@
 //! Workloads (those of `benches/`): `w1` (100 x 6 strands), `w6` (16 heads of 160 x 7), `w2`
 //! (10,000 x 16), `w40k` (40,000 x 16). Options: `--size WxH` (default 1920x1080), `--msaa N`
 //! (1 or 4, default 4), `--frames N` (default 200; frames measured after the warm-up),
-//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--rings N` and
+//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--compact-quads`
+//! (strokes and quads drawn by count, `render::HairCompactQuads`), `--rings N` and
 //! `--sides N` (every hair's tube resolution in place of the workload's), `--radius M` (the
 //! tubes' root radius in metres, in place of the default 0.016), `--silhouette-error PX`
 //! (`HairLod::silhouette_error`, 0 for the level's sides at any width), `--reverse-strands` (the
@@ -63,6 +64,7 @@ struct Args {
     frames: u32,
     shadows: bool,
     cpu: bool,
+    compact_quads: bool,
     reverse_strands: bool,
     rings: Option<u32>,
     sides: Option<u32>,
@@ -82,6 +84,7 @@ fn args() -> Result<Args, String> {
         frames: 200,
         shadows: true,
         cpu: false,
+        compact_quads: false,
         reverse_strands: false,
         rings: None,
         sides: None,
@@ -114,6 +117,7 @@ fn args() -> Result<Args, String> {
             }
             "--no-shadows" => out.shadows = false,
             "--cpu" => out.cpu = true,
+            "--compact-quads" => out.compact_quads = true,
             "--reverse-strands" => out.reverse_strands = true,
             "--closed-tubes" => out.closed_tubes = true,
             "--shadow-caster" => {
@@ -221,6 +225,10 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
     if args.cpu {
         r.app.insert_resource(HairMeshBuilder::Cpu);
     }
+    r.app
+        .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(
+            args.compact_quads,
+        ));
     let target = r.target();
     let world = r.app.world_mut();
     world.spawn((
