@@ -386,10 +386,14 @@ pub(crate) fn prepare_view_quad_draws(
                     mapped_at_creation: false,
                 })
             });
-            let words: Vec<u8> = [1, draw.first_index, draw.base_vertex, range.start]
-                .iter()
-                .flat_map(|w: &u32| w.to_le_bytes())
-                .collect();
+            let mut words = [0u8; 16];
+            for (bytes, w) in
+                words
+                    .chunks_exact_mut(4)
+                    .zip([1, draw.first_index, draw.base_vertex, range.start])
+            {
+                bytes.copy_from_slice(&w.to_le_bytes());
+            }
             queue.write_buffer(buffer, 4, &words);
             seen.entry(mesh).or_default().push(*view);
         }
