@@ -9,8 +9,8 @@
 //! Workloads (those of `benches/`): `w1` (100 x 6 strands), `w6` (16 heads of 160 x 7), `w2`
 //! (10,000 x 16), `w40k` (40,000 x 16). Options: `--size WxH` (default 1920x1080), `--msaa N`
 //! (1 or 4, default 4), `--frames N` (default 200; frames measured after the warm-up),
-//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--compact-quads`
-//! (strokes and quads drawn by count, `render::HairCompactQuads`), `--rings N` and
+//! `--no-shadows`, `--cpu` (tubes, strokes and quads built on the CPU), `--whole-quads`
+//! (strokes and quads drawn whole, not by count: `render::HairCompactQuads(false)`), `--rings N` and
 //! `--sides N` (every hair's tube resolution in place of the workload's), `--radius M` (the
 //! tubes' root radius in metres, in place of the default 0.016), `--silhouette-error PX`
 //! (`HairLod::silhouette_error`, 0 for the level's sides at any width), `--reverse-strands` (the
@@ -84,7 +84,7 @@ fn args() -> Result<Args, String> {
         frames: 200,
         shadows: true,
         cpu: false,
-        compact_quads: false,
+        compact_quads: true,
         reverse_strands: false,
         rings: None,
         sides: None,
@@ -117,7 +117,7 @@ fn args() -> Result<Args, String> {
             }
             "--no-shadows" => out.shadows = false,
             "--cpu" => out.cpu = true,
-            "--compact-quads" => out.compact_quads = true,
+            "--whole-quads" => out.compact_quads = false,
             "--reverse-strands" => out.reverse_strands = true,
             "--closed-tubes" => out.closed_tubes = true,
             "--shadow-caster" => {
@@ -368,6 +368,11 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             ("hair_gpu_highlights", built.highlights, "strands_built"),
             ("hair_gpu_draw_order", built.draw_order, "indices_ordered"),
             ("hair_gpu_shadows", built.shadows, "strands_built"),
+            (
+                "hair_gpu_quad_compaction",
+                built.compact,
+                "strands_compacted",
+            ),
         ] {
             for (figure, v) in [("dispatches", work.dispatches), (what, work.invocations)] {
                 let e = sums.entry(format!("render/{pass}/{figure}")).or_default();

@@ -319,7 +319,8 @@ fn settled_diagnostic(
 /// the quads that ink (the stroke pass counts them into an indirect draw), as many as the
 /// CPU's strokes within a factor of 1.5, and the picture is the same as when every quad was
 /// drawn (the strokes' ink within 2 px of the CPU's). With `HairCompactQuads` on; switched off
-/// again, the whole mesh is drawn and the picture stays.
+/// again, the whole mesh is drawn and the picture is the same to the bit (the live triangles
+/// are drawn in the mesh's order).
 fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
     const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
     let mut r = silhouette_scene()?;
@@ -395,11 +396,24 @@ fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
     let whole = r.capture()?;
     let whole_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
     let (whole_ink, whole_covered) = ink_covered(&whole, &cpu, 2);
-    eprintln!("switched off: {whole_drawn:.0} triangles drawn, {whole_ink} ink px");
+    // The live triangles keep the whole mesh's order (strand after strand), so overlapping
+    // strokes blend as they did: the same picture to the bit.
+    let reordered = differing(&gpu, &whole, 0);
+    eprintln!(
+        "switched off: {whole_drawn:.0} triangles drawn, {whole_ink} ink px, {reordered} px \
+         differ from the compacted draw"
+    );
     if (whole_drawn - gpu_mesh as f64).abs() > 0.5 || whole_covered < 0.9 {
         return Err(format!(
             "switched off, the strokes drew {whole_drawn} of {gpu_mesh} triangles, \
              {whole_covered:.3} of their ink near the CPU's"
+        )
+        .into());
+    }
+    if reordered > 0 {
+        return Err(format!(
+            "drawn by count, the strokes differ from the whole mesh in {reordered} pixels: \
+             their triangles are not in the groom's order"
         )
         .into());
     }

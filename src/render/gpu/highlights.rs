@@ -11,10 +11,9 @@ use bevy::prelude::*;
 use bevy::render::render_resource::{BindGroupEntries, PipelineCache, ShaderType};
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord, quad_entries};
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadPipelines, QuadRecord};
 use super::toolbox::{
-    BindingLimits, ComputePass, HairPlacement, JobRecord, TubeBatchBuffers, read_write_entries,
-    vertex_offsets,
+    BindingLimits, HairPlacement, JobRecord, TubeBatchBuffers, read_write_entries, vertex_offsets,
 };
 
 use crate::math::finite_or;
@@ -108,22 +107,20 @@ pub(crate) fn highlight_input(
     })
 }
 
-/// The highlight pass's pipeline, made in `RenderStartup`.
+/// The highlight pass's pipelines, made in `RenderStartup`.
 #[derive(Resource)]
-pub(crate) struct GpuHighlightPipeline(pub ComputePass);
+pub(crate) struct GpuHighlightPipeline(pub QuadPipelines);
 
-/// Queues the highlight pass's pipeline.
+/// Queues the highlight pass's pipelines.
 pub(crate) fn init_gpu_highlight_pipeline(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let mut entries = read_write_entries();
-    entries.extend(quad_entries());
-    commands.insert_resource(GpuHighlightPipeline(ComputePass::queue(
+    commands.insert_resource(GpuHighlightPipeline(QuadPipelines::queue(
         &pipeline_cache,
-        "hair_gpu_highlights",
-        &entries,
+        ("hair_gpu_highlights", "hair_gpu_highlights_compact"),
+        read_write_entries(),
         load_embedded_asset!(asset_server.as_ref(), "highlights.wesl"),
     )));
 }
@@ -176,7 +173,7 @@ pub(crate) fn prepare_highlight_batch(
     batch.prepare(group, render, draws, |header, records, slab, quads| {
         device.create_bind_group(
             "hair_gpu_highlights",
-            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.build.layout),
             &BindGroupEntries::with_indices((
                 (0, header),
                 (1, records),

@@ -207,8 +207,10 @@ fn name_gpu_passes(
 ) {
     commands.insert_resource(GpuPassIds([
         ("hair_gpu_tubes", tubes.0.pipeline),
-        ("hair_gpu_strokes", strokes.0.pipeline),
-        ("hair_gpu_highlights", highlights.0.pipeline),
+        ("hair_gpu_strokes", strokes.0.build.pipeline),
+        ("hair_gpu_strokes_compact", strokes.0.compact),
+        ("hair_gpu_highlights", highlights.0.build.pipeline),
+        ("hair_gpu_highlights_compact", highlights.0.compact),
         ("hair_gpu_draw_order", order.0.pipeline),
         ("hair_gpu_shadows", shadows.0.pipeline),
     ]));
@@ -284,10 +286,14 @@ fn prepare_gpu_batches(
     quad_draws.forget_uploaded(&uploaded);
     // Quads are drawn by the count the passes write when asked and where the device takes a
     // first instance in indirect draws; elsewhere their meshes are drawn whole.
+    // The passes' second dispatches must be ready too: until then the counts are not written.
     let compact = compact_quads.0
         && device
             .features()
-            .contains(bevy::render::settings::WgpuFeatures::INDIRECT_FIRST_INSTANCE);
+            .contains(bevy::render::settings::WgpuFeatures::INDIRECT_FIRST_INSTANCE)
+        && [stroke_pipeline.0.compact, highlight_pipeline.0.compact]
+            .into_iter()
+            .all(|id| pipeline_cache.get_compute_pipeline(id).is_some());
     let batches = batches.as_mut();
     batches.used = [0; 5];
     let inputs: Vec<_> = inputs.iter_mut().collect();
@@ -579,6 +585,16 @@ fn build_gpu_batches(
         .iter()
         .filter_map(|b| b.jobs.prepared.as_ref())
         .collect();
+    let compact_strokes: Vec<&PreparedBatch> = batches.strokes[..batches.used[1]]
+        .iter()
+        .filter(|b| b.compacts())
+        .filter_map(|b| b.jobs.prepared.as_ref())
+        .collect();
+    let compact_highlights: Vec<&PreparedBatch> = batches.highlights[..batches.used[2]]
+        .iter()
+        .filter(|b| b.compacts())
+        .filter_map(|b| b.jobs.prepared.as_ref())
+        .collect();
     let order: Vec<&PreparedBatch> = batches.order[..batches.used[3]]
         .iter()
         .filter_map(|b| b.prepared.as_ref())
@@ -596,37 +612,40 @@ fn build_gpu_batches(
         highlights: highlight_count,
         draw_order: order_count,
         shadows: shadow_count,
+        compact: compact_count,
     } = &mut dispatches;
-    for (count, name, id, list) in [
+    // Each pass: its pipeline and batches, then, for the quad passes, the second dispatch over
+    // the batches drawn by count (after the first in the same pass; wgpu orders dispatches).
+    for (count, name, (id, list), (compact_id, compact_list)) in [
         (
             tube_count,
             "hair_gpu_tubes",
-            tube_pipeline.0.pipeline,
-            tubes,
+            (tube_pipeline.0.pipeline, tubes),
+            (None, Vec::new()),
         ),
         (
             stroke_count,
             "hair_gpu_strokes",
-            stroke_pipeline.0.pipeline,
-            strokes,
+            (stroke_pipeline.0.build.pipeline, strokes),
+            (Some(stroke_pipeline.0.compact), compact_strokes),
         ),
         (
             highlight_count,
             "hair_gpu_highlights",
-            highlight_pipeline.0.pipeline,
-            highlights,
+            (highlight_pipeline.0.build.pipeline, highlights),
+            (Some(highlight_pipeline.0.compact), compact_highlights),
         ),
         (
             order_count,
             "hair_gpu_draw_order",
-            order_pipeline.0.pipeline,
-            order,
+            (order_pipeline.0.pipeline, order),
+            (None, Vec::new()),
         ),
         (
             shadow_count,
             "hair_gpu_shadows",
-            shadow_pipeline.0.pipeline,
-            shadows,
+            (shadow_pipeline.0.pipeline, shadows),
+            (None, Vec::new()),
         ),
     ] {
         let Some(compute) = pipeline_cache.get_compute_pipeline(id) else {
@@ -649,6 +668,18 @@ fn build_gpu_batches(
             if dispatch(&mut pass, batch.invocations, max_per_dimension) {
                 count.dispatches += 1;
                 count.invocations += batch.invocations;
+            }
+        }
+        if let Some(compact) = compact_id.and_then(|id| pipeline_cache.get_compute_pipeline(id))
+            && !compact_list.is_empty()
+        {
+            pass.set_pipeline(compact);
+            for batch in compact_list {
+                pass.set_bind_group(0, &batch.bind_group, &[]);
+                if dispatch(&mut pass, batch.invocations, max_per_dimension) {
+                    compact_count.dispatches += 1;
+                    compact_count.invocations += batch.invocations;
+                }
             }
         }
         span.end(&mut pass);

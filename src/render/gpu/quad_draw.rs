@@ -1,7 +1,8 @@
 //! Drawing the GPU-built strokes and specular quads only where they exist. A stroke or
-//! highlight mesh holds a quad for every place a stroke or highlight may be; the passes write
-//! the triangles of the quads that draw something at the front of the mesh's indices and count
-//! them, a count per job ([`QuadBatch`]). After the passes each count is
+//! highlight mesh holds a quad for every place a stroke or highlight may be; the passes mark
+//! the quads that draw something and, in a second dispatch, write their triangles at the front
+//! of the mesh's indices, strand after strand in the groom's order, and count them, a count per
+//! job ([`QuadBatch`]). After the passes each count is
 //! copied to its mesh ([`GpuQuadDraws`]), and from there, every frame, into the draw of each
 //! view that draws the mesh, whose other words (first index, base vertex, and the first
 //! instance: the mesh's place among Bevy's mesh data this frame, from the view's transparent
@@ -43,14 +44,17 @@ use bevy::render::render_resource::binding_types::storage_buffer_sized;
 use bevy::render::render_resource::encase::internal::WriteInto;
 use bevy::render::render_resource::{
     BindGroup, BindGroupLayoutEntry, BindingResource, Buffer, BufferBinding, BufferDescriptor,
-    BufferUsages, CommandEncoder, IndexFormat, ShaderStages, ShaderType,
+    BufferUsages, CachedComputePipelineId, CommandEncoder, IndexFormat, PipelineCache,
+    ShaderStages, ShaderType,
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 use bevy::render::view::{ExtractedView, RetainedViewEntity};
 
 use super::toolbox::{
-    BindingLimits, HairPlacement, JobBatch, JobRecord, SlabGroup, SlabSpan, group_by_slab,
+    BindingLimits, ComputePass, HairPlacement, JobBatch, JobRecord, SlabGroup, SlabSpan,
+    group_by_slab,
 };
+use crate::mesh::tube::{MAX_RINGS, MAX_SIDES};
 
 /// `Job::draw` of a job whose quads are not compacted (its mesh is drawn whole).
 pub const NO_DRAW: u32 = u32::MAX;
@@ -60,15 +64,48 @@ pub const RESTORE_DRAW: u32 = u32::MAX - 1;
 
 /// Whether GPU-built strokes and specular quads are drawn only where they exist, by the count
 /// of quads the passes find (fewer triangles: W1's strokes 4,286 primitives instead of 6,000).
-/// Off by default: the passes then write the strands' triangles in the order the GPU finishes
-/// them, so where strokes overlap they may blend in another order from one frame or run to the
-/// next (a level of rounding), and recorded clips must be the same from run to run. Can be
-/// switched at any time. Needs `INDIRECT_FIRST_INSTANCE` (Vulkan, Metal, DX12); elsewhere the
-/// meshes are drawn whole.
-#[derive(Resource, Clone, Copy, Debug, Default, PartialEq, Eq, Reflect, ExtractResource)]
+/// On by default; the triangles are written strand after strand in the groom's order, so
+/// overlapping strokes blend the same way in every frame and run. Can be switched at any time
+/// (off: the meshes are drawn whole, every quad's triangles written back in place). Needs
+/// `INDIRECT_FIRST_INSTANCE` (Vulkan, Metal, DX12); elsewhere the meshes are drawn whole.
+#[derive(Resource, Clone, Copy, Debug, PartialEq, Eq, Reflect, ExtractResource)]
 #[extract_app(bevy::render::RenderApp)]
 #[reflect(Resource, Default, Debug, PartialEq)]
 pub struct HairCompactQuads(pub bool);
+
+impl Default for HairCompactQuads {
+    fn default() -> Self {
+        Self(true)
+    }
+}
+
+/// Words of a strand's live quads in a quad batch's scratch buffer (`constants::LIVE_WORDS`): a
+/// bit for each of a stroke's at most 2 x (`MAX_RINGS` - 1 + `MAX_SIDES`) quads.
+pub const LIVE_WORDS: u32 = (2 * (MAX_RINGS as u32 - 1 + MAX_SIDES as u32)).div_ceil(32);
+
+/// A quad pass's two pipelines: `build` (the quads and which of them draw something) and
+/// `compact` (the live quads' triangles and each job's count, `quads.wesl`'s
+/// `write_triangles`), which runs after it over the same batch and bind group.
+pub(crate) struct QuadPipelines {
+    pub build: ComputePass,
+    pub compact: CachedComputePipelineId,
+}
+
+impl QuadPipelines {
+    /// Queues the pass `name` from `shader` (entry points `build` and `compact`) with a bind
+    /// group of `entries` followed by [`quad_entries`].
+    pub fn queue(
+        pipeline_cache: &PipelineCache,
+        (name, compact_name): (&'static str, &'static str),
+        mut entries: Vec<BindGroupLayoutEntry>,
+        shader: Handle<Shader>,
+    ) -> Self {
+        entries.extend(quad_entries());
+        let build = ComputePass::queue(pipeline_cache, name, &entries, shader.clone());
+        let compact = build.queue_entry(pipeline_cache, compact_name, shader, "compact");
+        Self { build, compact }
+    }
+}
 
 /// Bytes of an indexed indirect draw: index count, instance count, first index, base vertex,
 /// first instance.
@@ -150,14 +187,16 @@ pub(crate) fn group_quads<'a, R>(
     (groups, refused)
 }
 
-/// One batch of a quad pass in the render world, reused frame to frame: its jobs, their index
-/// counts (a word each, which the pass counts up) and which mesh each count goes to.
+/// One batch of a quad pass in the render world, reused frame to frame: its jobs, its scratch
+/// words (each job's index count, which the pass's `compact` dispatch writes, then each
+/// strand's live quads) and which mesh each count goes to.
 pub(crate) struct QuadBatch<R>
 where
     Vec<R>: ShaderType + WriteInto,
 {
     /// The jobs' table and this frame's bind group.
     pub jobs: JobBatch<R>,
+    /// The scratch words (`quads.wesl`'s binding 7).
     index_counts: Option<Buffer>,
     /// Each job's index count: its byte offset in `index_counts`, its mesh.
     counts: Vec<(u64, AssetId<Mesh>)>,
@@ -248,7 +287,19 @@ where
             size: group.size,
             members,
         };
-        let bytes = (jobs_in_group * 4) as u64;
+        // Each job's count word; when the jobs are compacted, also each strand's live quads
+        // (`quads.wesl`'s scratch words).
+        let count_bytes = (jobs_in_group * 4) as u64;
+        let strands: u64 = group
+            .members
+            .iter()
+            .map(|((record, _, _), _)| u64::from(record.strands()))
+            .sum();
+        let bytes = if self.counts.is_empty() {
+            count_bytes
+        } else {
+            count_bytes + strands * u64::from(1 + LIVE_WORDS) * 4
+        };
         if self.index_counts.as_ref().is_none_or(|b| b.size() < bytes) {
             self.index_counts = Some(device.create_buffer(&BufferDescriptor {
                 label: Some("hair_gpu_quad_counts"),
@@ -260,7 +311,7 @@ where
         let Some(count_buffer) = self.index_counts.as_ref() else {
             return true;
         };
-        queue.write_buffer(count_buffer, 0, &vec![0; bytes as usize]);
+        queue.write_buffer(count_buffer, 0, &vec![0; count_bytes as usize]);
         self.jobs
             .prepare(&jobs, (device, queue), |header, records, slab| {
                 bind(
@@ -282,6 +333,11 @@ where
                 )
             });
         true
+    }
+
+    /// Whether any job of the batch is drawn by count (the pass's `compact` dispatch runs).
+    pub fn compacts(&self) -> bool {
+        !self.counts.is_empty() && self.jobs.prepared.is_some()
     }
 
     /// Copies the index counts the pass wrote to their meshes (after the pass).

@@ -97,6 +97,11 @@ pub struct HairGpuDispatches {
     pub draw_order: PassDispatches,
     /// The shadow ribbon pass.
     pub shadows: PassDispatches,
+    /// The stroke and highlight passes' second dispatches, which write the triangles of the
+    /// quads that draw something (one a batch drawn by count, [`HairCompactQuads`]).
+    ///
+    /// [`HairCompactQuads`]: super::HairCompactQuads
+    pub compact: PassDispatches,
 }
 
 #[derive(Debug, Default)]
@@ -202,7 +207,7 @@ pub(super) fn report_pass_state(
 
 /// The crate's compute pipelines, by name (render world).
 #[derive(Resource, Clone, Copy)]
-pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 5]);
+pub(super) struct GpuPassIds(pub [(&'static str, CachedComputePipelineId); 7]);
 
 /// Main world: marks the hairs built on the GPU this frame (the CPU mesh stage skips their
 /// vertices), and puts a hair back on the CPU, with [`HairGpuBuildFailed`], when the GPU cannot

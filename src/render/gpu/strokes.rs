@@ -16,10 +16,9 @@ use bevy::render::render_resource::{
 };
 use bevy::render::renderer::{RenderDevice, RenderQueue};
 
-use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadRecord, quad_entries};
+use super::quad_draw::{GpuQuadDraws, QuadBatch, QuadGroup, QuadPipelines, QuadRecord};
 use super::toolbox::{
-    BindingLimits, ComputePass, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers,
-    vertex_offsets,
+    BindingLimits, GpuBatch, HairPlacement, JobRecord, TubeBatchBuffers, vertex_offsets,
 };
 
 use crate::silhouette::GpuStrokeJob;
@@ -158,17 +157,17 @@ pub(crate) fn stroke_input(
     })
 }
 
-/// The stroke pass's pipeline, made in `RenderStartup`.
+/// The stroke pass's pipelines, made in `RenderStartup`.
 #[derive(Resource)]
-pub(crate) struct GpuStrokePipeline(pub ComputePass);
+pub(crate) struct GpuStrokePipeline(pub QuadPipelines);
 
-/// Queues the stroke pass's pipeline.
+/// Queues the stroke pass's pipelines.
 pub(crate) fn init_gpu_stroke_pipeline(
     mut commands: Commands,
     asset_server: Res<AssetServer>,
     pipeline_cache: Res<PipelineCache>,
 ) {
-    let mut entries = BindGroupLayoutEntries::sequential(
+    let entries = BindGroupLayoutEntries::sequential(
         ShaderStages::COMPUTE,
         (
             uniform_buffer::<GpuBatch>(false),
@@ -180,11 +179,10 @@ pub(crate) fn init_gpu_stroke_pipeline(
         ),
     )
     .to_vec();
-    entries.extend(quad_entries());
-    commands.insert_resource(GpuStrokePipeline(ComputePass::queue(
+    commands.insert_resource(GpuStrokePipeline(QuadPipelines::queue(
         &pipeline_cache,
-        "hair_gpu_strokes",
-        &entries,
+        ("hair_gpu_strokes", "hair_gpu_strokes_compact"),
+        entries,
         load_embedded_asset!(asset_server.as_ref(), "strokes.wesl"),
     )));
 }
@@ -242,7 +240,7 @@ pub(crate) fn prepare_stroke_batch(
     batch.prepare(group, render, draws, |header, records, slab, quads| {
         device.create_bind_group(
             "hair_gpu_strokes",
-            &pipeline_cache.get_bind_group_layout(&pipeline.0.layout),
+            &pipeline_cache.get_bind_group_layout(&pipeline.0.build.layout),
             &BindGroupEntries::sequential((
                 header,
                 records,

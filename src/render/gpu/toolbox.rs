@@ -47,6 +47,7 @@ pub fn shader_defs() -> Vec<ShaderDefVal> {
         uint("MAX_SIDES", MAX_SIDES as u32),
         uint("NO_DRAW", super::quad_draw::NO_DRAW),
         uint("RESTORE_DRAW", super::quad_draw::RESTORE_DRAW),
+        uint("LIVE_WORDS", super::quad_draw::LIVE_WORDS),
         uint("SHADOW_RING_STEP", SHADOW_RING_STEP as u32),
     ]
 }
@@ -92,16 +93,37 @@ impl ComputePass {
         shader: Handle<Shader>,
     ) -> Self {
         let layout = BindGroupLayoutDescriptor::new(name, entries);
-        let pipeline = pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
-            label: Some(name.into()),
-            layout: vec![layout.clone()],
-            shader,
-            shader_defs: shader_defs(),
-            entry_point: Some("build".into()),
-            ..default()
-        });
+        let pipeline = queue_entry(pipeline_cache, name, &layout, shader, "build");
         Self { layout, pipeline }
     }
+
+    /// Queues another entry point of the pass's shader, `entry`, with the same bind group.
+    pub fn queue_entry(
+        &self,
+        pipeline_cache: &PipelineCache,
+        name: &'static str,
+        shader: Handle<Shader>,
+        entry: &'static str,
+    ) -> CachedComputePipelineId {
+        queue_entry(pipeline_cache, name, &self.layout, shader, entry)
+    }
+}
+
+fn queue_entry(
+    pipeline_cache: &PipelineCache,
+    name: &'static str,
+    layout: &BindGroupLayoutDescriptor,
+    shader: Handle<Shader>,
+    entry: &'static str,
+) -> CachedComputePipelineId {
+    pipeline_cache.queue_compute_pipeline(ComputePipelineDescriptor {
+        label: Some(name.into()),
+        layout: vec![layout.clone()],
+        shader,
+        shader_defs: shader_defs(),
+        entry_point: Some(entry.into()),
+        ..default()
+    })
 }
 
 /// The bindings of a [`ComputePass::queue_read_write`] pass: the batch header, its job
@@ -508,6 +530,7 @@ mod tests {
             ("QUAD_VERTICES", 4),
             ("MAX_RINGS", 256),
             ("MAX_SIDES", 64),
+            ("LIVE_WORDS", 20),
         ] {
             assert!(
                 defs.iter()
