@@ -31,6 +31,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         gpu_built_strokes_draw_only_the_quads_that_ink,
     ),
     (
+        "strokes_of_several_hairs_drawn_by_count_keep_every_strands_place",
+        strokes_of_several_hairs_drawn_by_count_keep_every_strands_place,
+    ),
+    (
         "gpu_built_highlights_shine_where_the_cpus_do",
         gpu_built_highlights_shine_where_the_cpus_do,
     ),
@@ -414,6 +418,83 @@ fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
         return Err(format!(
             "drawn by count, the strokes differ from the whole mesh in {reordered} pixels: \
              their triangles are not in the groom's order"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// The 240 spiky strands as three hairs of 100, 100 and 40 strands in one batch (their jobs
+/// begin inside the pass's workgroups of 64, so a strand's place among its mesh's triangles
+/// sums its job's strands in earlier workgroups and in its own): drawn by count, in one
+/// compaction dispatch, they draw under 90% of their meshes' triangles and the same picture to
+/// the bit as their whole meshes.
+fn strokes_of_several_hairs_drawn_by_count_keep_every_strands_place() -> Result<(), Failed> {
+    use bevy_cartoon_hair::render::{HairCompactQuads, HairGpuPasses};
+    const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
+    let mut r = silhouette_scene()?;
+    r.app
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
+        .insert_resource(HairCompactQuads(true))
+        .insert_resource(HairMeshBuilder::Gpu);
+    let spawn = |r: &mut bevy_cartoon_hair::headless::HeadlessRenderer, strands| {
+        let hair = spawn_still_hair(
+            r.app.world_mut(),
+            strands,
+            ToonHairMaterial::default(),
+            HairMeshSettings {
+                radius: 0.03,
+                ..default()
+            },
+        );
+        r.app
+            .world_mut()
+            .entity_mut(hair)
+            .insert(SilhouetteSettings {
+                color: Color::BLACK,
+                scope: StrokeScope::Strands,
+                ..default()
+            });
+        hair
+    };
+    let all = spikes();
+    let three: Vec<Entity> = [0..100, 100..200, 200..240]
+        .into_iter()
+        .map(|range| spawn(&mut r, all[range].to_vec()))
+        .collect();
+    let by_count = r.capture()?;
+    save(&by_count, "gpu_strokes_three_hairs_by_count")?;
+    let three_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    let built = r.app.world().resource::<HairGpuPasses>().dispatches();
+    if let Some(&hair) = three
+        .iter()
+        .find(|&&h| !r.app.world().entity(h).contains::<HairMeshBuiltOnGpu>())
+    {
+        return Err(format!("hair {hair} was not built on the GPU").into());
+    }
+    r.app.insert_resource(HairCompactQuads(false));
+    let whole = r.capture()?;
+    let whole_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+    let apart = differing(&by_count, &whole, 0);
+    eprintln!(
+        "three hairs: {three_drawn:.0} stroke triangles drawn by count ({} compaction \
+         dispatches, {} strands), {whole_drawn:.0} whole; {apart} px apart",
+        built.compact.dispatches, built.compact.invocations
+    );
+    if three_drawn < 1000.0 || three_drawn >= 0.9 * whole_drawn {
+        return Err(format!("{three_drawn} triangles by count of {whole_drawn}").into());
+    }
+    if (built.compact.dispatches, built.compact.invocations) != (1, 240) {
+        return Err(format!(
+            "{} compaction dispatches of {} strands, not one of 240",
+            built.compact.dispatches, built.compact.invocations
+        )
+        .into());
+    }
+    if apart > 0 {
+        return Err(format!(
+            "drawn by count, the three hairs' strokes differ from their whole meshes in {apart} \
+             pixels"
         )
         .into());
     }
