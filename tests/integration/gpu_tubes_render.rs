@@ -317,6 +317,25 @@ fn settled_diagnostic(
     Ok(sum / 3.0)
 }
 
+/// A still hair of `strands` 3 cm thick with every strand's outline in black.
+fn spawn_outlined(world: &mut World, strands: Vec<Vec<Vec3>>) -> Entity {
+    let hair = spawn_still_hair(
+        world,
+        strands,
+        ToonHairMaterial::default(),
+        HairMeshSettings {
+            radius: 0.03,
+            ..default()
+        },
+    );
+    world.entity_mut(hair).insert(SilhouetteSettings {
+        color: Color::BLACK,
+        scope: StrokeScope::Strands,
+        ..default()
+    });
+    hair
+}
+
 /// Every strand's outline of a hair of 240 spiky strands, seen from the front (many strands
 /// end on, many rim edges no silhouette): the GPU's stroke mesh holds a quad for every ring
 /// segment of both contours and every rim edge, but the main pass draws only the triangles of
@@ -331,23 +350,7 @@ fn gpu_built_strokes_draw_only_the_quads_that_ink() -> Result<(), Failed> {
     r.app
         .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
         .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(true));
-    let hair = spawn_still_hair(
-        r.app.world_mut(),
-        spikes(),
-        ToonHairMaterial::default(),
-        HairMeshSettings {
-            radius: 0.03,
-            ..default()
-        },
-    );
-    r.app
-        .world_mut()
-        .entity_mut(hair)
-        .insert(SilhouetteSettings {
-            color: Color::BLACK,
-            scope: StrokeScope::Strands,
-            ..default()
-        });
+    let hair = spawn_outlined(r.app.world_mut(), spikes());
     r.app.insert_resource(HairMeshBuilder::Cpu);
     let cpu = r.capture()?;
     let cpu_drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
@@ -437,30 +440,10 @@ fn strokes_of_several_hairs_drawn_by_count_keep_every_strands_place() -> Result<
         .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
         .insert_resource(HairCompactQuads(true))
         .insert_resource(HairMeshBuilder::Gpu);
-    let spawn = |r: &mut bevy_cartoon_hair::headless::HeadlessRenderer, strands| {
-        let hair = spawn_still_hair(
-            r.app.world_mut(),
-            strands,
-            ToonHairMaterial::default(),
-            HairMeshSettings {
-                radius: 0.03,
-                ..default()
-            },
-        );
-        r.app
-            .world_mut()
-            .entity_mut(hair)
-            .insert(SilhouetteSettings {
-                color: Color::BLACK,
-                scope: StrokeScope::Strands,
-                ..default()
-            });
-        hair
-    };
     let all = spikes();
     let three: Vec<Entity> = [0..100, 100..200, 200..240]
         .into_iter()
-        .map(|range| spawn(&mut r, all[range].to_vec()))
+        .map(|range| spawn_outlined(r.app.world_mut(), all[range].to_vec()))
         .collect();
     let by_count = r.capture()?;
     save(&by_count, "gpu_strokes_three_hairs_by_count")?;
