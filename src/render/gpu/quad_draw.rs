@@ -112,7 +112,7 @@ impl QuadPipelines {
 const DRAW_BYTES: u64 = 20;
 
 /// The bindings a quad pass adds to its layout (`quads.wesl`): the meshes' indices (6) and the
-/// batch's index counts (7), both written.
+/// batch's scratch words (7: each job's index count, then each strand's live quads), both written.
 pub(crate) fn quad_entries() -> [BindGroupLayoutEntry; 2] {
     [6, 7].map(|b| storage_buffer_sized(false, None).build(b, ShaderStages::COMPUTE))
 }
