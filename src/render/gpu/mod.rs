@@ -548,6 +548,22 @@ fn prepare_order_batches(
 /// Vertices after each strand's rings in a tube mesh.
 const CAP_VERTICES: u32 = crate::mesh::tube::CAP_VERTICES as u32;
 
+/// Dispatches each batch of `list` with the pass's pipeline, counted into `count`.
+fn dispatch_batches(
+    pass: &mut bevy::render::render_resource::ComputePass,
+    list: &[&PreparedBatch],
+    count: &mut PassDispatches,
+    max_per_dimension: u32,
+) {
+    for batch in list {
+        pass.set_bind_group(0, &batch.bind_group, &[]);
+        if dispatch(pass, batch.invocations, max_per_dimension) {
+            count.dispatches += 1;
+            count.invocations += batch.invocations;
+        }
+    }
+}
+
 /// Runs the tube pass over every batch, then the stroke, highlight, draw-order and shadow
 /// passes, before any camera or light draws: five compute passes of one dispatch a batch, each timed by `RenderDiagnosticsPlugin`
 /// where a game adds it (`render/hair_gpu_tubes/elapsed_gpu` and its pipeline statistics). The
@@ -663,24 +679,12 @@ fn build_gpu_batches(
                 });
         let span = diagnostics.pass_span(&mut pass, name);
         pass.set_pipeline(compute);
-        for batch in list {
-            pass.set_bind_group(0, &batch.bind_group, &[]);
-            if dispatch(&mut pass, batch.invocations, max_per_dimension) {
-                count.dispatches += 1;
-                count.invocations += batch.invocations;
-            }
-        }
+        dispatch_batches(&mut pass, &list, count, max_per_dimension);
         if let Some(compact) = compact_id.and_then(|id| pipeline_cache.get_compute_pipeline(id))
             && !compact_list.is_empty()
         {
             pass.set_pipeline(compact);
-            for batch in compact_list {
-                pass.set_bind_group(0, &batch.bind_group, &[]);
-                if dispatch(&mut pass, batch.invocations, max_per_dimension) {
-                    compact_count.dispatches += 1;
-                    compact_count.invocations += batch.invocations;
-                }
-            }
+            dispatch_batches(&mut pass, &compact_list, compact_count, max_per_dimension);
         }
         span.end(&mut pass);
     }

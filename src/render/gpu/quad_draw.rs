@@ -200,6 +200,8 @@ where
     index_counts: Option<Buffer>,
     /// Each job's index count: its byte offset in `index_counts`, its mesh.
     counts: Vec<(u64, AssetId<Mesh>)>,
+    /// Zeros to clear the counts with, kept between frames.
+    zeros: Vec<u8>,
 }
 
 impl<R> Default for QuadBatch<R>
@@ -211,6 +213,7 @@ where
             jobs: JobBatch::default(),
             index_counts: None,
             counts: Vec::new(),
+            zeros: Vec::new(),
         }
     }
 }
@@ -311,7 +314,8 @@ where
         let Some(count_buffer) = self.index_counts.as_ref() else {
             return true;
         };
-        queue.write_buffer(count_buffer, 0, &vec![0; count_bytes as usize]);
+        self.zeros.resize(count_bytes as usize, 0);
+        queue.write_buffer(count_buffer, 0, &self.zeros);
         self.jobs
             .prepare(&jobs, (device, queue), |header, records, slab| {
                 bind(
@@ -335,9 +339,9 @@ where
         true
     }
 
-    /// Whether any job of the batch is drawn by count (the pass's `compact` dispatch runs).
+    /// Whether the batch's jobs are drawn by count (the pass's `compact` dispatch runs).
     pub fn compacts(&self) -> bool {
-        !self.counts.is_empty() && self.jobs.prepared.is_some()
+        !self.counts.is_empty()
     }
 
     /// Copies the index counts the pass wrote to their meshes (after the pass).
