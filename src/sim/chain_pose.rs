@@ -3,12 +3,19 @@
 //! joint's angle limit), and its local and global transforms written so Bevy's skinning draws
 //! this frame's pose.
 //!
-//! Two passes: the poses are worked out hair by hair on every core (each hair reads its own
-//! solver state and the joints' bind transforms), then written to the joints in one pass.
+//! Two passes, each on every core: the poses are worked out hair by hair (each hair reads its
+//! own solver state and the joints' bind transforms), then written joint by joint.
+//!
+//! Bevy's transform propagation does not visit most of the joints a hair poses (those its
+//! hair's build took over: see `chains::owned_from`), since every frame it would compute world
+//! transforms that posing replaces. So posing writes every joint each frame (a chain it cannot
+//! pose follows its bind pose) and propagates whatever hangs below a joint that is not a joint.
 
 use bevy::ecs::batching::BatchingStrategy;
-use bevy::math::{Affine3A, Vec3A};
+use bevy::math::{Affine3A, Mat3A, Vec3A};
 use bevy::prelude::*;
+use bevy::transform::components::TransformTreeChanged;
+use bevy::utils::Parallel;
 
 use super::attach::ComputedHair;
 use super::chains::BoneChainHair;
@@ -26,6 +33,18 @@ pub(crate) struct ChainPose {
     near: Vec<NearShape>,
     /// The particles of the chain being posed.
     particles: Vec<Vec3>,
+}
+
+/// Entities below posed joints that are not joints themselves, with their parent's world
+/// transform this frame: propagated after posing.
+#[derive(Default)]
+pub(crate) struct Below(Parallel<Vec<(Affine3A, Entity)>>);
+
+/// On a joint a bone-chain hair poses: the hair, and the joint's slot in its poses.
+#[derive(Component, Clone, Copy, Debug)]
+pub(crate) struct ChainJoint {
+    pub(crate) hair: Entity,
+    pub(crate) slot: u32,
 }
 
 /// A collider shape near a hair: the shape, whether it keeps particles inside, and where a
@@ -47,7 +66,8 @@ const HAIRS_PER_TASK: usize = 4;
 /// Turns each chain's joints, root to tip, so each points at its next particle (its child, at
 /// the bone's length, kept off the hair's colliders and inside the joint's angle limit, if it
 /// has one: [`ChainJointLimits`](super::ChainJointLimits); the particle follows), and writes
-/// their local and global transforms (the skinned mesh is drawn from these this frame).
+/// their local and global transforms (the skinned mesh is drawn from these this frame), then the
+/// global transforms of what hangs below them.
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -56,16 +76,33 @@ pub(crate) fn pose_bone_chains(
     mut hairs: Query<(
         &BoneChainHair,
         &GlobalTransform,
-        &mut ComputedHair,
+        Option<&mut ComputedHair>,
         &mut ChainPose,
         (&HairSimSettings, Option<&HairCollidesOnly>),
     )>,
-    mut joints: Query<
-        (&mut Transform, &mut GlobalTransform),
-        (Without<BoneChainHair>, Without<HairCollider>),
-    >,
-    colliders: Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
-    mut frame: Local<FrameShapes>,
+    mut nodes: ParamSet<(
+        Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
+        Query<
+            (
+                &mut Transform,
+                &mut GlobalTransform,
+                Option<&Children>,
+                Has<TransformTreeChanged>,
+            ),
+            Without<BoneChainHair>,
+        >,
+        Query<
+            (
+                Entity,
+                &ChainJoint,
+                &mut Transform,
+                &mut GlobalTransform,
+                Option<&Children>,
+            ),
+            Without<BoneChainHair>,
+        >,
+    )>,
+    (mut frame, mut below): (Local<FrameShapes>, Local<Below>),
 ) {
     if hairs.is_empty() {
         return;
@@ -76,7 +113,7 @@ pub(crate) fn pose_bone_chains(
     let frame = &mut *frame;
     frame.colliders.clear();
     frame.shapes.clear();
-    for (e, collider, g) in &colliders {
+    for (e, collider, g) in &nodes.p0() {
         let pose = g.affine();
         let inside = collider.inside();
         let first = frame.shapes.len();
@@ -96,37 +133,84 @@ pub(crate) fn pose_bone_chains(
     }
     // Each hair's poses, on every core.
     let frame = &*frame;
-    let bind = &joints;
+    let bind = &nodes.p1();
     hairs
         .par_iter_mut()
         .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
         .for_each(
-            |(driven, hair_world, mut computed, mut pose, (settings, only))| {
+            |(driven, hair_world, computed, mut pose, (settings, only))| {
                 let pose = &mut *pose;
-                pose.posed.clear();
-                let margin = settings.margins().0 * computed.size;
-                gather_near(frame, &computed, only, margin, &mut pose.near);
+                let computed = computed.map(Mut::into_inner);
+                let margin = computed
+                    .as_deref()
+                    .map_or(0.0, |c| settings.margins().0 * c.size);
+                match computed.as_deref() {
+                    Some(c) => gather_near(frame, c, only, margin, &mut pose.near),
+                    None => pose.near.clear(),
+                }
                 pose_hair(
                     driven,
                     hair_world,
-                    &mut computed,
+                    computed,
                     &pose.near,
                     margin,
                     (&mut pose.posed, &mut pose.particles),
-                    &|e| bind.get(e).ok().map(|(t, _)| *t),
+                    &|e| bind.get(e).ok().map(|(t, ..)| *t),
                 );
             },
         );
-    // Written in one pass. The world transform is written here, so the local rotation is
-    // stored without flagging the joint changed: Bevy's propagation would otherwise walk every
-    // joint's ancestors next frame to recompute what is already there (it still recomputes
-    // them when something above them moves, from the rotation stored here).
-    for (_, _, _, pose, _) in &hairs {
-        for &(joint, rotation, world) in &pose.posed {
-            if let Ok((mut local, mut global)) = joints.get_mut(joint) {
-                local.bypass_change_detection().rotation = rotation;
-                *global = GlobalTransform::from(world);
+    // Written joint by joint on every core. The world transform is written here, so the local
+    // rotation is stored without flagging the joint changed: Bevy's propagation would otherwise
+    // walk every joint's ancestors next frame to recompute what is already there.
+    let hairs = &hairs;
+    nodes.p2().par_iter_mut().for_each_init(
+        || (below.0.borrow_local_mut(), None),
+        |(below, last), (joint, of, mut local, mut global, children)| {
+            // A hair's joints mostly come one after another: its poses are looked up once.
+            let poses: &[(Entity, Quat, Affine3A)] = match *last {
+                Some((hair, poses)) if hair == of.hair => poses,
+                _ => {
+                    let Ok((_, _, _, pose, _)) = hairs.get(of.hair) else {
+                        return;
+                    };
+                    *last = Some((of.hair, &pose.posed[..]));
+                    &pose.posed
+                }
+            };
+            let slot = of.slot as usize;
+            let Some(&(posed, rotation, world)) = poses.get(slot) else {
+                return;
+            };
+            if posed != joint {
+                return;
             }
+            local.bypass_change_detection().rotation = rotation;
+            *global = GlobalTransform::from(world);
+            // A chain's next joint is posed with it; anything else below is propagated.
+            let next = poses.get(slot + 1).map(|p| p.0);
+            for &c in children.map_or(&[][..], |c| &c[..]) {
+                if Some(c) != next {
+                    below.push((world, c));
+                }
+            }
+        },
+    );
+    let mut nodes = nodes.p1();
+    let mut below: Vec<_> = below.0.drain().collect();
+    // What hangs below the joints (an end bone, an accessory), depth first. A posed joint of
+    // another chain (one Bevy's propagation skips) is its own hair's; a hair entity is left to
+    // Bevy's propagation next frame.
+    while let Some((parent, entity)) = below.pop() {
+        let Ok((local, mut global, children, propagated)) = nodes.get_mut(entity) else {
+            continue;
+        };
+        if !propagated {
+            continue;
+        }
+        let world = parent * local.compute_affine();
+        *global = GlobalTransform::from(world);
+        for &c in children.map_or(&[][..], |c| &c[..]) {
+            below.push((world, c));
         }
     }
 }
@@ -183,13 +267,30 @@ fn gather_near(
     }
 }
 
-/// One hair's joint poses into `posed`, root to tip, chain by chain; particles the pose moves
-/// (off a collider, into a limit) are moved in `computed` too. `bind` gives a joint's local
-/// transform now (its rotation is replaced; translation and scale are kept).
+/// A chain being posed: where it is along its joints.
+struct ChainCursor {
+    /// The chain (strand) index.
+    strand: usize,
+    /// The last joint posed: its world transform and world rotation.
+    parent: Affine3A,
+    parent_rotation: Quat,
+    /// Posed from its particles (else it follows its bind pose).
+    simulated: bool,
+    /// The last joint's world transform is a rotation times a uniform scale, `scale`.
+    uniform: bool,
+    scale: f32,
+}
+
+/// One hair's joint poses into `posed`, one slot per joint, chain by chain (a joint not posed
+/// keeps [`Entity::PLACEHOLDER`]); particles the pose moves (off a collider, into a limit) are
+/// moved in `computed` too. `bind` gives a joint's local transform now (its rotation is
+/// replaced; translation and scale are kept). A chain without usable particles (not built yet,
+/// non-finite) follows its parent in its bind pose from the joint where posing stops: every
+/// joint is posed, since Bevy's propagation does not visit them.
 fn pose_hair(
     driven: &BoneChainHair,
     hair_world: &GlobalTransform,
-    computed: &mut ComputedHair,
+    mut computed: Option<&mut ComputedHair>,
     near: &[NearShape],
     margin: f32,
     (posed, particles): (&mut Vec<(Entity, Quat, Affine3A)>, &mut Vec<Vec3>),
@@ -201,81 +302,164 @@ fn pose_hair(
     let (scale, hair_rotation, _) = hair.to_scale_rotation_translation();
     let uniform = scale.min_element() > 0.0
         && (scale.max_element() - scale.min_element()) <= 1e-4 * scale.max_element();
+    let total = driven.joints.iter().map(Vec::len).sum();
+    posed.clear();
+    posed.resize(
+        total,
+        (Entity::PLACEHOLDER, Quat::IDENTITY, Affine3A::IDENTITY),
+    );
+    let mut slot = 0;
     for (s, chain) in driven.joints.iter().enumerate() {
-        let (Some(rest), Some(tail)) = (driven.rest.get(s), driven.tail.get(s)) else {
-            continue;
-        };
         let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
         let expected = chain.len() + usize::from(!tail_joint);
-        if s >= computed.lane_of.len() || computed.particle_count(s) != expected {
-            continue;
-        }
         // The chain's particles, read once (the solver's lanes are strided in memory).
         particles.clear();
-        particles.extend((0..expected).map(|i| computed.particle(s, i)));
-        if !particles.iter().all(|p| p.is_finite()) {
-            continue;
-        }
-        let limits = driven.limits.get(s).map_or(&[][..], Vec::as_slice);
-        // The hair hangs on the chains' parent bone with an identity transform.
-        let (mut parent, mut parent_rotation) = (hair, hair_rotation);
+        let simulated = match computed.as_deref() {
+            Some(c)
+                if driven.rest.get(s).is_some()
+                    && driven.tail.get(s).is_some()
+                    && c.particle_count(s) == expected =>
+            {
+                particles.extend((0..expected).map(|i| c.particle(s, i)));
+                particles.iter().all(|p| p.is_finite())
+            }
+            _ => false,
+        };
+        let mut cursor = ChainCursor {
+            strand: s,
+            // The hair hangs on the chains' parent bone with an identity transform.
+            parent: hair,
+            parent_rotation: hair_rotation,
+            simulated,
+            uniform,
+            scale: scale.x,
+        };
         for (k, &joint) in chain.iter().enumerate() {
             let Some(local) = bind(joint) else {
                 break;
             };
-            let rest_rotation = rest[k].rotation;
-            if !uniform {
-                parent_rotation = parent.to_scale_rotation_translation().1;
-            }
+            let (rotation, world) = pose_joint(
+                driven,
+                &mut cursor,
+                (k, &local),
+                computed.as_deref_mut(),
+                (near, margin, particles),
+            );
+            posed[slot + k] = (joint, rotation, world);
+        }
+        slot += chain.len();
+    }
+}
 
-            if tail_joint && k + 1 == chain.len() {
-                // The tail joint follows the turned chain, unturned.
-                posed.push((joint, local.rotation, parent * local.compute_affine()));
-                break;
-            }
-            let origin = parent.transform_point3(local.translation);
-            let at_rest_rotation = parent_rotation * rest_rotation;
-            let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
-            let from = parent
-                .matrix3
-                .mul_vec3(rest_rotation * (local.scale * child));
-            let mut to = particles[k + 1] - origin;
-            // The posed child sits at its bone's length: keep it off the colliders the particle
-            // was kept off (a collider can hold a particle nearer than a bone).
-            if let Some(kept) = keep_off(near, origin, to, from, margin) {
-                computed.set_particle(s, k + 1, origin + kept);
-                to = kept;
-            }
-            if let Some(Some(limit)) = limits.get(k) {
-                let frame = limit_frame(at_rest_rotation, child, limit);
-                let limited = limit_offset(frame, limit, to);
-                if limited != to {
-                    // The simulation goes on from the limited joint, as VRM's step does.
-                    computed.set_particle(s, k + 1, origin + limited);
-                    to = limited;
-                }
-            }
-            let (rotation, world_rotation) = match (from.try_normalize(), to.try_normalize()) {
-                (Some(a), Some(b)) => {
-                    let world = (Quat::from_rotation_arc(a, b) * at_rest_rotation).normalize();
-                    ((parent_rotation.inverse() * world).normalize(), world)
-                }
-                _ => (rest_rotation, at_rest_rotation),
-            };
-            if !rotation.is_finite() {
-                break;
-            }
-            let world = parent
-                * Affine3A::from_scale_rotation_translation(
-                    local.scale,
-                    rotation,
-                    local.translation,
-                );
-            posed.push((joint, rotation, world));
-            parent = world;
-            parent_rotation = world_rotation;
+/// Joint `k` of the chain at `cursor`, whose local transform now is `local`: its local
+/// rotation and world transform, turned to point at its next particle (see [`pose_hair`]), or
+/// in its bind pose when the chain is not simulated (or this is its tail joint). Moves the
+/// cursor on.
+fn pose_joint(
+    driven: &BoneChainHair,
+    cursor: &mut ChainCursor,
+    (k, local): (usize, &Transform),
+    computed: Option<&mut ComputedHair>,
+    (near, margin, particles): (&[NearShape], f32, &[Vec3]),
+) -> (Quat, Affine3A) {
+    let s = cursor.strand;
+    let chain_len = driven.joints[s].len();
+    // The tail joint follows the turned chain, unturned.
+    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+    cursor.simulated &= !(tail_joint && k + 1 == chain_len);
+    let (Some(rest), Some(tail), Some(computed), true) = (
+        driven.rest.get(s),
+        driven.tail.get(s),
+        computed,
+        cursor.simulated,
+    ) else {
+        cursor.parent *= local.compute_affine();
+        let scale = local.scale;
+        cursor.uniform &= scale.x == scale.y && scale.x == scale.z;
+        cursor.scale *= scale.x;
+        cursor.parent_rotation = if cursor.uniform {
+            (cursor.parent_rotation * local.rotation).normalize()
+        } else {
+            cursor.parent.to_scale_rotation_translation().1
+        };
+        return (local.rotation, cursor.parent);
+    };
+    let parent = cursor.parent;
+    let parent_rotation = if cursor.uniform {
+        cursor.parent_rotation
+    } else {
+        parent.to_scale_rotation_translation().1
+    };
+    let rest_rotation = rest[k].rotation;
+    let origin = parent.transform_point3(local.translation);
+    let at_rest_rotation = parent_rotation * rest_rotation;
+    let child = rest.get(k + 1).map_or(*tail, |t| t.translation);
+    let from = parent
+        .matrix3
+        .mul_vec3(rest_rotation * (local.scale * child));
+    let mut to = particles[k + 1] - origin;
+    // The posed child sits at its bone's length: keep it off the colliders the particle was
+    // kept off (a collider can hold a particle nearer than a bone).
+    if let Some(kept) = keep_off(near, origin, to, from, margin) {
+        computed.set_particle(s, k + 1, origin + kept);
+        to = kept;
+    }
+    let limits = driven.limits.get(s).map_or(&[][..], Vec::as_slice);
+    if let Some(Some(limit)) = limits.get(k) {
+        let frame = limit_frame(at_rest_rotation, child, limit);
+        let limited = limit_offset(frame, limit, to);
+        if limited != to {
+            // The simulation goes on from the limited joint, as VRM's step does.
+            computed.set_particle(s, k + 1, origin + limited);
+            to = limited;
         }
     }
+    let (mut rotation, mut world_rotation) = match shortest_arc(from, to) {
+        Some(arc) => {
+            let world = (arc * at_rest_rotation).normalize();
+            ((parent_rotation.inverse() * world).normalize(), world)
+        }
+        None => (rest_rotation, at_rest_rotation),
+    };
+    if !rotation.is_finite() {
+        // From here the chain keeps its bind pose.
+        cursor.simulated = false;
+        (rotation, world_rotation) = (local.rotation, parent_rotation * local.rotation);
+    }
+    let scale = local.scale;
+    cursor.parent = if cursor.uniform && scale.x == scale.y && scale.x == scale.z {
+        // A rotation times a uniform scale: the world rotation is at hand.
+        cursor.scale *= scale.x;
+        Affine3A {
+            matrix3: Mat3A::from_quat(world_rotation) * cursor.scale,
+            translation: origin.into(),
+        }
+    } else {
+        cursor.uniform = false;
+        parent * Affine3A::from_scale_rotation_translation(scale, rotation, local.translation)
+    };
+    cursor.parent_rotation = world_rotation;
+    (rotation, cursor.parent)
+}
+
+/// The shortest turn taking the direction of `from` to that of `to` (neither need be of unit
+/// length); `None` when either has no direction.
+#[inline]
+fn shortest_arc(from: Vec3, to: Vec3) -> Option<Quat> {
+    let norms = (from.length_squared() * to.length_squared()).sqrt();
+    if !(norms > 0.0 && norms.is_finite()) {
+        return None;
+    }
+    let w = norms + from.dot(to);
+    if w <= 1e-6 * norms {
+        // Opposite directions: any half turn about an axis across them.
+        return Some(Quat::from_rotation_arc(
+            from / from.length(),
+            to / to.length(),
+        ));
+    }
+    let c = from.cross(to);
+    Some(Quat::from_xyzw(c.x, c.y, c.z, w).normalize())
 }
 
 /// Rounds of [`keep_off`]: each turns the child onto the margin of a collider it is within

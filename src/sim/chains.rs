@@ -14,14 +14,15 @@
 //! particle; the bind pose is the style the chains return to.
 
 use bevy::prelude::*;
+use bevy::transform::components::TransformTreeChanged;
 use bevy::transform::helper::TransformHelper;
 use bevy::world_serialization::WorldAssetRoot;
 
 use super::attach::Hair;
 use super::attach_work::AttachWork;
 use super::bone::{BonePredicate, CharacterSpawned, names_under};
-use super::chain_pose::ChainPose;
-use super::collider::HairCollidesOnly;
+use super::chain_pose::{ChainJoint, ChainPose};
+use super::collider::{HairCollider, HairCollidesOnly};
 use super::events::BoneNotFound;
 use super::limits::ChainJointLimits;
 use super::settings::{HairInertiaFrame, HairSimSettings};
@@ -123,6 +124,9 @@ pub struct BoneChainHair {
     /// Per strand: each joint's angle limit ([`ChainJointLimits`]), if any; empty for a chain
     /// without limits (posing it reads nothing here).
     pub(super) limits: Vec<Vec<Option<JointLimit>>>,
+    /// The joints whose world transforms posing alone writes (Bevy's propagation skips them):
+    /// given back to Bevy when this component goes.
+    pub(super) taken: Vec<Entity>,
 }
 
 /// A chain found under the character: the bone it hangs from and its joints, root first.
@@ -217,6 +221,7 @@ pub(crate) fn build_bone_chains(
     parents: Query<&ChildOf>,
     locals: Query<&Transform>,
     roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
+    plain: Query<(), PlainLeaf>,
     helper: TransformHelper,
     (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
 ) {
@@ -303,6 +308,7 @@ pub(crate) fn build_bone_chains(
                 tail: Vec::new(),
                 tail_joint: Vec::new(),
                 limits: Vec::new(),
+                taken: Vec::new(),
             };
             for chain in found {
                 let Some(built) = chain_strand(&chain, chains.tail, &helper, &locals) else {
@@ -333,6 +339,8 @@ pub(crate) fn build_bone_chains(
                     } else {
                         Vec::new()
                     });
+                let own = owned_from(&chain.joints, &children, &plain);
+                driven.taken.extend_from_slice(&chain.joints[own..]);
                 driven.joints.push(chain.joints);
                 driven.rest.push(rest);
                 driven.tail.push(tail);
@@ -344,6 +352,8 @@ pub(crate) fn build_bone_chains(
                     continue;
                 }
             };
+            let taken = driven.taken.clone();
+            let joints: Vec<Entity> = driven.joints.iter().flatten().copied().collect();
             let name = names
                 .get(parent)
                 .map_or(String::new(), |n| n.as_str().to_owned());
@@ -368,10 +378,81 @@ pub(crate) fn build_bone_chains(
             if let Some(inertia) = inertia {
                 hair.insert(*inertia);
             }
-            hairs.push(hair.id());
+            let hair = hair.id();
+            hairs.push(hair);
+            for (slot, &joint) in joints.iter().enumerate() {
+                commands.entity(joint).insert(ChainJoint {
+                    hair,
+                    slot: slot as u32,
+                });
+            }
+            for &joint in &taken {
+                commands.entity(joint).remove::<TransformTreeChanged>();
+            }
         }
         commands.entity(set).insert(BoneChainHairs(hairs));
     }
+}
+
+/// An entity below a joint that posing may propagate: no children, not a hair, not a collider.
+type PlainLeaf = (Without<Children>, Without<Hair>, Without<HairCollider>);
+
+/// Where the joints of a chain that its hair takes from Bevy's transform propagation begin:
+/// the longest run at its tip whose joints have nothing below them but the next joint and
+/// plain leaves (an end bone, an accessory: no children, not a hair, not a collider), which
+/// posing propagates. A joint with more below it (a branch chain, a hair, a collider) stays
+/// with Bevy, and so do the joints above it.
+fn owned_from(
+    joints: &[Entity],
+    children: &Query<&Children>,
+    plain: &Query<(), PlainLeaf>,
+) -> usize {
+    let mut from = joints.len();
+    while from > 0 {
+        let next = joints.get(from);
+        let below_is_ours = children.get(joints[from - 1]).map_or(true, |c| {
+            c.iter().all(|e| Some(&e) == next || plain.contains(e))
+        });
+        if !below_is_ours {
+            break;
+        }
+        from -= 1;
+    }
+    from
+}
+
+/// Gives the joints of a bone-chain hair that goes back to Bevy's transform propagation.
+pub(crate) fn release_joints(
+    remove: On<Remove<BoneChainHair>>,
+    hairs: Query<&BoneChainHair>,
+    mut commands: Commands,
+) {
+    let Ok(driven) = hairs.get(remove.entity) else {
+        return;
+    };
+    let (hair, taken) = (remove.entity, driven.taken.clone());
+    for &joint in driven.joints.iter().flatten() {
+        // Unless another hair has posed it since.
+        commands
+            .entity(joint)
+            .queue_silenced(move |mut entity: EntityWorldMut| {
+                if entity.get::<ChainJoint>().is_some_and(|j| j.hair == hair) {
+                    entity.remove::<ChainJoint>();
+                }
+            });
+    }
+    commands.queue(move |world: &mut World| {
+        for joint in taken {
+            let Ok(mut entity) = world.get_entity_mut(joint) else {
+                continue;
+            };
+            if let Some(mut local) = entity.get_mut::<Transform>() {
+                // Changed, so propagation reaches it from its root.
+                local.set_changed();
+                entity.insert(TransformTreeChanged);
+            }
+        }
+    });
 }
 
 /// A chain's particles in world space (its joints and the tail), its joints' local bind

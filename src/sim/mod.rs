@@ -128,6 +128,7 @@ impl Plugin for HairSimulationPlugin {
             .register_type::<HairInertiaFrame>()
             .register_type::<VrmSpringChains>()
             .add_observer(attach::detach_hair)
+            .add_observer(chains::release_joints)
             .add_observer(bone::mark_spawned_characters)
             .add_systems(
                 PostUpdate,

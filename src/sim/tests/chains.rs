@@ -533,3 +533,104 @@ fn a_teleported_character_carries_its_chains_without_a_whip() {
         "the teleport moved the chains {whip} m on the head"
     );
 }
+
+/// Bevy's transform propagation skips the joints a chain hair poses. What hangs below a posed
+/// joint (a clip on a tip, a ribbon with its own child) still follows it every frame, a joint
+/// with more than a leaf below it stays with Bevy (and so do the joints above it), every
+/// joint's world transform is its parent's times its local one, and once the hair goes the
+/// joints are Bevy's again.
+#[test]
+fn what_hangs_below_posed_joints_follows_them_and_the_joints_go_back_to_bevy() {
+    use bevy::transform::components::TransformTreeChanged;
+    let (mut app, root, joints) = chains_app(soft(), Transform::default(), 1.0);
+    let world = app.world_mut();
+    let offset = Transform::from_xyz(0.0, -0.01, 0.004).with_rotation(Quat::from_rotation_x(0.3));
+    let clip = world.spawn((offset, ChildOf(joints[2]))).id();
+    let ribbon = world.spawn((offset, ChildOf(joints[4]))).id();
+    let ribbon_end = world.spawn((offset, ChildOf(ribbon))).id();
+    app.update();
+    app.update();
+    // Chain a (joints 0-2) ends in a leaf: all its joints are the hair's. Chain b's second
+    // joint carries a ribbon with a child: joints 3 and 4 stay with Bevy, 5 and 6 do not.
+    let bevys = |app: &App| -> Vec<bool> {
+        joints
+            .iter()
+            .map(|j| app.world().entity(*j).contains::<TransformTreeChanged>())
+            .collect()
+    };
+    assert_eq!(bevys(&app), [false, false, false, true, true, false, false]);
+    let global = |app: &App, e: Entity| app.world().get::<GlobalTransform>(e).unwrap().affine();
+    let local = |app: &App, e: Entity| app.world().get::<Transform>(e).unwrap().compute_affine();
+    let parent = |app: &App, e: Entity| app.world().get::<ChildOf>(e).unwrap().parent();
+    // How far an entity's world transform is from its parent's times its local one.
+    let off = |app: &App, e: Entity| -> f32 {
+        let want = global(app, parent(app, e)) * local(app, e);
+        let got = global(app, e);
+        (want.translation - got.translation).length().max(
+            (want.matrix3 - got.matrix3)
+                .to_cols_array()
+                .iter()
+                .fold(0.0f32, |m, v| m.max(v.abs())),
+        )
+    };
+    let rest = joint_positions(&app, &joints);
+    let (mut worst, mut swing) = (0.0f32, 0.0f32);
+    for f in 0..90 {
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(f as f32 / 60.0);
+        app.update();
+        for &e in joints.iter().chain([&clip, &ribbon, &ribbon_end]) {
+            worst = worst.max(off(&app, e));
+        }
+        // The swing in the head's frame: the chains are posed, not carried rigidly.
+        let head = global(&app, parent(&app, joints[0])).inverse();
+        let now = joint_positions(&app, &joints);
+        let head_rest = bevy::math::Affine3A::from_translation(Vec3::new(0.0, 1.6, 0.0));
+        for (p, r) in now.iter().zip(&rest) {
+            swing = swing.max(
+                head.transform_point3(*p)
+                    .distance(head_rest.inverse().transform_point3(*r)),
+            );
+        }
+    }
+    println!(
+        "posed joints and what hangs below them over 90 shaken frames: at most {worst:e} from \
+         parent x local; joints swung up to {swing} m on the head"
+    );
+    assert!(
+        swing > 0.005,
+        "the chains did not swing ({swing} m): nothing was posed"
+    );
+    assert!(
+        worst < 1e-4,
+        "an entity is {worst} from its parent's world transform times its local one"
+    );
+    // The hair goes: its joints are Bevy's again and follow the head with their last pose.
+    let set = joints_set(&mut app);
+    let hair = app.world().get::<BoneChainHairs>(set).unwrap().0[0];
+    app.world_mut().despawn(hair);
+    app.update();
+    assert_eq!(bevys(&app), [true; 7]);
+    for f in 90..120 {
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(f as f32 / 60.0);
+        app.update();
+    }
+    let after = joints
+        .iter()
+        .chain([&clip, &ribbon, &ribbon_end])
+        .map(|e| off(&app, *e))
+        .fold(0.0f32, f32::max);
+    assert!(
+        after < 1e-4,
+        "after the hair went, an entity is {after} from its parent's world transform times its \
+         local one: Bevy does not propagate the joints"
+    );
+}
+
+/// The one [`HairBoneChains`] entity of an app.
+fn joints_set(app: &mut App) -> Entity {
+    let world = app.world_mut();
+    world
+        .query_filtered::<Entity, With<HairBoneChains>>()
+        .single(world)
+        .unwrap()
+}
