@@ -36,9 +36,10 @@ pub(crate) struct ChainPose {
 }
 
 /// Entities below posed joints that are not joints themselves, with their parent's world
-/// transform this frame: propagated after posing.
+/// transform this frame: found on every core, then propagated from one list (kept between
+/// frames).
 #[derive(Default)]
-pub(crate) struct Below(Parallel<Vec<(Affine3A, Entity)>>);
+pub(crate) struct Below(Parallel<Vec<(Affine3A, Entity)>>, Vec<(Affine3A, Entity)>);
 
 /// On a joint a bone-chain hair poses: the hair, and the joint's slot in its poses.
 #[derive(Component, Clone, Copy, Debug)]
@@ -196,7 +197,9 @@ pub(crate) fn pose_bone_chains(
         },
     );
     let mut nodes = nodes.p1();
-    let mut below: Vec<_> = below.0.drain().collect();
+    let Below(found, below) = &mut *below;
+    below.clear();
+    below.extend(found.drain());
     // What hangs below the joints (an end bone, an accessory), depth first. A posed joint of
     // another chain (one Bevy's propagation skips) is its own hair's; a hair entity is left to
     // Bevy's propagation next frame.
@@ -276,7 +279,7 @@ struct ChainCursor {
     parent_rotation: Quat,
     /// Posed from its particles (else it follows its bind pose).
     simulated: bool,
-    /// The last joint's world transform is a rotation times a uniform scale, `scale`.
+    /// The last joint's world transform is a rotation times a uniform positive scale, `scale`.
     uniform: bool,
     scale: f32,
 }
@@ -338,6 +341,8 @@ fn pose_hair(
             let Some(local) = bind(joint) else {
                 break;
             };
+            // The tail joint follows the turned chain, unturned.
+            cursor.simulated &= !(tail_joint && k + 1 == chain.len());
             let (rotation, world) = pose_joint(
                 driven,
                 &mut cursor,
@@ -353,8 +358,8 @@ fn pose_hair(
 
 /// Joint `k` of the chain at `cursor`, whose local transform now is `local`: its local
 /// rotation and world transform, turned to point at its next particle (see [`pose_hair`]), or
-/// in its bind pose when the chain is not simulated (or this is its tail joint). Moves the
-/// cursor on.
+/// in its bind pose when the chain is not simulated (from there on, or at its tail joint).
+/// Moves the cursor on.
 fn pose_joint(
     driven: &BoneChainHair,
     cursor: &mut ChainCursor,
@@ -363,10 +368,6 @@ fn pose_joint(
     (near, margin, particles): (&[NearShape], f32, &[Vec3]),
 ) -> (Quat, Affine3A) {
     let s = cursor.strand;
-    let chain_len = driven.joints[s].len();
-    // The tail joint follows the turned chain, unturned.
-    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
-    cursor.simulated &= !(tail_joint && k + 1 == chain_len);
     let (Some(rest), Some(tail), Some(computed), true) = (
         driven.rest.get(s),
         driven.tail.get(s),
@@ -374,9 +375,8 @@ fn pose_joint(
         cursor.simulated,
     ) else {
         cursor.parent *= local.compute_affine();
-        let scale = local.scale;
-        cursor.uniform &= scale.x == scale.y && scale.x == scale.z;
-        cursor.scale *= scale.x;
+        cursor.uniform &= uniform_scale(local.scale);
+        cursor.scale *= local.scale.x;
         cursor.parent_rotation = if cursor.uniform {
             (cursor.parent_rotation * local.rotation).normalize()
         } else {
@@ -427,7 +427,7 @@ fn pose_joint(
         (rotation, world_rotation) = (local.rotation, parent_rotation * local.rotation);
     }
     let scale = local.scale;
-    cursor.parent = if cursor.uniform && scale.x == scale.y && scale.x == scale.z {
+    cursor.parent = if cursor.uniform && uniform_scale(scale) {
         // A rotation times a uniform scale: the world rotation is at hand.
         cursor.scale *= scale.x;
         Affine3A {
@@ -440,6 +440,12 @@ fn pose_joint(
     };
     cursor.parent_rotation = world_rotation;
     (rotation, cursor.parent)
+}
+
+/// Whether a local scale keeps a rotation times a uniform scale one (a mirror does not).
+#[inline]
+fn uniform_scale(scale: Vec3) -> bool {
+    scale.x > 0.0 && scale.x == scale.y && scale.x == scale.z
 }
 
 /// The shortest turn taking the direction of `from` to that of `to` (neither need be of unit

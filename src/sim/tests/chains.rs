@@ -538,13 +538,24 @@ fn a_teleported_character_carries_its_chains_without_a_whip() {
 /// joint (a clip on a tip, a ribbon with its own child) still follows it every frame, a joint
 /// with more than a leaf below it stays with Bevy (and so do the joints above it), every
 /// joint's world transform is its parent's times its local one, and once the hair goes the
-/// joints are Bevy's again.
+/// joints are Bevy's again. On a unit rig, a rig of scale 0.01 and a stretched one.
 #[test]
 fn what_hangs_below_posed_joints_follows_them_and_the_joints_go_back_to_bevy() {
+    for (rig, unit) in [
+        (Transform::default(), 1.0),
+        (Transform::from_scale(Vec3::splat(0.01)), 0.01),
+        (Transform::from_scale(Vec3::new(1.0, 1.3, 0.8)), 1.0),
+    ] {
+        hanging_below_posed_joints(rig, unit);
+    }
+}
+
+fn hanging_below_posed_joints(rig: Transform, unit: f32) {
     use bevy::transform::components::TransformTreeChanged;
-    let (mut app, root, joints) = chains_app(soft(), Transform::default(), 1.0);
+    let (mut app, root, joints) = chains_app(soft(), rig, unit);
     let world = app.world_mut();
-    let offset = Transform::from_xyz(0.0, -0.01, 0.004).with_rotation(Quat::from_rotation_x(0.3));
+    let offset = Transform::from_xyz(0.0, -0.01 / unit, 0.004 / unit)
+        .with_rotation(Quat::from_rotation_x(0.3));
     let clip = world.spawn((offset, ChildOf(joints[2]))).id();
     let ribbon = world.spawn((offset, ChildOf(joints[4]))).id();
     let ribbon_end = world.spawn((offset, ChildOf(ribbon))).id();
@@ -562,7 +573,8 @@ fn what_hangs_below_posed_joints_follows_them_and_the_joints_go_back_to_bevy() {
     let global = |app: &App, e: Entity| app.world().get::<GlobalTransform>(e).unwrap().affine();
     let local = |app: &App, e: Entity| app.world().get::<Transform>(e).unwrap().compute_affine();
     let parent = |app: &App, e: Entity| app.world().get::<ChildOf>(e).unwrap().parent();
-    // How far an entity's world transform is from its parent's times its local one.
+    // How far an entity's world transform is from its parent's times its local one (metres,
+    // and matrix entries).
     let off = |app: &App, e: Entity| -> f32 {
         let want = global(app, parent(app, e)) * local(app, e);
         let got = global(app, e);
@@ -573,7 +585,15 @@ fn what_hangs_below_posed_joints_follows_them_and_the_joints_go_back_to_bevy() {
                 .fold(0.0f32, |m, v| m.max(v.abs())),
         )
     };
-    let rest = joint_positions(&app, &joints);
+    // The joints in the head's frame, in metres on the unit rigs.
+    let on_head = |app: &App| -> Vec<Vec3> {
+        let head = global(app, parent(app, joints[0])).inverse();
+        joint_positions(app, &joints)
+            .iter()
+            .map(|p| head.transform_point3(*p) * unit)
+            .collect()
+    };
+    let rest = on_head(&app);
     let (mut worst, mut swing) = (0.0f32, 0.0f32);
     for f in 0..90 {
         app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(f as f32 / 60.0);
@@ -581,20 +601,16 @@ fn what_hangs_below_posed_joints_follows_them_and_the_joints_go_back_to_bevy() {
         for &e in joints.iter().chain([&clip, &ribbon, &ribbon_end]) {
             worst = worst.max(off(&app, e));
         }
-        // The swing in the head's frame: the chains are posed, not carried rigidly.
-        let head = global(&app, parent(&app, joints[0])).inverse();
-        let now = joint_positions(&app, &joints);
-        let head_rest = bevy::math::Affine3A::from_translation(Vec3::new(0.0, 1.6, 0.0));
-        for (p, r) in now.iter().zip(&rest) {
-            swing = swing.max(
-                head.transform_point3(*p)
-                    .distance(head_rest.inverse().transform_point3(*r)),
-            );
-        }
+        // The swing on the head: the chains are posed, not carried rigidly.
+        swing = on_head(&app)
+            .iter()
+            .zip(&rest)
+            .fold(swing, |m, (p, r)| m.max(p.distance(*r)));
     }
     println!(
-        "posed joints and what hangs below them over 90 shaken frames: at most {worst:e} from \
-         parent x local; joints swung up to {swing} m on the head"
+        "rig {:?}: posed joints and what hangs below them over 90 shaken frames: at most {worst:e} \
+         from parent x local; joints swung up to {swing} m on the head",
+        rig.scale
     );
     assert!(
         swing > 0.005,
