@@ -229,7 +229,7 @@ fn gather_near(
     near: &mut Vec<NearShape>,
 ) {
     near.clear();
-    let (mut lo, mut hi, mut longest) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
+    let (mut lo, mut hi, mut longest_sq) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
     for s in 0..computed.lane_of.len() {
         let mut before: Option<Vec3A> = None;
         for i in 0..computed.particle_count(s) {
@@ -240,12 +240,12 @@ fn gather_near(
             }
             (lo, hi) = (lo.min(p), hi.max(p));
             if let Some(b) = before {
-                longest = longest.max(b.distance(p));
+                longest_sq = longest_sq.max(b.distance_squared(p));
             }
             before = Some(p);
         }
     }
-    let reach = Vec3A::splat(2.0 * longest);
+    let reach = Vec3A::splat(2.0 * longest_sq.sqrt());
     let (lo, hi) = (lo - reach, hi + reach);
     for &(e, first, end, c_lo, c_hi) in &frame.colliders {
         if only.is_some_and(|o| !o.0.contains(&e)) {
@@ -269,6 +269,9 @@ fn gather_near(
         );
     }
 }
+
+/// A slot of a hair's poses whose joint is not posed this frame.
+const UNPOSED: (Entity, Quat, Affine3A) = (Entity::PLACEHOLDER, Quat::IDENTITY, Affine3A::IDENTITY);
 
 /// A chain being posed: where it is along its joints.
 struct ChainCursor {
@@ -306,11 +309,8 @@ fn pose_hair(
     let uniform = scale.min_element() > 0.0
         && (scale.max_element() - scale.min_element()) <= 1e-4 * scale.max_element();
     let total = driven.joints.iter().map(Vec::len).sum();
-    posed.clear();
-    posed.resize(
-        total,
-        (Entity::PLACEHOLDER, Quat::IDENTITY, Affine3A::IDENTITY),
-    );
+    // Every slot is written below (a joint not posed with a placeholder).
+    posed.resize(total, UNPOSED);
     let mut slot = 0;
     for (s, chain) in driven.joints.iter().enumerate() {
         let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
@@ -339,6 +339,7 @@ fn pose_hair(
         };
         for (k, &joint) in chain.iter().enumerate() {
             let Some(local) = bind(joint) else {
+                posed[slot + k..slot + chain.len()].fill(UNPOSED);
                 break;
             };
             // The tail joint follows the turned chain, unturned.
@@ -414,10 +415,12 @@ fn pose_joint(
             to = limited;
         }
     }
+    // Products of unit quaternions: unit to rounding, which a chain's few joints do not
+    // accumulate (each frame starts from the bind pose).
     let (mut rotation, mut world_rotation) = match shortest_arc(from, to) {
         Some(arc) => {
-            let world = (arc * at_rest_rotation).normalize();
-            ((parent_rotation.inverse() * world).normalize(), world)
+            let world = arc * at_rest_rotation;
+            (parent_rotation.inverse() * world, world)
         }
         None => (rest_rotation, at_rest_rotation),
     };

@@ -154,10 +154,10 @@ impl Plugin for HairSimulationPlugin {
                 PostUpdate,
                 (
                     step::step_hair_strands.after(physics::GatherColliders),
-                    // Posing moves the particles it keeps off colliders: before they are
-                    // written out.
-                    step::write_strand_particles,
+                    // Posing moves the particles it keeps off colliders and inside angle
+                    // limits: before they are written out.
                     chain_pose::pose_bone_chains,
+                    step::write_strand_particles,
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

@@ -280,10 +280,32 @@ fn vrm_springs_become_chains_that_collide_only_with_their_groups() {
     assert!(other < 1e-4, "B moved {other} m");
 }
 
+/// How many particles of every chain hair's strands differ between the solver and the strand
+/// entities (which show them after posing moved them).
+fn strand_particles_not_shown(app: &mut App) -> usize {
+    let mut strands = app
+        .world_mut()
+        .query::<(&StrandOf, &Strand, &StrandParticles)>();
+    strands
+        .iter(app.world())
+        .map(|(of, strand, shown)| {
+            let computed = app.world().get::<ComputedHair>(of.0).unwrap();
+            let s = strand.index as usize;
+            shown
+                .positions
+                .iter()
+                .enumerate()
+                .filter(|&(i, p)| *p != computed.particle(s, i))
+                .count()
+        })
+        .sum()
+}
+
 /// Chain A blown sideways (gravity along +X, no stiffness) for two seconds, its first two joints
 /// with `limit`; returns each turned bone's largest angle in the second second from the bone
-/// before it (the first from its bind direction, straight down), in degrees.
-fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
+/// before it (the first from its bind direction, straight down), in degrees, and how many strand
+/// particles the strand entities did not show where the solver has them.
+fn swung_chain_angles(limit: Option<JointLimit>) -> ([f32; 2], usize) {
     let mut app = event_app();
     let mut springs = crossed(vec![]);
     springs.springs[0].joints = vec![
@@ -297,9 +319,10 @@ fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
     let (_, nodes) = vrm_scene(&mut app, springs);
     // The chain still swings after a second: the largest angle of the second second (a
     // snapshot would depend on the swing's phase).
-    let mut angles = [0.0f32; 2];
+    let (mut angles, mut not_shown) = ([0.0f32; 2], 0);
     for frame in 0..120 {
         app.update();
+        not_shown += strand_particles_not_shown(&mut app);
         if frame < 60 {
             continue;
         }
@@ -310,23 +333,29 @@ fn swung_chain_angles(limit: Option<JointLimit>) -> [f32; 2] {
         angles[1] = angles[1].max(second.angle_between(first).to_degrees());
     }
     eprintln!("limit {limit:?}: bones at most at {angles:?} degrees");
-    angles
+    (angles, not_shown)
 }
 
 #[test]
 fn a_vrm_angle_limit_keeps_each_posed_bone_inside_it() {
-    let free = swung_chain_angles(None);
+    let (free, _) = swung_chain_angles(None);
     assert!(
         free[0] > 45.0,
         "without a limit the wind swings the first bone only {free:?} degrees: no test"
     );
     // Bones straight down: the draft's half turn about X makes the cone's axis the bone.
-    let cone = swung_chain_angles(Some(JointLimit {
+    let (cone, not_shown) = swung_chain_angles(Some(JointLimit {
         shape: JointLimitShape::Cone {
             angle: 20f32.to_radians(),
         },
         rotation: Quat::IDENTITY,
     }));
+    // The limit moves the particles it turns the bones from; the strand entities show them
+    // where the limit left them.
+    assert_eq!(
+        not_shown, 0,
+        "strand particles shown before the limit moved them"
+    );
     for (k, a) in cone.iter().enumerate() {
         assert!(
             *a <= 20.05,
@@ -338,7 +367,7 @@ fn a_vrm_angle_limit_keeps_each_posed_bone_inside_it() {
         "the limited chain did not swing to its limit: {cone:?}"
     );
     // A hinge about X lets the bones swing only in the Y-Z plane: the +X wind cannot turn them.
-    let hinge = swung_chain_angles(Some(JointLimit {
+    let (hinge, _) = swung_chain_angles(Some(JointLimit {
         shape: JointLimitShape::Hinge {
             angle: 60f32.to_radians(),
         },
@@ -346,7 +375,7 @@ fn a_vrm_angle_limit_keeps_each_posed_bone_inside_it() {
     }));
     assert!(hinge[0] < 0.5 && hinge[1] < 0.5, "hinge {hinge:?}");
     // The same hinge turned a quarter about Y hinges about Z: the wind turns the bones up to 60.
-    let turned = swung_chain_angles(Some(JointLimit {
+    let (turned, _) = swung_chain_angles(Some(JointLimit {
         shape: JointLimitShape::Hinge {
             angle: 60f32.to_radians(),
         },
