@@ -102,6 +102,7 @@ pub(crate) fn pose_bone_chains(
             ),
             Without<BoneChainHair>,
         >,
+        Query<&Transform, Without<BoneChainHair>>,
     )>,
     (mut frame, mut below): (Local<FrameShapes>, Local<Below>),
 ) {
@@ -134,7 +135,7 @@ pub(crate) fn pose_bone_chains(
     }
     // Each hair's poses, on every core.
     let frame = &*frame;
-    let bind = &nodes.p1();
+    let bind = &nodes.p3();
     hairs
         .par_iter_mut()
         .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
@@ -156,7 +157,7 @@ pub(crate) fn pose_bone_chains(
                     &pose.near,
                     margin,
                     (&mut pose.posed, &mut pose.particles),
-                    &|e| bind.get(e).ok().map(|(t, ..)| *t),
+                    &|e| bind.get(e).ok().copied(),
                 );
             },
         );
@@ -401,7 +402,7 @@ fn pose_joint(
     let mut to = particles[k + 1] - origin;
     // The posed child sits at its bone's length: keep it off the colliders the particle was
     // kept off (a collider can hold a particle nearer than a bone).
-    if let Some(kept) = keep_off(near, origin, to, from, margin) {
+    if let Some(kept) = keep_off(near, origin, to, from.length(), margin) {
         computed.set_particle(s, k + 1, origin + kept);
         to = kept;
     }
@@ -482,13 +483,17 @@ const KEEP_OFF_ROUNDS: usize = 8;
 const SHELL_CLEARANCE: f32 = 1e-5;
 
 /// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
-/// length (`bone`'s), it would lie within `margin` of a collider in `shapes`: turned about the
+/// length `length`, it would lie within `margin` of a collider in `shapes`: turned about the
 /// joint onto the collider's margin. `None` when it is clear.
-fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, bone: Vec3, margin: f32) -> Option<Vec3> {
-    if shapes.is_empty() {
+fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, length: f32, margin: f32) -> Option<Vec3> {
+    // Clear of every shape that cannot reach the bone's sphere about the joint.
+    let (reach_lo, reach_hi) = (Vec3A::from(joint) - length, Vec3A::from(joint) + length);
+    if !shapes
+        .iter()
+        .any(|(_, _, lo, hi)| reach_hi.cmpge(*lo).all() && reach_lo.cmple(*hi).all())
+    {
         return None;
     }
-    let length = bone.length();
     let mut dir = to.try_normalize()?;
     let mut moved = false;
     // Measured from the joint: a character far from the world's origin rounds its world
@@ -640,14 +645,8 @@ mod tests {
             let joint = Vec3::new(far, 1.6, -far);
             let centre = Vec3A::from(joint) + Vec3A::new(0.01, -0.09, 0.0);
             let shapes = [near_sphere(centre, radius, margin)];
-            let kept = keep_off(
-                &shapes,
-                joint,
-                Vec3::new(0.0, -length, 0.0),
-                Vec3::new(0.0, -length, 0.0),
-                margin,
-            )
-            .expect("the straight-down child lies inside the head");
+            let kept = keep_off(&shapes, joint, Vec3::new(0.0, -length, 0.0), length, margin)
+                .expect("the straight-down child lies inside the head");
             assert!((kept.length() - length).abs() < 1e-6, "{kept}");
             let from_centre = Vec3A::from(kept).distance(centre - Vec3A::from(joint));
             assert!(
