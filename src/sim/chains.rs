@@ -469,7 +469,10 @@ fn chain_strand(
     for &j in &chain.joints {
         let g = helper.compute_global_transform(j).ok()?;
         world.push(g.translation());
-        rest.push(*locals.get(j).ok()?);
+        // Posing multiplies these into unit rotations without normalising each product; a
+        // file's rotations are as long as it wrote them.
+        let local = *locals.get(j).ok()?;
+        rest.push(local.with_rotation(local.rotation.normalize()));
         last = Some(g);
     }
     let last = last?;

@@ -325,6 +325,48 @@ fn chains_on_a_rig_of_scale_0_01_move_as_on_a_unit_rig() {
 }
 
 #[test]
+fn bind_rotations_a_file_left_unnormalised_still_pose_rigid_joints() {
+    // glTF keeps node rotations as written; Bevy's loader does not normalise them. A chain whose
+    // bind rotations are 3% long must still pose rotations, not shears.
+    let (mut app, root, joints) = chains_app(soft(), Transform::default(), 1.0);
+    for &j in &joints {
+        let mut t = app.world_mut().get_mut::<Transform>(j).unwrap();
+        t.rotation = Quat::from_vec4(Vec4::from(t.rotation) * 1.03);
+    }
+    let mut worst = 0.0f32;
+    for f in 0..90 {
+        let t = (f + 1) as f32 / 60.0;
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(t);
+        app.update();
+        if f < 2 {
+            continue;
+        }
+        for &j in &joints {
+            let m = app
+                .world()
+                .get::<GlobalTransform>(j)
+                .unwrap()
+                .affine()
+                .matrix3;
+            // The rig is unscaled: each posed joint's matrix is a rotation.
+            let gram = Mat3::from(m.transpose() * m);
+            worst = worst.max(
+                (gram - Mat3::IDENTITY)
+                    .abs()
+                    .to_cols_array()
+                    .into_iter()
+                    .fold(0.0, f32::max),
+            );
+        }
+    }
+    println!("bind rotations 3% long: posed joints at most {worst:e} from a rotation");
+    assert!(
+        worst < 1e-4,
+        "a posed joint's matrix is {worst} from a rotation"
+    );
+}
+
+#[test]
 fn chains_move_alike_at_30_60_and_144_fps() {
     let runs: Vec<ShakeRun> = [30.0, 60.0, 144.0]
         .into_iter()
