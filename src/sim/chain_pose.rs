@@ -18,21 +18,48 @@ use bevy::transform::components::TransformTreeChanged;
 use bevy::utils::Parallel;
 
 use super::attach::ComputedHair;
+use super::chain_lanes::LaneJoints;
 use super::chains::BoneChainHair;
 use super::collider::{HairCollider, HairCollidesOnly};
 use super::contact::ContactShape;
 use super::limits::{limit_frame, limit_offset};
 use super::settings::HairSimSettings;
+use super::solver::{LANES, Lane};
 
 /// A bone-chain hair's posing buffers, kept between frames.
 #[derive(Component, Clone, Debug, Default)]
 pub(crate) struct ChainPose {
-    /// This frame's pose of each joint: its entity, its local rotation, its world transform.
-    posed: Vec<(Entity, Quat, Affine3A)>,
+    /// This frame's poses and the buffers they are worked out in.
+    buffers: PoseBuffers,
     /// The collider shapes near the hair this frame.
     near: Vec<NearShape>,
-    /// The particles of the chain being posed.
-    particles: Vec<Vec3>,
+}
+
+/// A joint's pose: its entity, its local rotation, its world transform.
+pub(super) type Pose = (Entity, Quat, Affine3A);
+
+/// One hair's poses and what working them out needs, kept between frames.
+#[derive(Clone, Debug, Default)]
+pub(super) struct PoseBuffers {
+    /// This frame's pose of each joint: its entity, its local rotation, its world transform.
+    pub(super) posed: Vec<Pose>,
+    /// The slot of each chain's first joint in `posed`.
+    pub(super) first: Vec<usize>,
+    /// The particles of a chain posed one joint at a time.
+    pub(super) particles: Vec<Vec3>,
+    /// The joints in the solver's lane order.
+    pub(super) lanes: LaneJoints,
+}
+
+/// How a hair's chains are posed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum PosePath {
+    /// The chains of each solver batch side by side, one joint of each at a time, in the
+    /// solver's lanes (under a uniform scale; a chain that needs more is posed alone).
+    Lanes,
+    /// Each chain alone, one joint at a time.
+    #[cfg(test)]
+    Alone,
 }
 
 /// Entities below posed joints that are not joints themselves, with their parent's world
@@ -50,7 +77,7 @@ pub(crate) struct ChainJoint {
 
 /// A collider shape near a hair: the shape, whether it keeps particles inside, and where a
 /// point can touch it (its bounds grown by the hair's margin; everywhere for keep-inside).
-type NearShape = (ContactShape, bool, Vec3A, Vec3A);
+pub(super) type NearShape = (ContactShape, bool, Vec3A, Vec3A);
 
 /// Every [`HairCollider`]'s shapes where they are this frame, gathered once for all hairs.
 #[derive(Default)]
@@ -59,6 +86,34 @@ pub(crate) struct FrameShapes {
     /// inside colliders and planes).
     colliders: Vec<(Entity, usize, usize, Vec3A, Vec3A)>,
     shapes: Vec<(ContactShape, bool)>,
+}
+
+impl FrameShapes {
+    /// Every collider's shapes where they are now, and their bounds.
+    pub(super) fn gather<'a>(
+        &mut self,
+        colliders: impl IntoIterator<Item = (Entity, &'a HairCollider, &'a GlobalTransform)>,
+    ) {
+        self.colliders.clear();
+        self.shapes.clear();
+        for (e, collider, g) in colliders {
+            let pose = g.affine();
+            let inside = collider.inside();
+            let first = self.shapes.len();
+            self.shapes
+                .extend(collider.shapes().map(|s| (s.at(&pose), inside)));
+            let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+            for (shape, _) in &self.shapes[first..] {
+                let (a, b) = if inside {
+                    (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+                } else {
+                    shape.bounds()
+                };
+                (lo, hi) = (lo.min(a), hi.max(b));
+            }
+            self.colliders.push((e, first, self.shapes.len(), lo, hi));
+        }
+    }
 }
 
 /// Hairs posed by one task (a chain hair is small: a few dozen to a few hundred joints).
@@ -75,7 +130,7 @@ const HAIRS_PER_TASK: usize = 4;
 )]
 pub(crate) fn pose_bone_chains(
     mut hairs: Query<(
-        &BoneChainHair,
+        (Entity, Ref<BoneChainHair>),
         &GlobalTransform,
         Option<&mut ComputedHair>,
         &mut ChainPose,
@@ -103,8 +158,9 @@ pub(crate) fn pose_bone_chains(
             Without<BoneChainHair>,
         >,
         Query<&Transform, Without<BoneChainHair>>,
+        Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
     )>,
-    (mut frame, mut below): (Local<FrameShapes>, Local<Below>),
+    (mut frame, mut below, mut stale): (Local<FrameShapes>, Local<Below>, Local<Vec<Entity>>),
 ) {
     if hairs.is_empty() {
         return;
@@ -112,36 +168,25 @@ pub(crate) fn pose_bone_chains(
     // Made with defaults when no app made it (tests, benches).
     crate::parallel::compute_pool();
     // The colliders where they are now, once for every hair.
-    let frame = &mut *frame;
-    frame.colliders.clear();
-    frame.shapes.clear();
-    for (e, collider, g) in &nodes.p0() {
-        let pose = g.affine();
-        let inside = collider.inside();
-        let first = frame.shapes.len();
-        frame
-            .shapes
-            .extend(collider.shapes().map(|s| (s.at(&pose), inside)));
-        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        for (shape, _) in &frame.shapes[first..] {
-            let (a, b) = if inside {
-                (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
-            } else {
-                shape.bounds()
-            };
-            (lo, hi) = (lo.min(a), hi.max(b));
-        }
-        frame.colliders.push((e, first, frame.shapes.len(), lo, hi));
-    }
+    frame.gather(nodes.p0().iter());
+    // Hairs whose joints' transforms changed (an animation, the game) or went since last frame:
+    // their joints are read again. Posing itself stores rotations without flagging them.
+    stale.clear();
+    stale.extend(nodes.p4().iter().map(|j| j.hair));
+    stale.sort_unstable();
+    stale.dedup();
     // Each hair's poses, on every core.
-    let frame = &*frame;
+    let (frame, stale) = (&*frame, &*stale);
     let bind = &nodes.p3();
     hairs
         .par_iter_mut()
         .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
         .for_each(
-            |(driven, hair_world, computed, mut pose, (settings, only))| {
+            |((hair, driven), hair_world, computed, mut pose, (settings, only))| {
                 let pose = &mut *pose;
+                if driven.is_changed() || stale.binary_search(&hair).is_ok() {
+                    pose.buffers.lanes.forget();
+                }
                 let computed = computed.map(Mut::into_inner);
                 let margin = computed
                     .as_deref()
@@ -151,13 +196,13 @@ pub(crate) fn pose_bone_chains(
                     None => pose.near.clear(),
                 }
                 pose_hair(
-                    driven,
+                    &driven,
                     hair_world,
                     computed,
-                    &pose.near,
-                    margin,
-                    (&mut pose.posed, &mut pose.particles),
+                    (&pose.near, margin),
+                    &mut pose.buffers,
                     &|e| bind.get(e).ok().copied(),
+                    PosePath::Lanes,
                 );
             },
         );
@@ -169,14 +214,14 @@ pub(crate) fn pose_bone_chains(
         || (below.0.borrow_local_mut(), None),
         |(below, last), (joint, of, mut local, mut global, children)| {
             // A hair's joints mostly come one after another: its poses are looked up once.
-            let poses: &[(Entity, Quat, Affine3A)] = match *last {
+            let poses: &[Pose] = match *last {
                 Some((hair, poses)) if hair == of.hair => poses,
                 _ => {
                     let Ok((_, _, _, pose, _)) = hairs.get(of.hair) else {
                         return;
                     };
-                    *last = Some((of.hair, &pose.posed[..]));
-                    &pose.posed
+                    *last = Some((of.hair, &pose.buffers.posed[..]));
+                    &pose.buffers.posed
                 }
             };
             let slot = of.slot as usize;
@@ -230,22 +275,49 @@ fn gather_near(
     near: &mut Vec<NearShape>,
 ) {
     near.clear();
-    let (mut lo, mut hi, mut longest_sq) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY, 0.0f32);
-    for s in 0..computed.lane_of.len() {
-        let mut before: Option<Vec3A> = None;
-        for i in 0..computed.particle_count(s) {
-            let p = Vec3A::from(computed.particle(s, i));
-            if !p.is_finite() {
-                before = None;
-                continue;
+    // Over the solver's lanes as they lie in memory: per lane, the box of its finite particles
+    // and its longest segment between finite ones.
+    let mut lo = [[f32::INFINITY; LANES]; 3];
+    let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
+    let mut longest = [0.0f32; LANES];
+    for batch in &computed.batches {
+        let count = batch.count.min(LANES);
+        let mut before = [[0.0f32; LANES]; 3];
+        let mut had = [false; LANES];
+        for node in batch.nodes.iter().skip(1).step_by(2) {
+            for l in 0..LANES {
+                let p = [node.x[0][l], node.x[1][l], node.x[2][l]];
+                let finite = l < count && p.iter().all(|v| v.is_finite());
+                if finite {
+                    let mut d2 = 0.0;
+                    for i in 0..3 {
+                        lo[i][l] = lo[i][l].min(p[i]);
+                        hi[i][l] = hi[i][l].max(p[i]);
+                        d2 += (p[i] - before[i][l]) * (p[i] - before[i][l]);
+                    }
+                    if had[l] {
+                        longest[l] = longest[l].max(d2);
+                    }
+                }
+                had[l] = finite;
+                for i in 0..3 {
+                    before[i][l] = p[i];
+                }
             }
-            (lo, hi) = (lo.min(p), hi.max(p));
-            if let Some(b) = before {
-                longest_sq = longest_sq.max(b.distance_squared(p));
-            }
-            before = Some(p);
         }
     }
+    let fold = |a: &Lane, f: fn(f32, f32) -> f32, start: f32| a.iter().copied().fold(start, f);
+    let lo = Vec3A::new(
+        fold(&lo[0], f32::min, f32::INFINITY),
+        fold(&lo[1], f32::min, f32::INFINITY),
+        fold(&lo[2], f32::min, f32::INFINITY),
+    );
+    let hi = Vec3A::new(
+        fold(&hi[0], f32::max, f32::NEG_INFINITY),
+        fold(&hi[1], f32::max, f32::NEG_INFINITY),
+        fold(&hi[2], f32::max, f32::NEG_INFINITY),
+    );
+    let longest_sq = fold(&longest, f32::max, 0.0);
     let reach = Vec3A::splat(2.0 * longest_sq.sqrt());
     let (lo, hi) = (lo - reach, hi + reach);
     for &(e, first, end, c_lo, c_hi) in &frame.colliders {
@@ -272,89 +344,165 @@ fn gather_near(
 }
 
 /// A slot of a hair's poses whose joint is not posed this frame.
-const UNPOSED: (Entity, Quat, Affine3A) = (Entity::PLACEHOLDER, Quat::IDENTITY, Affine3A::IDENTITY);
+pub(super) const UNPOSED: Pose = (Entity::PLACEHOLDER, Quat::IDENTITY, Affine3A::IDENTITY);
 
 /// A chain being posed: where it is along its joints.
-struct ChainCursor {
+#[derive(Clone, Copy, Debug)]
+pub(super) struct ChainCursor {
     /// The chain (strand) index.
-    strand: usize,
+    pub(super) strand: usize,
     /// The last joint posed: its world transform and world rotation.
-    parent: Affine3A,
-    parent_rotation: Quat,
+    pub(super) parent: Affine3A,
+    pub(super) parent_rotation: Quat,
     /// Posed from its particles (else it follows its bind pose).
-    simulated: bool,
+    pub(super) simulated: bool,
     /// The last joint's world transform is a rotation times a uniform positive scale, `scale`.
-    uniform: bool,
-    scale: f32,
+    pub(super) uniform: bool,
+    pub(super) scale: f32,
 }
 
-/// One hair's joint poses into `posed`, one slot per joint, chain by chain (a joint not posed
-/// keeps [`Entity::PLACEHOLDER`]); particles the pose moves (off a collider, into a limit) are
-/// moved in `computed` too. `bind` gives a joint's local transform now (its rotation is
+/// One hair's joint poses into `buffers.posed`, one slot per joint, chain by chain (a joint not
+/// posed keeps [`Entity::PLACEHOLDER`]); particles the pose moves (off a collider, into a limit)
+/// are moved in `computed` too. `bind` gives a joint's local transform now (its rotation is
 /// replaced; translation and scale are kept). A chain without usable particles (not built yet,
 /// non-finite) follows its parent in its bind pose from the joint where posing stops: every
-/// joint is posed, since Bevy's propagation does not visit them.
-fn pose_hair(
+/// joint is posed, since Bevy's propagation does not visit them. Returns how many joints were
+/// posed in the solver's lanes.
+pub(super) fn pose_hair(
     driven: &BoneChainHair,
     hair_world: &GlobalTransform,
     mut computed: Option<&mut ComputedHair>,
-    near: &[NearShape],
-    margin: f32,
-    (posed, particles): (&mut Vec<(Entity, Quat, Affine3A)>, &mut Vec<Vec3>),
+    (near, margin): (&[NearShape], f32),
+    buffers: &mut PoseBuffers,
     bind: &impl Fn(Entity) -> Option<Transform>,
-) {
+    path: PosePath,
+) -> usize {
     let hair = hair_world.affine();
     // Under a uniform, unmirrored scale a joint's world rotation is its parent's times its
     // own; otherwise it is read back from each parent's matrix.
     let (scale, hair_rotation, _) = hair.to_scale_rotation_translation();
     let uniform = scale.min_element() > 0.0
         && (scale.max_element() - scale.min_element()) <= 1e-4 * scale.max_element();
-    let total = driven.joints.iter().map(Vec::len).sum();
+    let PoseBuffers {
+        posed,
+        first,
+        particles,
+        lanes,
+    } = buffers;
+    first.clear();
+    let mut total = 0;
+    for chain in &driven.joints {
+        first.push(total);
+        total += chain.len();
+    }
     // Every slot is written below (a joint not posed with a placeholder).
     posed.resize(total, UNPOSED);
-    let mut slot = 0;
-    for (s, chain) in driven.joints.iter().enumerate() {
-        let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
-        let expected = chain.len() + usize::from(!tail_joint);
-        // The chain's particles, read once (the solver's lanes are strided in memory).
-        particles.clear();
-        let simulated = match computed.as_deref() {
-            Some(c)
-                if driven.rest.get(s).is_some()
-                    && driven.tail.get(s).is_some()
-                    && c.particle_count(s) == expected =>
-            {
-                particles.extend((0..expected).map(|i| c.particle(s, i)));
-                particles.iter().all(|p| p.is_finite())
-            }
-            _ => false,
-        };
+    let start = ChainCursor {
+        strand: 0,
+        // The hair hangs on the chains' parent bone with an identity transform.
+        parent: hair,
+        parent_rotation: hair_rotation,
+        simulated: false,
+        uniform,
+        scale: scale.x,
+    };
+    if let Some(c) = computed.as_deref_mut()
+        && path == PosePath::Lanes
+        && uniform
+        && c.lane_of.len() == driven.joints.len()
+    {
+        // Every strand is in one lane of one batch.
+        return (0..c.batches.len())
+            .map(|b| {
+                super::chain_lanes::pose_batch(
+                    driven,
+                    (b, &start),
+                    c,
+                    lanes,
+                    (near, margin),
+                    (posed, first, particles),
+                    bind,
+                )
+            })
+            .sum();
+    }
+    for (s, &slot) in first.iter().enumerate() {
         let mut cursor = ChainCursor {
             strand: s,
-            // The hair hangs on the chains' parent bone with an identity transform.
-            parent: hair,
-            parent_rotation: hair_rotation,
-            simulated,
-            uniform,
-            scale: scale.x,
+            simulated: chain_particles(driven, s, computed.as_deref(), particles),
+            ..start
         };
-        for (k, &joint) in chain.iter().enumerate() {
-            let Some(local) = bind(joint) else {
-                posed[slot + k..slot + chain.len()].fill(UNPOSED);
-                break;
-            };
-            // The tail joint follows the turned chain, unturned.
-            cursor.simulated &= !(tail_joint && k + 1 == chain.len());
-            let (rotation, world) = pose_joint(
-                driven,
-                &mut cursor,
-                (k, &local),
-                computed.as_deref_mut(),
-                (near, margin, particles),
-            );
-            posed[slot + k] = (joint, rotation, world);
+        pose_chain(
+            driven,
+            &mut cursor,
+            (slot, 0),
+            computed.as_deref_mut(),
+            (near, margin, particles),
+            posed,
+            bind,
+        );
+    }
+    0
+}
+
+/// Chain `s`'s particles into `particles`, read once (the solver's lanes are strided in memory):
+/// whether the chain can be posed from them (the solver has as many as it has joints and a tail,
+/// all finite).
+pub(super) fn chain_particles(
+    driven: &BoneChainHair,
+    s: usize,
+    computed: Option<&ComputedHair>,
+    particles: &mut Vec<Vec3>,
+) -> bool {
+    particles.clear();
+    let Some(chain) = driven.joints.get(s) else {
+        return false;
+    };
+    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+    let expected = chain.len() + usize::from(!tail_joint);
+    match computed {
+        Some(c)
+            if driven.rest.get(s).is_some()
+                && driven.tail.get(s).is_some()
+                && c.particle_count(s) == expected =>
+        {
+            particles.extend((0..expected).map(|i| c.particle(s, i)));
+            particles.iter().all(|p| p.is_finite())
         }
-        slot += chain.len();
+        _ => false,
+    }
+}
+
+/// Poses the chain at `cursor` (its strand) from joint `from` on into `posed`, its first joint's
+/// slot `slot`, the cursor at the joint before `from`; `particles` are the chain's (see
+/// [`chain_particles`]).
+pub(super) fn pose_chain(
+    driven: &BoneChainHair,
+    cursor: &mut ChainCursor,
+    (slot, from): (usize, usize),
+    mut computed: Option<&mut ComputedHair>,
+    (near, margin, particles): (&[NearShape], f32, &[Vec3]),
+    posed: &mut [Pose],
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) {
+    let s = cursor.strand;
+    let chain = &driven.joints[s];
+    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+    for (k, &joint) in chain.iter().enumerate().skip(from) {
+        let Some(local) = bind(joint) else {
+            posed[slot + k..slot + chain.len()].fill(UNPOSED);
+            return;
+        };
+        // The tail joint follows the turned chain, unturned.
+        cursor.simulated &= !(tail_joint && k + 1 == chain.len());
+        let (rotation, world) = pose_joint(
+            driven,
+            cursor,
+            (k, &local),
+            computed.as_deref_mut(),
+            (near, margin, particles),
+        );
+        posed[slot + k] = (joint, rotation, world);
     }
 }
 
@@ -448,7 +596,7 @@ fn pose_joint(
 
 /// Whether a local scale keeps a rotation times a uniform scale one (a mirror does not).
 #[inline]
-fn uniform_scale(scale: Vec3) -> bool {
+pub(super) fn uniform_scale(scale: Vec3) -> bool {
     scale.x > 0.0 && scale.x == scale.y && scale.x == scale.z
 }
 
@@ -485,7 +633,13 @@ const SHELL_CLEARANCE: f32 = 1e-5;
 /// Where the posed child of a joint at `joint` goes instead of `joint + to` when, at its bone's
 /// length `length`, it would lie within `margin` of a collider in `shapes`: turned about the
 /// joint onto the collider's margin. `None` when it is clear.
-fn keep_off(shapes: &[NearShape], joint: Vec3, to: Vec3, length: f32, margin: f32) -> Option<Vec3> {
+pub(super) fn keep_off(
+    shapes: &[NearShape],
+    joint: Vec3,
+    to: Vec3,
+    length: f32,
+    margin: f32,
+) -> Option<Vec3> {
     // Clear of every shape that cannot reach the bone's sphere about the joint.
     let (reach_lo, reach_hi) = (Vec3A::from(joint) - length, Vec3A::from(joint) + length);
     if !shapes
@@ -590,6 +744,63 @@ fn clear_of(shape: &ContactShape, joint: Vec3A, offset: Vec3A, margin: f32) -> b
 fn nearest_on_axis(a: Vec3A, b: Vec3A, q: Vec3A) -> Vec3A {
     let ab = b - a;
     a + ab * ((q - a).dot(ab) / ab.length_squared().max(1e-20)).clamp(0.0, 1.0)
+}
+
+/// One way's poses, every particle after posing, and how many joints were posed in lanes.
+#[cfg(test)]
+pub(super) type PosedBothWays = (Vec<Pose>, Vec<Vec3>, usize);
+
+/// Hair `hair`'s poses this frame worked out both ways, [`PosePath::Lanes`] then
+/// [`PosePath::Alone`], each on its own copy of the solver's state (with `tamper` applied first):
+/// the poses, every particle after posing, and how many joints were posed in lanes.
+#[cfg(test)]
+pub(super) fn poses_both_ways(
+    world: &mut World,
+    hair: Entity,
+    tamper: impl Fn(&mut ComputedHair),
+) -> [PosedBothWays; 2] {
+    let mut frame = FrameShapes::default();
+    let mut colliders =
+        world.query_filtered::<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>();
+    frame.gather(colliders.iter(world));
+    let e = world.entity(hair);
+    let (driven, hair_world) = (
+        e.get::<BoneChainHair>().unwrap(),
+        e.get::<GlobalTransform>().unwrap(),
+    );
+    let computed = e.get::<ComputedHair>().unwrap();
+    let margin = e.get::<HairSimSettings>().unwrap().margins().0 * computed.size;
+    let mut near = Vec::new();
+    gather_near(
+        &frame,
+        computed,
+        e.get::<HairCollidesOnly>(),
+        margin,
+        &mut near,
+    );
+    [PosePath::Lanes, PosePath::Alone].map(|path| {
+        let mut copy = ComputedHair {
+            batches: computed.batches.clone(),
+            lane_of: computed.lane_of.clone(),
+            ..default()
+        };
+        tamper(&mut copy);
+        let mut buffers = PoseBuffers::default();
+        let lanes = pose_hair(
+            driven,
+            hair_world,
+            Some(&mut copy),
+            (&near, margin),
+            &mut buffers,
+            &|j| world.get::<Transform>(j).copied(),
+            path,
+        );
+        let particles = (0..copy.lane_of.len())
+            .flat_map(|s| (0..copy.particle_count(s)).map(move |i| (s, i)))
+            .map(|(s, i)| copy.particle(s, i))
+            .collect();
+        (buffers.posed, particles, lanes)
+    })
 }
 
 #[cfg(test)]

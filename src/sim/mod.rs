@@ -27,6 +27,7 @@
 mod attach;
 mod attach_work;
 mod bone;
+mod chain_lanes;
 mod chain_pose;
 mod chains;
 mod clock;

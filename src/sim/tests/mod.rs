@@ -703,6 +703,7 @@ fn particles(app: &mut App) -> Vec<Vec<Vec3>> {
 }
 
 mod attach;
+mod chain_lanes;
 mod chains;
 mod motion;
 mod segments;

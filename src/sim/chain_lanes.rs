@@ -1,0 +1,645 @@
+//! Posing the chains of one solver batch side by side: joint `k` of every chain in the batch at
+//! once, each number a [`Lane`] with the chain innermost, as the solver lays them out. The chains
+//! of a hair are independent, so the arithmetic of eight chains overlaps instead of waiting down
+//! one chain's dependent products, and the particles are read straight from the solver's lanes.
+//!
+//! The joints' local translations and scales, bind rotations and child offsets are read from
+//! the world once, into the same lane order ([`LaneJoints`]), and read again only when a joint's
+//! transform changes: a frame reads them in the order it uses them, not joint by joint from
+//! the world.
+//!
+//! The lanes do the arithmetic every joint needs (the joint's world origin, its bind direction,
+//! the shortest turn onto its next particle, its world matrix) and the first round of keeping
+//! the posed child off colliders (most children are certainly clear). What only some joints need
+//! is done lane by lane between the two halves: the rest of keeping a child off a collider, and
+//! keeping it inside an angle limit. A chain that needs more than a rotation times a uniform scale (a mirrored or
+//! stretched joint), its tail joint, or a turn the lanes cannot take (a bone with no direction,
+//! a half turn) is handed, from that joint on, to the one-chain posing in `chain_pose`, which
+//! gives the same poses one joint at a time.
+// Lane loops index several arrays with the same counter on purpose: that is the shape the
+// compiler vectorises across chains.
+#![expect(
+    clippy::needless_range_loop,
+    reason = "lane loops index several arrays at once, which the compiler vectorises"
+)]
+
+use bevy::math::{Affine3A, Mat3A, Vec3A};
+use bevy::prelude::*;
+
+use super::attach::ComputedHair;
+use super::chain_pose::{
+    ChainCursor, NearShape, Pose, UNPOSED, chain_particles, keep_off, pose_chain, uniform_scale,
+};
+use super::chains::BoneChainHair;
+use super::contact::ContactShape;
+use super::limits::{limit_frame, limit_offset};
+use super::solver::{LANES, Lane};
+
+/// Three numbers per lane.
+type Lane3 = [Lane; 3];
+/// A quaternion per lane: `x, y, z, w`.
+type Lane4 = [Lane; 4];
+
+/// The joint each lane's chain was last posed at: its world matrix (columns `x`, `y`, `z`), its
+/// origin, its world rotation and its world scale.
+#[derive(Clone, Copy)]
+struct Parents {
+    matrix: [Lane3; 3],
+    origin: Lane3,
+    rotation: Lane4,
+    scale: Lane,
+}
+
+impl Parents {
+    /// Every lane at `cursor`.
+    fn splat(cursor: &ChainCursor) -> Self {
+        let m = cursor.parent.matrix3;
+        let column = |c: Vec3A| [[c.x; LANES], [c.y; LANES], [c.z; LANES]];
+        let (t, q) = (cursor.parent.translation, cursor.parent_rotation);
+        Self {
+            matrix: [column(m.x_axis), column(m.y_axis), column(m.z_axis)],
+            origin: [[t.x; LANES], [t.y; LANES], [t.z; LANES]],
+            rotation: [[q.x; LANES], [q.y; LANES], [q.z; LANES], [q.w; LANES]],
+            scale: [cursor.scale; LANES],
+        }
+    }
+
+    /// Lane `l`'s world transform.
+    fn affine(&self, l: usize) -> Affine3A {
+        Affine3A {
+            matrix3: Mat3A::from_cols(
+                lane3a(&self.matrix[0], l),
+                lane3a(&self.matrix[1], l),
+                lane3a(&self.matrix[2], l),
+            ),
+            translation: lane3a(&self.origin, l),
+        }
+    }
+
+    /// Lane `l` of chain `strand` as the one-chain posing's cursor.
+    fn cursor(&self, l: usize, strand: usize) -> ChainCursor {
+        ChainCursor {
+            strand,
+            parent: self.affine(l),
+            parent_rotation: lane4(&self.rotation, l),
+            simulated: true,
+            uniform: true,
+            scale: self.scale[l],
+        }
+    }
+}
+
+/// A hair's joints in the solver's lane order, read from their entities once and kept between
+/// frames: posing reads them in the order it uses them, not joint by joint from the world. Read
+/// again when the hair's batches change or [`forget`](Self::forget) is called (a joint's
+/// transform changed, or a joint lost it).
+#[derive(Clone, Debug, Default)]
+pub(super) struct LaneJoints {
+    /// Per batch, as when read: its lanes' strands, its live lanes, its nodes.
+    batches: Vec<([u32; LANES], usize, usize)>,
+    /// Per batch: its first row in `rows`, and one past its last.
+    rows_of: Vec<(usize, usize)>,
+    /// Per batch, joint `k` of every lane.
+    rows: Vec<LaneJoint>,
+    /// Read since the last [`forget`](Self::forget).
+    fresh: bool,
+}
+
+impl LaneJoints {
+    /// Read again before the next posing.
+    pub(super) fn forget(&mut self) {
+        self.fresh = false;
+    }
+
+    /// Whether this was read for these batches.
+    fn reads(&self, computed: &ComputedHair) -> bool {
+        self.fresh
+            && self.batches.len() == computed.batches.len()
+            && self
+                .batches
+                .iter()
+                .zip(&computed.batches)
+                .all(|(&(strands, count, nodes), b)| {
+                    strands == b.strands && count == b.count && nodes == b.nodes.len()
+                })
+    }
+
+    /// Reads the joints of every batch's lanes.
+    fn read(
+        &mut self,
+        driven: &BoneChainHair,
+        computed: &ComputedHair,
+        bind: &impl Fn(Entity) -> Option<Transform>,
+    ) {
+        self.batches.clear();
+        self.rows_of.clear();
+        self.rows.clear();
+        for batch in &computed.batches {
+            let (count, strands) = (batch.count.min(LANES), batch.strands);
+            let particle_count = batch.nodes.len() / 2;
+            self.batches
+                .push((batch.strands, batch.count, batch.nodes.len()));
+            let first = self.rows.len();
+            let chain = |l: usize| driven.joints.get(strands[l] as usize);
+            let longest = (0..count)
+                .filter_map(chain)
+                .map(Vec::len)
+                .max()
+                .unwrap_or(0);
+            for k in 0..longest {
+                let mut row = LaneJoint::default();
+                for l in 0..count {
+                    let s = strands[l] as usize;
+                    let Some(chain) = chain(l) else {
+                        continue;
+                    };
+                    let Some(&joint) = chain.get(k) else {
+                        continue;
+                    };
+                    if k > 0 && self.rows[self.rows.len() - 1].step[l] != Step::Lanes {
+                        // The lane was left at an earlier joint.
+                        continue;
+                    }
+                    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+                    // A chain the solver holds as many particles for as it has joints and a tail.
+                    let usable = chain.len() + usize::from(!tail_joint) == particle_count
+                        && driven.rest.get(s).is_some_and(|r| r.len() == chain.len())
+                        && driven.tail.get(s).is_some();
+                    let Some(local) = bind(joint) else {
+                        row.step[l] = Step::Missing;
+                        continue;
+                    };
+                    if !usable
+                        || (tail_joint && k + 1 == chain.len())
+                        || !uniform_scale(local.scale)
+                    {
+                        row.step[l] = Step::Alone;
+                        continue;
+                    }
+                    let rest = &driven.rest[s];
+                    row.step[l] = Step::Lanes;
+                    row.entity[l] = joint;
+                    set3(&mut row.translation, l, local.translation);
+                    row.scale[l] = local.scale.x;
+                    set4(&mut row.rest, l, rest[k].rotation);
+                    let child = rest.get(k + 1).map_or(driven.tail[s], |t| t.translation);
+                    set3(&mut row.child, l, child);
+                }
+                self.rows.push(row);
+            }
+            self.rows_of.push((first, self.rows.len()));
+        }
+        self.fresh = true;
+    }
+}
+
+/// What posing one joint in a lane takes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// Posed in the lanes.
+    Lanes,
+    /// Posed alone from here on (a tail joint, a stretched or mirrored joint, a chain the solver
+    /// does not hold as it is).
+    Alone,
+    /// The joint has no transform: its chain is not posed from here on.
+    Missing,
+    /// No joint (the chain ended, or left the lanes at an earlier joint).
+    End,
+}
+
+/// Joint `k` of each lane's chain: its entity, what posing it takes, its local translation and
+/// (uniform) scale, its bind rotation and its child's bind offset.
+#[derive(Clone, Debug)]
+struct LaneJoint {
+    entity: [Entity; LANES],
+    step: [Step; LANES],
+    translation: Lane3,
+    scale: Lane,
+    rest: Lane4,
+    child: Lane3,
+}
+
+impl Default for LaneJoint {
+    fn default() -> Self {
+        Self {
+            entity: [Entity::PLACEHOLDER; LANES],
+            step: [Step::End; LANES],
+            translation: [[0.0; LANES]; 3],
+            scale: [1.0; LANES],
+            rest: [[0.0; LANES], [0.0; LANES], [0.0; LANES], [1.0; LANES]],
+            child: [[0.0; LANES], [1.0; LANES], [0.0; LANES]],
+        }
+    }
+}
+
+/// The first half of posing a joint: its world origin, its bind rotation under its posed parent,
+/// its bone's bind offset in the world (`from`), that bone's length, and the offset to its next
+/// particle (`to`).
+struct Reach {
+    origin: Lane3,
+    at_rest: Lane4,
+    from: Lane3,
+    length: Lane,
+    to: Lane3,
+}
+
+impl Default for Reach {
+    fn default() -> Self {
+        Self {
+            origin: [[0.0; LANES]; 3],
+            at_rest: [[0.0; LANES]; 4],
+            from: [[0.0; LANES]; 3],
+            length: [0.0; LANES],
+            to: [[0.0; LANES]; 3],
+        }
+    }
+}
+
+fn lane3(a: &Lane3, l: usize) -> Vec3 {
+    Vec3::new(a[0][l], a[1][l], a[2][l])
+}
+
+fn lane3a(a: &Lane3, l: usize) -> Vec3A {
+    Vec3A::new(a[0][l], a[1][l], a[2][l])
+}
+
+fn lane4(a: &Lane4, l: usize) -> Quat {
+    Quat::from_xyzw(a[0][l], a[1][l], a[2][l], a[3][l])
+}
+
+fn set3(a: &mut Lane3, l: usize, v: Vec3) {
+    a[0][l] = v.x;
+    a[1][l] = v.y;
+    a[2][l] = v.z;
+}
+
+fn set4(a: &mut Lane4, l: usize, q: Quat) {
+    a[0][l] = q.x;
+    a[1][l] = q.y;
+    a[2][l] = q.z;
+    a[3][l] = q.w;
+}
+
+/// `a * b` (quaternions `x, y, z, w`), as glam writes it.
+#[inline(always)]
+fn mul(a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
+    let [ax, ay, az, aw] = a;
+    let [bx, by, bz, bw] = b;
+    [
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ]
+}
+
+/// `v` turned by the unit quaternion `q`.
+#[inline(always)]
+fn rotate(q: [f32; 4], v: [f32; 3]) -> [f32; 3] {
+    let [x, y, z, w] = q;
+    let [vx, vy, vz] = v;
+    let b2 = x * x + y * y + z * z;
+    let along = (vx * x + vy * y + vz * z) * 2.0;
+    let (k, w2) = (w * w - b2, w * 2.0);
+    // v (w^2 - b.b) + b (2 v.b) + (b x v) 2w
+    [
+        vx * k + x * along + (y * vz - z * vy) * w2,
+        vy * k + y * along + (z * vx - x * vz) * w2,
+        vz * k + z * along + (x * vy - y * vx) * w2,
+    ]
+}
+
+/// The first half of posing joint `j` of every lane, its next particles at `particle` (see
+/// [`Reach`]).
+#[inline(always)]
+fn reach(p: &Parents, j: &LaneJoint, particle: &Lane3, r: &mut Reach) {
+    for l in 0..LANES {
+        let m = |c: usize, i: usize| p.matrix[c][i][l];
+        let apply = |v: [f32; 3], i: usize| m(0, i) * v[0] + m(1, i) * v[1] + m(2, i) * v[2];
+        let t = [
+            j.translation[0][l],
+            j.translation[1][l],
+            j.translation[2][l],
+        ];
+        let q = [
+            p.rotation[0][l],
+            p.rotation[1][l],
+            p.rotation[2][l],
+            p.rotation[3][l],
+        ];
+        let rest = [j.rest[0][l], j.rest[1][l], j.rest[2][l], j.rest[3][l]];
+        let s = j.scale[l];
+        let bone = rotate(
+            rest,
+            [j.child[0][l] * s, j.child[1][l] * s, j.child[2][l] * s],
+        );
+        let at_rest = mul(q, rest);
+        let mut length = 0.0;
+        for i in 0..3 {
+            let origin = apply(t, i) + p.origin[i][l];
+            let from = apply(bone, i);
+            r.origin[i][l] = origin;
+            r.from[i][l] = from;
+            r.to[i][l] = particle[i][l] - origin;
+            length += from * from;
+        }
+        r.length[l] = length.sqrt();
+        for i in 0..4 {
+            r.at_rest[i][l] = at_rest[i];
+        }
+    }
+}
+
+/// The lanes whose posed child, at its bone's length toward its next particle, is certainly
+/// clear of every shape in `near` (outside its box, or farther than `margin` outside a sphere or
+/// capsule by squared distances): the first round of [`keep_off`], which the other lanes go
+/// through whole.
+#[inline(always)]
+fn clear_of_all(near: &[NearShape], r: &Reach, margin: f32) -> [bool; LANES] {
+    // The child's offset from the joint: toward the particle, at the bone's length.
+    let mut offset = [[0.0; LANES]; 3];
+    let mut clear = [true; LANES];
+    for l in 0..LANES {
+        let t = [r.to[0][l], r.to[1][l], r.to[2][l]];
+        let rcp = 1.0 / (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        // No direction: `keep_off` decides.
+        clear[l] = rcp.is_finite() && rcp > 0.0;
+        for i in 0..3 {
+            offset[i][l] = t[i] * rcp * r.length[l];
+        }
+    }
+    for (shape, inside, lo, hi) in near {
+        let (lo, hi) = (lo.to_array(), hi.to_array());
+        // Where the shape's points lie from each lane's joint.
+        let (centre, b, reach) = match *shape {
+            ContactShape::Sphere { centre, radius } if !inside => (centre, None, radius + margin),
+            ContactShape::Capsule { a, b, radius } if !inside => (a, Some(b), radius + margin),
+            // Clear only outside the box.
+            _ => (Vec3A::ZERO, None, f32::NAN),
+        };
+        for l in 0..LANES {
+            let o = [offset[0][l], offset[1][l], offset[2][l]];
+            let mut outside = false;
+            for i in 0..3 {
+                let q = r.origin[i][l] + o[i];
+                outside |= q < lo[i] || q > hi[i];
+            }
+            let a = [
+                centre.x - r.origin[0][l],
+                centre.y - r.origin[1][l],
+                centre.z - r.origin[2][l],
+            ];
+            let nearest = match b {
+                None => a,
+                Some(b) => {
+                    let ab = [b.x - centre.x, b.y - centre.y, b.z - centre.z];
+                    let along =
+                        (o[0] - a[0]) * ab[0] + (o[1] - a[1]) * ab[1] + (o[2] - a[2]) * ab[2];
+                    let t = (along / (ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]).max(1e-20))
+                        .clamp(0.0, 1.0);
+                    [a[0] + ab[0] * t, a[1] + ab[1] * t, a[2] + ab[2] * t]
+                }
+            };
+            let d = [o[0] - nearest[0], o[1] - nearest[1], o[2] - nearest[2]];
+            // NaN for a shape tested by its box alone: never clear by distance.
+            let far = d[0] * d[0] + d[1] * d[1] + d[2] * d[2] >= reach * reach;
+            clear[l] &= outside || far;
+        }
+    }
+    clear
+}
+
+/// The second half: each lane's joint turned by the shortest arc from `from` to `to`, into its
+/// world pose as the next joint's parent (`next`) and its local rotation (`local`); `ok` says
+/// whether the lane could take the turn (both offsets have a direction, and they are not
+/// opposite).
+#[inline(always)]
+fn turn(
+    p: &Parents,
+    r: &Reach,
+    scale: &Lane,
+    (next, local, ok): (&mut Parents, &mut Lane4, &mut [bool; LANES]),
+) {
+    next.origin = r.origin;
+    for l in 0..LANES {
+        let f = [r.from[0][l], r.from[1][l], r.from[2][l]];
+        let t = [r.to[0][l], r.to[1][l], r.to[2][l]];
+        let norms = ((f[0] * f[0] + f[1] * f[1] + f[2] * f[2])
+            * (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]))
+            .sqrt();
+        let w = norms + (f[0] * t[0] + f[1] * t[1] + f[2] * t[2]);
+        ok[l] = norms > 0.0 && norms < f32::INFINITY && w > 1e-6 * norms;
+        let c = [
+            f[1] * t[2] - f[2] * t[1],
+            f[2] * t[0] - f[0] * t[2],
+            f[0] * t[1] - f[1] * t[0],
+        ];
+        let inv = 1.0 / (c[0] * c[0] + c[1] * c[1] + c[2] * c[2] + w * w).sqrt();
+        let arc = [c[0] * inv, c[1] * inv, c[2] * inv, w * inv];
+        let at_rest = [
+            r.at_rest[0][l],
+            r.at_rest[1][l],
+            r.at_rest[2][l],
+            r.at_rest[3][l],
+        ];
+        let world = mul(arc, at_rest);
+        let q = [
+            -p.rotation[0][l],
+            -p.rotation[1][l],
+            -p.rotation[2][l],
+            p.rotation[3][l],
+        ];
+        let own = mul(q, world);
+        let s = p.scale[l] * scale[l];
+        // The world matrix: the rotation's, times the scale (as `Mat3A::from_quat` writes it).
+        let [x, y, z, w] = world;
+        let (x2, y2, z2) = (x + x, y + y, z + z);
+        let (xx, xy, xz) = (x * x2, x * y2, x * z2);
+        let (yy, yz, zz) = (y * y2, y * z2, z * z2);
+        let (wx, wy, wz) = (w * x2, w * y2, w * z2);
+        let columns = [
+            [1.0 - (yy + zz), xy + wz, xz - wy],
+            [xy - wz, 1.0 - (xx + zz), yz + wx],
+            [xz + wy, yz - wx, 1.0 - (xx + yy)],
+        ];
+        for c in 0..3 {
+            for i in 0..3 {
+                next.matrix[c][i][l] = columns[c][i] * s;
+            }
+        }
+        for i in 0..4 {
+            next.rotation[i][l] = world[i];
+            local[i][l] = own[i];
+        }
+        next.scale[l] = s;
+    }
+}
+
+/// The chain of lane `l` (its cursor at the joint before `from`) posed alone from joint `from`.
+fn pose_alone(
+    driven: &BoneChainHair,
+    (mut cursor, from): (ChainCursor, usize),
+    computed: &mut ComputedHair,
+    (near, margin): (&[NearShape], f32),
+    (posed, first, particles): (&mut [Pose], &[usize], &mut Vec<Vec3>),
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) {
+    let s = cursor.strand;
+    cursor.simulated &= chain_particles(driven, s, Some(computed), particles);
+    pose_chain(
+        driven,
+        &mut cursor,
+        (first[s], from),
+        Some(computed),
+        (near, margin, particles),
+        posed,
+        bind,
+    );
+}
+
+/// Poses the chains in the lanes of batch `b` (see the module docs) into `posed`, the hair's
+/// cursor `start` before each chain's first joint, chain `s`'s slots from `first[s]`; `joints`
+/// are the hair's joints, read again first if they were not read for these batches. The hair's
+/// scale is uniform. Returns how many joints were posed in the lanes.
+pub(super) fn pose_batch(
+    driven: &BoneChainHair,
+    (b, start): (usize, &ChainCursor),
+    computed: &mut ComputedHair,
+    joints: &mut LaneJoints,
+    (near, margin): (&[NearShape], f32),
+    (posed, first, particles): (&mut [Pose], &[usize], &mut Vec<Vec3>),
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) -> usize {
+    if !joints.reads(computed) {
+        joints.read(driven, computed, bind);
+    }
+    let batch = &computed.batches[b];
+    let (count, strands) = (batch.count.min(LANES), batch.strands);
+    // A lane is posed here while its chain's particles are finite.
+    let mut live = [true; LANES];
+    for node in batch.nodes.iter().skip(1).step_by(2) {
+        let x = &node.x;
+        for l in 0..LANES {
+            live[l] &= x[0][l].is_finite() && x[1][l].is_finite() && x[2][l].is_finite();
+        }
+    }
+    for l in 0..LANES {
+        let s = strands[l] as usize;
+        if l >= count || driven.joints.get(s).is_none() {
+            live[l] = false;
+        } else if !live[l] {
+            let cursor = ChainCursor {
+                strand: s,
+                ..*start
+            };
+            pose_alone(
+                driven,
+                (cursor, 0),
+                computed,
+                (near, margin),
+                (posed, first, particles),
+                bind,
+            );
+        }
+    }
+    let (from, to) = joints.rows_of[b];
+    let mut parents = Parents::splat(start);
+    let mut next = parents;
+    let mut r = Reach::default();
+    let (mut local, mut ok) = ([[0.0; LANES]; 4], [false; LANES]);
+    let mut in_lanes = 0;
+    for (k, row) in joints.rows[from..to].iter().enumerate() {
+        // A chain that ends, loses a joint or needs more than the lanes give leaves them.
+        for l in 0..LANES {
+            if !live[l] || row.step[l] == Step::Lanes {
+                continue;
+            }
+            live[l] = false;
+            let s = strands[l] as usize;
+            match row.step[l] {
+                Step::Alone => pose_alone(
+                    driven,
+                    (parents.cursor(l, s), k),
+                    computed,
+                    (near, margin),
+                    (posed, first, particles),
+                    bind,
+                ),
+                Step::Missing => {
+                    posed[first[s] + k..first[s] + driven.joints[s].len()].fill(UNPOSED);
+                }
+                Step::Lanes | Step::End => {}
+            }
+        }
+        if !live.contains(&true) {
+            break;
+        }
+        reach(
+            &parents,
+            row,
+            &computed.batches[b].nodes[2 * (k + 1) + 1].x,
+            &mut r,
+        );
+        // The posed child at its bone's length, kept off the colliders the particle was kept
+        // off, and inside the joint's angle limit (the particle follows: the simulation goes on
+        // from where the joint is, as VRM's step does).
+        let clear = if near.is_empty() {
+            [true; LANES]
+        } else {
+            clear_of_all(near, &r, margin)
+        };
+        for l in 0..LANES {
+            let s = strands[l] as usize;
+            let limit = driven
+                .limits
+                .get(s)
+                .and_then(|v| v.get(k))
+                .and_then(Option::as_ref);
+            if !live[l] || (clear[l] && limit.is_none()) {
+                continue;
+            }
+            let origin = lane3(&r.origin, l);
+            let mut to = lane3(&r.to, l);
+            if !clear[l]
+                && let Some(kept) = keep_off(near, origin, to, r.length[l], margin)
+            {
+                computed.batches[b].set_particle(l, k + 1, origin + kept);
+                to = kept;
+            }
+            if let Some(limit) = limit {
+                let frame = limit_frame(lane4(&r.at_rest, l), lane3(&row.child, l), limit);
+                let limited = limit_offset(frame, limit, to);
+                if limited != to {
+                    computed.batches[b].set_particle(l, k + 1, origin + limited);
+                    to = limited;
+                }
+            }
+            set3(&mut r.to, l, to);
+        }
+        turn(&parents, &r, &row.scale, (&mut next, &mut local, &mut ok));
+        for l in 0..LANES {
+            if !live[l] {
+                continue;
+            }
+            let s = strands[l] as usize;
+            let rotation = lane4(&local, l);
+            if !ok[l] || !rotation.is_finite() {
+                // A bone without a direction, a half turn or a non-finite turn: posed alone.
+                live[l] = false;
+                pose_alone(
+                    driven,
+                    (parents.cursor(l, s), k),
+                    computed,
+                    (near, margin),
+                    (posed, first, particles),
+                    bind,
+                );
+                continue;
+            }
+            posed[first[s] + k] = (row.entity[l], rotation, next.affine(l));
+            in_lanes += 1;
+        }
+        std::mem::swap(&mut parents, &mut next);
+    }
+    in_lanes
+}

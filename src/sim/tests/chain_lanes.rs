@@ -1,0 +1,235 @@
+//! Chains posed side by side in the solver's lanes come out as each chain posed alone.
+
+use bevy::prelude::*;
+
+use super::super::chain_pose::{PosedBothWays, poses_both_ways};
+use super::*;
+use crate::asset::{JointLimit, JointLimitShape};
+
+/// Joint `k` of chain `c` in its parent's frame: roots spread over the top of the head, then
+/// bones out and down, a little turned.
+fn offset(c: usize, k: usize) -> Vec3 {
+    let a = c as f32 * 2.4;
+    if k == 0 {
+        Vec3::new(0.09 * a.cos(), 0.06, 0.09 * a.sin())
+    } else {
+        Vec3::new(0.012 * a.cos(), -0.03, 0.012 * a.sin())
+    }
+}
+
+/// A character whose head carries, under one [`HairBoneChains`] each:
+/// - 11 chains of 5 bones and 3 of 3 found by name (a full batch, a part-filled one, another
+///   length), one with a stretched joint;
+/// - 9 chains of 4 listed joint by joint, the last joint a tail (as VRM's), with cone, hinge and
+///   spherical limits on some joints;
+///
+/// and a sphere in the head close enough that shaking throws the chains onto it. Returns the
+/// app, the root, the joints of the named chains.
+fn lanes_app() -> (App, Entity, Vec<Vec<Entity>>) {
+    let mut app = event_app();
+    let (root, head) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+    let world = app.world_mut();
+    let spawn_chain = |world: &mut World, name: &str, c: usize, bones: usize| {
+        let mut parent = head;
+        let mut joints = Vec::new();
+        for k in 0..bones {
+            let mut t = Transform::from_translation(offset(c, k))
+                .with_rotation(Quat::from_rotation_z(0.2 * k as f32 - 0.3));
+            if name == "hair" && c == 4 && k == 2 {
+                t.scale = Vec3::new(1.0, 1.3, 1.0);
+            }
+            parent = world
+                .spawn((Name::new(format!("{name}_{c}_{k}")), t, ChildOf(parent)))
+                .id();
+            joints.push(parent);
+        }
+        joints
+    };
+    let named: Vec<Vec<Entity>> = (0..14)
+        .map(|c| spawn_chain(world, "hair", c, if c < 11 { 5 } else { 3 }))
+        .collect();
+    let listed: Vec<Vec<Entity>> = (14..23)
+        .map(|c| spawn_chain(world, "spring", c, 4))
+        .collect();
+    let shapes = [
+        JointLimitShape::Cone { angle: 0.4 },
+        JointLimitShape::Hinge { angle: 0.5 },
+        JointLimitShape::Spherical {
+            pitch: 0.6,
+            yaw: 0.3,
+        },
+    ];
+    let limits = listed
+        .iter()
+        .enumerate()
+        .filter(|(c, _)| c % 2 == 0)
+        .flat_map(|(c, joints)| {
+            joints[..2].iter().map(move |&j| {
+                (
+                    j,
+                    JointLimit {
+                        shape: shapes[c % 3],
+                        rotation: Quat::from_rotation_x(0.2),
+                    },
+                )
+            })
+        })
+        .collect();
+    world.spawn((
+        HairBoneChains::matching(root, |n| n.starts_with("hair_")),
+        HairSimSettings::default(),
+    ));
+    world.spawn((
+        HairBoneChains {
+            root,
+            select: ChainSelect::Joints(listed),
+            tail: 1.0,
+        },
+        ChainJointLimits(limits),
+        HairSimSettings::default(),
+    ));
+    world.spawn((
+        HairCollider {
+            spheres: vec![crate::asset::CollisionSphere {
+                center: Vec3::new(0.0, -0.02, 0.0),
+                radius: 0.1,
+            }],
+            ..default()
+        },
+        ChildOf(head),
+    ));
+    (app, root, named)
+}
+
+/// The farthest apart two hairs' poses and particles are: (rotation, world transform, particle).
+fn apart(a: &PosedBothWays, b: &PosedBothWays) -> (f32, f32, f32) {
+    assert_eq!(a.0.len(), b.0.len());
+    assert_eq!(a.1.len(), b.1.len());
+    let (mut rotation, mut world) = (0.0f32, 0.0f32);
+    for ((ea, qa, wa), (eb, qb, wb)) in a.0.iter().zip(&b.0) {
+        assert_eq!(ea, eb, "the same joint in the same slot");
+        // q and -q are the same turn.
+        let q = if qa.dot(*qb) < 0.0 { -*qb } else { *qb };
+        rotation = rotation.max((*qa - q).length());
+        let (ma, mb) = (wa.to_cols_array(), wb.to_cols_array());
+        world = ma
+            .iter()
+            .zip(&mb)
+            .map(|(x, y)| (x - y).abs())
+            .fold(world, f32::max);
+    }
+    let particle =
+        a.1.iter()
+            .zip(&b.1)
+            .map(|(p, q)| p.distance(*q))
+            .fold(0.0, f32::max);
+    (rotation, world, particle)
+}
+
+#[test]
+fn chains_posed_in_lanes_match_each_chain_posed_alone() {
+    let (mut app, root, named) = lanes_app();
+    let mut hairs = Vec::new();
+    let (mut in_lanes, mut joints, mut moved) = (0, 0, 0usize);
+    let mut worst = (0.0f32, 0.0f32, 0.0f32);
+    let mut compare = |app: &mut App, tamper: &dyn Fn(&mut ComputedHair)| {
+        let mut q = app.world_mut().query::<(Entity, &BoneChainHair)>();
+        let found: Vec<Entity> = q.iter(app.world()).map(|(e, _)| e).collect();
+        for hair in found {
+            let [lanes, alone] = poses_both_ways(app.world_mut(), hair, tamper);
+            assert_eq!(alone.2, 0, "posed alone, no joint is in lanes");
+            let (r, w, p) = apart(&lanes, &alone);
+            worst = (worst.0.max(r), worst.1.max(w), worst.2.max(p));
+            in_lanes += lanes.2;
+            joints += lanes.0.len();
+            // Posing moved particles (off the sphere, into a limit): both ways alike.
+            let before = app.world().get::<ComputedHair>(hair).unwrap();
+            moved += (0..before.lane_of.len())
+                .flat_map(|s| (0..before.particle_count(s)).map(move |i| (s, i)))
+                .zip(&lanes.1)
+                .filter(|((s, i), p)| before.particle(*s, *i).distance(**p) > 1e-6)
+                .count();
+            if !hairs.contains(&hair) {
+                hairs.push(hair);
+            }
+        }
+    };
+    for f in 0..90 {
+        let t = (f + 1) as f32 / 60.0;
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation =
+            Quat::from_rotation_y(1.4 * (6.0 * t).sin())
+                * Quat::from_rotation_x(0.6 * (4.0 * t).sin());
+        app.update();
+        if f >= 5 {
+            compare(&mut app, &|_| {});
+        }
+    }
+    // A chain whose particles stopped being finite follows its bind pose, both ways.
+    compare(&mut app, &|c: &mut ComputedHair| {
+        c.set_particle(1, 2, Vec3::NAN);
+        c.set_particle(9, 0, Vec3::new(f32::INFINITY, 0.0, 0.0));
+    });
+    // A joint that lost its transform ends its chain's posing there, both ways.
+    app.world_mut()
+        .entity_mut(named[6][3])
+        .remove::<Transform>();
+    compare(&mut app, &|_| {});
+    assert_eq!(
+        hairs.len(),
+        2,
+        "one hair per chains entity, both on the head"
+    );
+    // The joints the app wrote this frame are the poses worked out alone from the same state.
+    let written = |app: &mut App| {
+        let mut q = app.world_mut().query::<(Entity, &BoneChainHair)>();
+        let found: Vec<Entity> = q.iter(app.world()).map(|(e, _)| e).collect();
+        let mut farthest = 0.0f32;
+        for hair in found {
+            let [_, alone] = poses_both_ways(app.world_mut(), hair, |_| {});
+            for (joint, _, world) in alone.0 {
+                let Some(g) = app.world().get::<GlobalTransform>(joint) else {
+                    continue;
+                };
+                let (a, b) = (g.affine().to_cols_array(), world.to_cols_array());
+                farthest = a
+                    .iter()
+                    .zip(&b)
+                    .map(|(x, y)| (x - y).abs())
+                    .fold(farthest, f32::max);
+            }
+        }
+        farthest
+    };
+    let before = written(&mut app);
+    // The game moves a joint and scales another: posing reads them again.
+    let mut moved_joint = app.world_mut().get_mut::<Transform>(named[3][2]).unwrap();
+    moved_joint.translation.x += 0.02;
+    app.world_mut()
+        .get_mut::<Transform>(named[12][0])
+        .unwrap()
+        .scale = Vec3::splat(1.5);
+    app.update();
+    let after = written(&mut app);
+    println!("written against posed alone: {before:e} before, {after:e} after the game's change");
+    assert!(
+        before < 1e-4 && after < 1e-4,
+        "the app's poses are those worked out alone: {before}, {after}"
+    );
+    println!(
+        "{in_lanes} of {joints} joints posed in lanes; {moved} particles moved by posing; \
+         apart at most: rotation {:e}, world transform {:e}, particle {:e} m",
+        worst.0, worst.1, worst.2
+    );
+    assert!(
+        in_lanes * 10 > joints * 6,
+        "most joints are posed in lanes ({in_lanes} of {joints})"
+    );
+    assert!(
+        moved > 0,
+        "the shake must throw chains onto the sphere or a limit"
+    );
+    assert!(
+        worst.0 < 2e-5 && worst.1 < 2e-5 && worst.2 < 2e-5,
+        "the lanes pose as posing alone: {worst:?}"
+    );
+}
