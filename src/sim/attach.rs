@@ -515,14 +515,13 @@ pub(super) fn report_failure(
 /// assets and bone mismatches are reported once each.
 pub(crate) fn build_hair_strands(
     mut commands: Commands,
-    mut work: ResMut<AttachWork>,
+    (mut work, ticks): (ResMut<AttachWork>, bevy::ecs::system::SystemChangeTick),
     mut hairs: HairBuildQuery,
     assets: HairAssets,
     names: Query<&Name>,
     helper: TransformHelper,
     head_colliders: Query<(Entity, &HeadColliderOf)>,
 ) {
-    work.strands = false;
     for (entity, hair, settings, mut global, computed, strands, status, search) in &mut hairs {
         let anim_id = hair.animation.as_ref().map(bevy::prelude::Handle::id);
         let collision_id = hair.collision.as_ref().map(bevy::prelude::Handle::id);
@@ -564,7 +563,7 @@ pub(crate) fn build_hair_strands(
             continue;
         }
         // From here on this hair may queue commands.
-        work.strands = true;
+        work.strands = ticks.this_run();
         // Only now: a hair that is up to date is not marked changed every frame.
         let status = status.into_inner();
         let mut failed = |kind, id: UntypedAssetId| {

@@ -1,24 +1,71 @@
-//! Whether the Attach stage's systems had work this frame, so that the sync points between them
-//! run only in frames that need them.
+//! Whether the Attach stage's systems queued work this frame, so that the sync points between them
+//! run only in frames that need them, and which of the stage's systems have anything to look at:
+//! in a frame in which nothing attaches, builds or reloads, none of them runs.
 
+use bevy::ecs::change_detection::Tick;
+use bevy::ecs::system::SystemChangeTick;
 use bevy::prelude::*;
 
-/// Whether the Attach stage's systems queued work this frame: each sync point after them runs
-/// only then, so a frame in which nothing attaches or rebuilds has none.
+use super::attach::{Hair, StrandOf};
+use super::bone::AttachToBone;
+use super::chains::{BoneChainHair, BoneChainHairs, HairBoneChains};
+use super::vrm::VrmSpringChains;
+use crate::asset::VrmSpringBones;
+
+/// When the Attach stage's systems last queued work: each sync point after them runs only if
+/// work was queued since it last ran, so a frame in which nothing attaches or rebuilds has none.
 #[derive(Resource, Default, Debug)]
 pub(crate) struct AttachWork {
-    /// `attach_to_bones` looked at a hair whose bone was not settled.
-    pub(crate) bones: bool,
+    /// `attach_to_bones` looked at a hair whose bone was not settled, or `build_bone_chains`
+    /// spawned hairs.
+    pub(crate) bones: Tick,
     /// `build_hair_strands` built, rebuilt or reported something.
-    pub(crate) strands: bool,
+    pub(crate) strands: Tick,
 }
 
 impl AttachWork {
-    pub(crate) fn bones(work: Res<Self>) -> bool {
-        work.bones
+    /// Whether `bones` work was queued since this condition last ran.
+    pub(crate) fn bones(work: Res<Self>, ticks: SystemChangeTick) -> bool {
+        work.bones.is_newer_than(ticks.last_run(), ticks.this_run())
     }
 
-    pub(crate) fn strands(work: Res<Self>) -> bool {
+    /// Whether `strands` work was queued since this condition last ran.
+    pub(crate) fn strands(work: Res<Self>, ticks: SystemChangeTick) -> bool {
         work.strands
+            .is_newer_than(ticks.last_run(), ticks.this_run())
     }
+}
+
+/// Run condition of `attach_to_bones`: some hair is hung on a bone by search.
+pub(crate) fn attaching(hairs: Query<(), With<AttachToBone>>) -> bool {
+    !hairs.is_empty()
+}
+
+/// Run condition of `build_vrm_springs`: some VRM's springs are not built yet.
+pub(crate) fn vrm_springs_pending(
+    roots: Query<(), (With<VrmSpringBones>, Without<VrmSpringChains>)>,
+) -> bool {
+    !roots.is_empty()
+}
+
+/// Run condition of `build_bone_chains`: some bone chains are not built yet.
+pub(crate) fn bone_chains_pending(
+    sets: Query<(), (With<HairBoneChains>, Without<BoneChainHairs>)>,
+) -> bool {
+    !sets.is_empty()
+}
+
+/// Run condition of `build_hair_strands`: there is hair.
+pub(crate) fn any_hair(hairs: Query<(), With<Hair>>) -> bool {
+    !hairs.is_empty()
+}
+
+/// Run condition of chain posing: there is hair on bone chains.
+pub(crate) fn any_chain_hair(hairs: Query<(), With<BoneChainHair>>) -> bool {
+    !hairs.is_empty()
+}
+
+/// Run condition of writing strands' particles out: there are strand entities.
+pub(crate) fn any_strand(strands: Query<(), With<StrandOf>>) -> bool {
+    !strands.is_empty()
 }

@@ -146,7 +146,10 @@ const LISTED_BONES: usize = 40;
 )]
 pub(crate) fn attach_to_bones(
     mut commands: Commands,
-    mut work: ResMut<super::attach_work::AttachWork>,
+    (mut work, ticks): (
+        ResMut<super::attach_work::AttachWork>,
+        bevy::ecs::system::SystemChangeTick,
+    ),
     hairs: Query<(
         Entity,
         Ref<AttachToBone>,
@@ -158,14 +161,13 @@ pub(crate) fn attach_to_bones(
     names: Query<&Name>,
     exists: Query<()>,
 ) {
-    work.bones = false;
     for (hair, attach, search, parent) in &hairs {
         let decided = matches!(search, Some(BoneSearch::Found(_) | BoneSearch::NotFound));
         if decided && !attach.is_changed() {
             continue;
         }
         // This hair may queue commands: the sync point after this system runs this frame.
-        work.bones = true;
+        work.bones = ticks.this_run();
         let found = match &attach.bone {
             BoneRef::Entity(e) => exists.contains(*e).then_some(*e),
             by_name => {

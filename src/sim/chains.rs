@@ -223,7 +223,11 @@ pub(crate) fn build_bone_chains(
     roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
     plain: Query<(), PlainLeaf>,
     helper: TransformHelper,
-    (mut grooms, mut work): (ResMut<Assets<HairGroom>>, ResMut<AttachWork>),
+    (mut grooms, mut work, ticks): (
+        ResMut<Assets<HairGroom>>,
+        ResMut<AttachWork>,
+        bevy::ecs::system::SystemChangeTick,
+    ),
 ) {
     for (set, chains, settings, only, (limits, inertia)) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
@@ -255,7 +259,7 @@ pub(crate) fn build_bone_chains(
             continue;
         }
         // The hairs spawned here are built by the strand build in this same frame.
-        work.bones = true;
+        work.bones = ticks.this_run();
         // Group the chains by the bone they hang from.
         let mut groups: Vec<(Entity, Vec<FoundChain>)> = Vec::new();
         for start in starts {

@@ -498,12 +498,18 @@ fn max_deviation(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> f32 {
 #[test]
 fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
     let mut h = Harness::new(spiky_groom(10, 5), HairSimSettings::default(), 60.0);
-    h.update();
-    let work = |h: &Harness| {
+    // Whether the frame `update` runs queued work for each sync point (bones, strands).
+    let work = |h: &mut Harness| {
+        let before = h.app.world().read_change_tick();
+        h.update();
+        let now = h.app.world().read_change_tick();
         let w = h.app.world().resource::<super::attach_work::AttachWork>();
-        (w.bones, w.strands)
+        (
+            w.bones.is_newer_than(before, now),
+            w.strands.is_newer_than(before, now),
+        )
     };
-    assert_eq!(work(&h), (false, false), "steady state still syncs");
+    assert_eq!(work(&mut h), (false, false), "steady state still syncs");
     let bone = h.bone;
     let groom = h.app.world().get::<Hair>(h.hair).unwrap().groom.clone();
     let second = h
@@ -515,15 +521,13 @@ fn the_attach_stage_has_no_sync_points_when_nothing_attaches() {
             AttachToBone::entity(bone),
         ))
         .id();
-    h.update();
     assert_eq!(
-        work(&h),
+        work(&mut h),
         (true, true),
         "a new hair must get its sync points"
     );
     assert!(h.app.world().get::<ComputedHair>(second).is_some());
-    h.update();
-    assert_eq!(work(&h), (false, false));
+    assert_eq!(work(&mut h), (false, false));
 }
 
 /// In steady state the step reuses every per-frame buffer (none is

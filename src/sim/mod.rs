@@ -134,18 +134,36 @@ impl Plugin for HairSimulationPlugin {
             .add_systems(
                 PostUpdate,
                 (
-                    bone::attach_to_bones,
-                    vrm::build_vrm_springs,
+                    // Each system runs only when it has something to look at (see `attach_work`).
+                    bone::attach_to_bones.run_if(attach_work::attaching),
+                    vrm::build_vrm_springs.run_if(attach_work::vrm_springs_pending),
                     vrm::report_failed_vrm_loads.run_if(
-                        resource_exists::<Messages<bevy::asset::UntypedAssetLoadFailedEvent>>,
+                        resource_exists::<Messages<bevy::asset::UntypedAssetLoadFailedEvent>>
+                            .and_then(on_message::<bevy::asset::UntypedAssetLoadFailedEvent>),
                     ),
-                    chains::build_bone_chains,
-                    reload::mark_reloaded_hairs,
-                    reload::report_failed_reloads,
+                    chains::build_bone_chains.run_if(attach_work::bone_chains_pending),
+                    reload::mark_reloaded_hairs.run_if(
+                        on_message::<AssetEvent<crate::asset::HairGroom>>
+                            .or_eager(on_message::<AssetEvent<crate::asset::HairAnimation>>)
+                            .or_eager(on_message::<AssetEvent<crate::asset::HeadCollision>>),
+                    ),
+                    reload::report_failed_reloads.run_if(
+                        on_message::<bevy::asset::AssetLoadFailedEvent<crate::asset::HairGroom>>
+                            .or_eager(
+                                on_message::<
+                                    bevy::asset::AssetLoadFailedEvent<crate::asset::HairAnimation>,
+                                >,
+                            )
+                            .or_eager(
+                                on_message::<
+                                    bevy::asset::AssetLoadFailedEvent<crate::asset::HeadCollision>,
+                                >,
+                            ),
+                    ),
                     // Strands are built on the bone found this frame. Each sync point runs only
-                    // in frames whose systems before it had work (see `AttachWork`).
+                    // in frames whose systems before it queued work (see `AttachWork`).
                     ApplyDeferred.run_if(attach_work::AttachWork::bones),
-                    attach::build_hair_strands,
+                    attach::build_hair_strands.run_if(attach_work::any_hair),
                     ApplyDeferred.run_if(attach_work::AttachWork::strands),
                 )
                     .chain()
@@ -157,8 +175,8 @@ impl Plugin for HairSimulationPlugin {
                     step::step_hair_strands.after(physics::GatherColliders),
                     // Posing moves the particles it keeps off colliders and inside angle
                     // limits: before they are written out.
-                    chain_pose::pose_bone_chains,
-                    step::write_strand_particles,
+                    chain_pose::pose_bone_chains.run_if(attach_work::any_chain_hair),
+                    step::write_strand_particles.run_if(attach_work::any_strand),
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

@@ -802,3 +802,101 @@ fn the_head_collider_is_an_engine_collider_too() {
         );
     }
 }
+
+/// A system's type, as the schedule holds it.
+fn system_type<M>(system: impl IntoSystem<(), (), M>) -> std::any::TypeId {
+    let system = IntoSystem::into_system(system);
+    system.system_type()
+}
+
+/// Which of these `PostUpdate` systems (by type, see [`system_type`]) ran in one frame of `h`.
+fn ran_in_a_frame(h: &mut Harness, systems: &[std::any::TypeId]) -> Vec<bool> {
+    let last_runs = |app: &App| {
+        let schedule = app.get_schedule(PostUpdate).unwrap();
+        let all: Vec<(std::any::TypeId, u32)> = schedule
+            .systems()
+            .unwrap()
+            .map(|(_, s)| (s.system_type(), s.get_last_run().get()))
+            .collect();
+        systems
+            .iter()
+            .map(|id| {
+                let found: Vec<u32> = all
+                    .iter()
+                    .filter(|(t, _)| t == id)
+                    .map(|(_, t)| *t)
+                    .collect();
+                assert_eq!(found.len(), 1, "one such system");
+                found[0]
+            })
+            .collect::<Vec<_>>()
+    };
+    let before = last_runs(&h.app);
+    h.update();
+    let after = last_runs(&h.app);
+    before.iter().zip(&after).map(|(b, a)| a != b).collect()
+}
+
+#[test]
+fn systems_with_nothing_to_look_at_do_not_run() {
+    use super::super::{attach, bone, chain_pose, chains, reload, step, vrm};
+    let mut h = Harness::new(spiky_groom(10, 5), HairSimSettings::default(), 60.0);
+    let idle = [
+        system_type(bone::attach_to_bones),
+        system_type(vrm::build_vrm_springs),
+        system_type(vrm::report_failed_vrm_loads),
+        system_type(chains::build_bone_chains),
+        system_type(reload::mark_reloaded_hairs),
+        system_type(reload::report_failed_reloads),
+        system_type(chain_pose::pose_bone_chains),
+    ];
+    let busy = [
+        system_type(attach::build_hair_strands),
+        system_type(step::step_hair_strands),
+        system_type(step::write_strand_particles),
+    ];
+    h.update();
+    // A built hair hung on its bone as a child, no chains, no VRM, no reloads: only the build
+    // check, the step and the write run.
+    assert_eq!(ran_in_a_frame(&mut h, &idle), vec![false; idle.len()]);
+    assert_eq!(ran_in_a_frame(&mut h, &busy), vec![true; busy.len()]);
+    // A hair hung by bone search, and bone chains: their systems run while they have work.
+    let bone = h.bone;
+    let groom = h.app.world().get::<Hair>(h.hair).unwrap().groom.clone();
+    h.app.world_mut().spawn((
+        Hair { groom, ..default() },
+        HairSimSettings::default(),
+        AttachToBone::entity(bone),
+    ));
+    let joint = h
+        .app
+        .world_mut()
+        .spawn((
+            Name::new("lock_0"),
+            Transform::from_xyz(0.05, 0.0, 0.0),
+            ChildOf(bone),
+        ))
+        .id();
+    h.app.world_mut().spawn((
+        Name::new("lock_1"),
+        Transform::from_xyz(0.0, -0.04, 0.0),
+        ChildOf(joint),
+    ));
+    let root = h.app.world_mut().spawn(Transform::default()).id();
+    h.app.world_mut().entity_mut(bone).insert(ChildOf(root));
+    h.app.world_mut().spawn((
+        HairBoneChains::matching(root, |n| n.starts_with("lock_")),
+        HairSimSettings::default(),
+    ));
+    let first = [
+        system_type(bone::attach_to_bones),
+        system_type(chains::build_bone_chains),
+    ];
+    assert_eq!(ran_in_a_frame(&mut h, &first), vec![true; first.len()]);
+    // The chains built: posing runs from now on; the chain build rests again.
+    let next = [
+        system_type(chain_pose::pose_bone_chains),
+        system_type(chains::build_bone_chains),
+    ];
+    assert_eq!(ran_in_a_frame(&mut h, &next), vec![true, false]);
+}
