@@ -513,6 +513,19 @@ pub(super) fn pose_batch(
     if !joints.reads(computed) {
         joints.read(driven, computed, bind);
     }
+    // A lane's chain posed alone from joint `k`, its cursor at the joint before.
+    let alone = |(cursor, k): (ChainCursor, usize),
+                 computed: &mut ComputedHair,
+                 (posed, particles): (&mut [Pose], &mut Vec<Vec3>)| {
+        pose_alone(
+            driven,
+            (cursor, k),
+            computed,
+            (near, margin),
+            (posed, first, particles),
+            bind,
+        );
+    };
     let batch = &computed.batches[b];
     let (count, strands) = (batch.count.min(LANES), batch.strands);
     // A lane is posed here while its chain's particles are finite.
@@ -532,14 +545,7 @@ pub(super) fn pose_batch(
                 strand: s,
                 ..*start
             };
-            pose_alone(
-                driven,
-                (cursor, 0),
-                computed,
-                (near, margin),
-                (posed, first, particles),
-                bind,
-            );
+            alone((cursor, 0), computed, (posed, particles));
         }
     }
     let (from, to) = joints.rows_of[b];
@@ -557,14 +563,7 @@ pub(super) fn pose_batch(
             live[l] = false;
             let s = strands[l] as usize;
             match row.step[l] {
-                Step::Alone => pose_alone(
-                    driven,
-                    (parents.cursor(l, s), k),
-                    computed,
-                    (near, margin),
-                    (posed, first, particles),
-                    bind,
-                ),
+                Step::Alone => alone((parents.cursor(l, s), k), computed, (posed, particles)),
                 Step::Missing => {
                     posed[first[s] + k..first[s] + driven.joints[s].len()].fill(UNPOSED);
                 }
@@ -626,14 +625,7 @@ pub(super) fn pose_batch(
             if !ok[l] || !rotation.is_finite() {
                 // A bone without a direction, a half turn or a non-finite turn: posed alone.
                 live[l] = false;
-                pose_alone(
-                    driven,
-                    (parents.cursor(l, s), k),
-                    computed,
-                    (near, margin),
-                    (posed, first, particles),
-                    bind,
-                );
+                alone((parents.cursor(l, s), k), computed, (posed, particles));
                 continue;
             }
             posed[first[s] + k] = (row.entity[l], rotation, next.affine(l));

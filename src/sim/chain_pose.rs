@@ -4,7 +4,9 @@
 //! this frame's pose.
 //!
 //! Two passes, each on every core: the poses are worked out hair by hair (each hair reads its
-//! own solver state and the joints' bind transforms), then written joint by joint.
+//! own solver state and its joints' bind transforms; the chains of each solver batch are posed
+//! side by side in the solver's lanes, see `chain_lanes`, and a chain that needs more is posed
+//! alone here, one joint at a time), then written joint by joint.
 //!
 //! Bevy's transform propagation does not visit most of the joints a hair poses (those its
 //! hair's build took over: see `chains::owned_from`), since every frame it would compute world
