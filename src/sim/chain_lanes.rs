@@ -12,10 +12,10 @@
 //! the shortest turn onto its next particle, its world matrix) and the first round of keeping
 //! the posed child off colliders (most children are certainly clear). What only some joints need
 //! is done lane by lane between the two halves: the rest of keeping a child off a collider, and
-//! keeping it inside an angle limit. A chain that needs more than a rotation times a uniform scale (a mirrored or
-//! stretched joint), its tail joint, or a turn the lanes cannot take (a bone with no direction,
-//! a half turn) is handed, from that joint on, to the one-chain posing in `chain_pose`, which
-//! gives the same poses one joint at a time.
+//! keeping it inside an angle limit. A chain that needs more than a rotation times a uniform
+//! scale (a mirrored or stretched joint), its tail joint, or a turn the lanes cannot take (a
+//! bone with no direction, a half turn) is handed, from that joint on, to the one-chain posing
+//! in `chain_pose`, which gives the same poses one joint at a time.
 // Lane loops index several arrays with the same counter on purpose: that is the shape the
 // compiler vectorises across chains.
 #![expect(
@@ -28,12 +28,13 @@ use bevy::prelude::*;
 
 use super::attach::ComputedHair;
 use super::chain_pose::{
-    ChainCursor, NearShape, Pose, UNPOSED, chain_particles, keep_off, pose_chain, uniform_scale,
+    ChainCursor, NearShape, Pose, UNPOSED, chain_particles, keep_off, pose_chain, solver_holds,
+    uniform_scale,
 };
 use super::chains::BoneChainHair;
 use super::contact::ContactShape;
 use super::limits::{limit_frame, limit_offset};
-use super::solver::{LANES, Lane};
+use super::solver::{LANES, Lane, get3, set3};
 
 /// Three numbers per lane.
 type Lane3 = [Lane; 3];
@@ -111,6 +112,19 @@ impl LaneJoints {
         self.fresh = false;
     }
 
+    /// Reads the joints again unless they were read for these batches since the last
+    /// [`forget`](Self::forget).
+    pub(super) fn refresh(
+        &mut self,
+        driven: &BoneChainHair,
+        computed: &ComputedHair,
+        bind: &impl Fn(Entity) -> Option<Transform>,
+    ) {
+        if !self.reads(computed) {
+            self.read(driven, computed, bind);
+        }
+    }
+
     /// Whether this was read for these batches.
     fn reads(&self, computed: &ComputedHair) -> bool {
         self.fresh
@@ -161,10 +175,7 @@ impl LaneJoints {
                         continue;
                     }
                     let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
-                    // A chain the solver holds as many particles for as it has joints and a tail.
-                    let usable = chain.len() + usize::from(!tail_joint) == particle_count
-                        && driven.rest.get(s).is_some_and(|r| r.len() == chain.len())
-                        && driven.tail.get(s).is_some();
+                    let usable = solver_holds(driven, s, particle_count);
                     let Some(local) = bind(joint) else {
                         row.step[l] = Step::Missing;
                         continue;
@@ -255,22 +266,12 @@ impl Default for Reach {
     }
 }
 
-fn lane3(a: &Lane3, l: usize) -> Vec3 {
-    Vec3::new(a[0][l], a[1][l], a[2][l])
-}
-
 fn lane3a(a: &Lane3, l: usize) -> Vec3A {
     Vec3A::new(a[0][l], a[1][l], a[2][l])
 }
 
 fn lane4(a: &Lane4, l: usize) -> Quat {
     Quat::from_xyzw(a[0][l], a[1][l], a[2][l], a[3][l])
-}
-
-fn set3(a: &mut Lane3, l: usize, v: Vec3) {
-    a[0][l] = v.x;
-    a[1][l] = v.y;
-    a[2][l] = v.z;
 }
 
 fn set4(a: &mut Lane4, l: usize, q: Quat) {
@@ -475,54 +476,32 @@ fn turn(
     }
 }
 
-/// The chain of lane `l` (its cursor at the joint before `from`) posed alone from joint `from`.
-fn pose_alone(
-    driven: &BoneChainHair,
-    (mut cursor, from): (ChainCursor, usize),
-    computed: &mut ComputedHair,
-    (near, margin): (&[NearShape], f32),
-    (posed, first, particles): (&mut [Pose], &[usize], &mut Vec<Vec3>),
-    bind: &impl Fn(Entity) -> Option<Transform>,
-) {
-    let s = cursor.strand;
-    cursor.simulated &= chain_particles(driven, s, Some(computed), particles);
-    pose_chain(
-        driven,
-        &mut cursor,
-        (first[s], from),
-        Some(computed),
-        (near, margin, particles),
-        posed,
-        bind,
-    );
-}
-
 /// Poses the chains in the lanes of batch `b` (see the module docs) into `posed`, the hair's
 /// cursor `start` before each chain's first joint, chain `s`'s slots from `first[s]`; `joints`
-/// are the hair's joints, read again first if they were not read for these batches. The hair's
-/// scale is uniform. Returns how many joints were posed in the lanes.
+/// are the hair's joints, read for these batches ([`LaneJoints::refresh`]). The hair's scale is
+/// uniform. Returns how many joints were posed in the lanes.
 pub(super) fn pose_batch(
     driven: &BoneChainHair,
     (b, start): (usize, &ChainCursor),
     computed: &mut ComputedHair,
-    joints: &mut LaneJoints,
+    joints: &LaneJoints,
     (near, margin): (&[NearShape], f32),
     (posed, first, particles): (&mut [Pose], &[usize], &mut Vec<Vec3>),
     bind: &impl Fn(Entity) -> Option<Transform>,
 ) -> usize {
-    if !joints.reads(computed) {
-        joints.read(driven, computed, bind);
-    }
     // A lane's chain posed alone from joint `k`, its cursor at the joint before.
-    let alone = |(cursor, k): (ChainCursor, usize),
+    let alone = |(mut cursor, k): (ChainCursor, usize),
                  computed: &mut ComputedHair,
                  (posed, particles): (&mut [Pose], &mut Vec<Vec3>)| {
-        pose_alone(
+        let s = cursor.strand;
+        cursor.simulated &= chain_particles(driven, s, Some(computed), particles);
+        pose_chain(
             driven,
-            (cursor, k),
-            computed,
-            (near, margin),
-            (posed, first, particles),
+            &mut cursor,
+            (first[s], k),
+            Some(computed),
+            (near, margin, particles),
+            posed,
             bind,
         );
     };
@@ -597,8 +576,8 @@ pub(super) fn pose_batch(
             if !live[l] || (clear[l] && limit.is_none()) {
                 continue;
             }
-            let origin = lane3(&r.origin, l);
-            let mut to = lane3(&r.to, l);
+            let origin = get3(&r.origin, l);
+            let mut to = get3(&r.to, l);
             if !clear[l]
                 && let Some(kept) = keep_off(near, origin, to, r.length[l], margin)
             {
@@ -606,7 +585,7 @@ pub(super) fn pose_batch(
                 to = kept;
             }
             if let Some(limit) = limit {
-                let frame = limit_frame(lane4(&r.at_rest, l), lane3(&row.child, l), limit);
+                let frame = limit_frame(lane4(&r.at_rest, l), get3(&row.child, l), limit);
                 let limited = limit_offset(frame, limit, to);
                 if limited != to {
                     computed.batches[b].set_particle(l, k + 1, origin + limited);

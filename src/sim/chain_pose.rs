@@ -413,6 +413,7 @@ pub(super) fn pose_hair(
         && uniform
         && c.lane_of.len() == driven.joints.len()
     {
+        lanes.refresh(driven, c, bind);
         // Every strand is in one lane of one batch.
         return (0..c.batches.len())
             .map(|b| {
@@ -447,9 +448,21 @@ pub(super) fn pose_hair(
     0
 }
 
+/// Whether the solver holds chain `s` as it is, in strands of `particle_count` particles: as
+/// many as it has joints and a tail, with its bind pose and tail.
+pub(super) fn solver_holds(driven: &BoneChainHair, s: usize, particle_count: usize) -> bool {
+    let Some(chain) = driven.joints.get(s) else {
+        return false;
+    };
+    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
+    chain.len() + usize::from(!tail_joint) == particle_count
+        && driven.rest.get(s).is_some_and(|r| r.len() == chain.len())
+        && driven.tail.get(s).is_some()
+}
+
 /// Chain `s`'s particles into `particles`, read once (the solver's lanes are strided in memory):
-/// whether the chain can be posed from them (the solver has as many as it has joints and a tail,
-/// all finite).
+/// whether the chain can be posed from them (the solver holds it as it is, see
+/// [`solver_holds`], and they are all finite).
 pub(super) fn chain_particles(
     driven: &BoneChainHair,
     s: usize,
@@ -457,18 +470,9 @@ pub(super) fn chain_particles(
     particles: &mut Vec<Vec3>,
 ) -> bool {
     particles.clear();
-    let Some(chain) = driven.joints.get(s) else {
-        return false;
-    };
-    let tail_joint = driven.tail_joint.get(s).copied().unwrap_or(false);
-    let expected = chain.len() + usize::from(!tail_joint);
     match computed {
-        Some(c)
-            if driven.rest.get(s).is_some()
-                && driven.tail.get(s).is_some()
-                && c.particle_count(s) == expected =>
-        {
-            particles.extend((0..expected).map(|i| c.particle(s, i)));
+        Some(c) if solver_holds(driven, s, c.particle_count(s)) => {
+            particles.extend((0..c.particle_count(s)).map(|i| c.particle(s, i)));
             particles.iter().all(|p| p.is_finite())
         }
         _ => false,

@@ -228,11 +228,13 @@ pub struct StepInput {
     pub max_stretch: f32,
 }
 
-fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
+/// Lane `l` of three lanes, as a vector.
+pub(crate) fn get3(a: &[Lane; 3], l: usize) -> Vec3 {
     Vec3::new(a[0][l], a[1][l], a[2][l])
 }
 
-fn set3(a: &mut [Lane; 3], l: usize, v: Vec3) {
+/// Sets lane `l` of three lanes to `v`.
+pub(crate) fn set3(a: &mut [Lane; 3], l: usize, v: Vec3) {
     a[0][l] = v.x;
     a[1][l] = v.y;
     a[2][l] = v.z;

@@ -23,17 +23,22 @@ fn offset(c: usize, k: usize) -> Vec3 {
 /// - 9 chains of 4 listed joint by joint, the last joint a tail (as VRM's), with cone, hinge and
 ///   spherical limits on some joints;
 ///
-/// and a sphere in the head close enough that shaking throws the chains onto it. Returns the
-/// app, the root, the joints of the named chains.
-fn lanes_app() -> (App, Entity, Vec<Vec<Entity>>) {
+/// and a sphere in the head close enough that shaking throws the chains onto it. Lengths are in
+/// the rig's units, `unit` metres each (the root scaled by `unit`). Returns the app, the root,
+/// the joints of the named chains.
+fn lanes_app(unit: f32) -> (App, Entity, Vec<Vec<Entity>>) {
     let mut app = event_app();
-    let (root, head) = character(&mut app, Transform::default(), Vec3::new(0.0, 1.6, 0.0));
+    let (root, head) = character(
+        &mut app,
+        Transform::from_scale(Vec3::splat(unit)),
+        Vec3::new(0.0, 1.6 / unit, 0.0),
+    );
     let world = app.world_mut();
     let spawn_chain = |world: &mut World, name: &str, c: usize, bones: usize| {
         let mut parent = head;
         let mut joints = Vec::new();
         for k in 0..bones {
-            let mut t = Transform::from_translation(offset(c, k))
+            let mut t = Transform::from_translation(offset(c, k) / unit)
                 .with_rotation(Quat::from_rotation_z(0.2 * k as f32 - 0.3));
             if name == "hair" && c == 4 && k == 2 {
                 t.scale = Vec3::new(1.0, 1.3, 1.0);
@@ -91,8 +96,8 @@ fn lanes_app() -> (App, Entity, Vec<Vec<Entity>>) {
     world.spawn((
         HairCollider {
             spheres: vec![crate::asset::CollisionSphere {
-                center: Vec3::new(0.0, -0.02, 0.0),
-                radius: 0.1,
+                center: Vec3::new(0.0, -0.02 / unit, 0.0),
+                radius: 0.1 / unit,
             }],
             ..default()
         },
@@ -128,7 +133,14 @@ fn apart(a: &PosedBothWays, b: &PosedBothWays) -> (f32, f32, f32) {
 
 #[test]
 fn chains_posed_in_lanes_match_each_chain_posed_alone() {
-    let (mut app, root, named) = lanes_app();
+    // A rig in metres, and one in centimetres (Mixamo's 0.01).
+    for unit in [1.0, 0.01] {
+        lanes_posed_as_alone(unit);
+    }
+}
+
+fn lanes_posed_as_alone(unit: f32) {
+    let (mut app, root, named) = lanes_app(unit);
     let mut hairs = Vec::new();
     let (mut in_lanes, mut joints, mut moved) = (0, 0, 0usize);
     let mut worst = (0.0f32, 0.0f32, 0.0f32);
@@ -203,21 +215,24 @@ fn chains_posed_in_lanes_match_each_chain_posed_alone() {
     let before = written(&mut app);
     // The game moves a joint and scales another: posing reads them again.
     let mut moved_joint = app.world_mut().get_mut::<Transform>(named[3][2]).unwrap();
-    moved_joint.translation.x += 0.02;
+    moved_joint.translation.x += 0.02 / unit;
     app.world_mut()
         .get_mut::<Transform>(named[12][0])
         .unwrap()
         .scale = Vec3::splat(1.5);
     app.update();
     let after = written(&mut app);
-    println!("written against posed alone: {before:e} before, {after:e} after the game's change");
+    println!(
+        "unit {unit} m: written against posed alone: {before:e} before, {after:e} after the game's \
+         change"
+    );
     assert!(
         before < 1e-4 && after < 1e-4,
         "the app's poses are those worked out alone: {before}, {after}"
     );
     println!(
-        "{in_lanes} of {joints} joints posed in lanes; {moved} particles moved by posing; \
-         apart at most: rotation {:e}, world transform {:e}, particle {:e} m",
+        "unit {unit} m: {in_lanes} of {joints} joints posed in lanes; {moved} particles moved by \
+         posing; apart at most: rotation {:e}, world transform {:e}, particle {:e} m",
         worst.0, worst.1, worst.2
     );
     assert!(
