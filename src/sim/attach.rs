@@ -128,6 +128,11 @@ pub struct ComputedHair {
     /// The step's per-frame buffers.
     #[reflect(ignore)]
     pub(crate) scratch: super::scratch::StepScratch,
+    /// A bone-chain hair's particle box as this frame's step left them, measured while the
+    /// batches were in the stepping thread's cache; `None` when the step did not measure it
+    /// (no substep this frame, another kind of hair, a volume pass after the step).
+    #[reflect(ignore)]
+    pub(crate) particle_box: Option<super::chain_lanes::ParticleBox>,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }

@@ -16,6 +16,13 @@
 //! scale (a mirrored or stretched joint), its tail joint, or a turn the lanes cannot take (a
 //! bone with no direction, a half turn) is handed, from that joint on, to the one-chain posing
 //! in `chain_pose`, which gives the same poses one joint at a time.
+#![cfg_attr(
+    target_arch = "x86_64",
+    expect(
+        unsafe_code,
+        reason = "the AVX2 variant of the lane posing, chosen after runtime feature detection"
+    )
+)]
 // Lane loops index several arrays with the same counter on purpose: that is the shape the
 // compiler vectorises across chains.
 #![expect(
@@ -34,7 +41,7 @@ use super::chain_pose::{
 use super::chains::BoneChainHair;
 use super::contact::ContactShape;
 use super::limits::{limit_frame, limit_offset};
-use super::solver::{LANES, Lane, get3, set3};
+use super::solver::{Batch, LANES, Lane, get3, set3};
 
 /// Three numbers per lane.
 type Lane3 = [Lane; 3];
@@ -480,7 +487,44 @@ fn turn(
 /// cursor `start` before each chain's first joint, chain `s`'s slots from `first[s]`; `joints`
 /// are the hair's joints, read for these batches ([`LaneJoints::refresh`]). The hair's scale is
 /// uniform. Returns how many joints were posed in the lanes.
+///
+/// Runs the AVX2 variant where the CPU has AVX2 (8 lanes a register instead of 4); both give
+/// bit-identical poses.
 pub(super) fn pose_batch(
+    driven: &BoneChainHair,
+    (b, start): (usize, &ChainCursor),
+    computed: &mut ComputedHair,
+    joints: &LaneJoints,
+    near: (&[NearShape], f32),
+    out: (&mut [Pose], &[usize], &mut Vec<Vec3>),
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::avx2() {
+        // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
+        return unsafe { pose_batch_avx2(driven, (b, start), computed, joints, near, out, bind) };
+    }
+    pose_batch_lanes(driven, (b, start), computed, joints, near, out, bind)
+}
+
+/// [`pose_batch`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn pose_batch_avx2(
+    driven: &BoneChainHair,
+    at: (usize, &ChainCursor),
+    computed: &mut ComputedHair,
+    joints: &LaneJoints,
+    near: (&[NearShape], f32),
+    out: (&mut [Pose], &[usize], &mut Vec<Vec3>),
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) -> usize {
+    pose_batch_lanes(driven, at, computed, joints, near, out, bind)
+}
+
+/// The lane posing; inlined into each target-feature variant of [`pose_batch`].
+#[inline(always)]
+fn pose_batch_lanes(
     driven: &BoneChainHair,
     (b, start): (usize, &ChainCursor),
     computed: &mut ComputedHair,
@@ -613,4 +657,116 @@ pub(super) fn pose_batch(
         std::mem::swap(&mut parents, &mut next);
     }
     in_lanes
+}
+
+/// The box of a hair's finite particles (the live lanes of each batch) and the square of the
+/// longest segment between two finite particles one after the other; `min` infinite when no
+/// particle is finite. Measured right after the step while the batches are in cache (see
+/// [`ComputedHair::particle_box`]), or by posing when the step did not.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ParticleBox {
+    pub(crate) min: Vec3A,
+    pub(crate) max: Vec3A,
+    pub(crate) longest_sq: f32,
+}
+
+impl Default for ParticleBox {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl ParticleBox {
+    /// No particle.
+    pub(crate) const EMPTY: Self = Self {
+        min: Vec3A::INFINITY,
+        max: Vec3A::NEG_INFINITY,
+        longest_sq: 0.0,
+    };
+
+    /// Both boxes in one, the longer segment.
+    pub(crate) fn merge(self, other: Self) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+            longest_sq: self.longest_sq.max(other.longest_sq),
+        }
+    }
+
+    /// The box of `batches`' particles as they are. Runs the AVX2 variant where the CPU has
+    /// AVX2; both give the same numbers.
+    pub(crate) fn of(batches: &[Batch]) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if crate::simd::avx2() {
+            // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
+            return unsafe { particle_box_avx2(batches) };
+        }
+        particle_box_lanes(batches)
+    }
+}
+
+/// [`ParticleBox::of`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn particle_box_avx2(batches: &[Batch]) -> ParticleBox {
+    particle_box_lanes(batches)
+}
+
+/// The box over the lanes as they lie in memory, with masks instead of a branch per particle
+/// (so the compiler vectorises it); inlined into each variant of [`ParticleBox::of`].
+#[inline(always)]
+fn particle_box_lanes(batches: &[Batch]) -> ParticleBox {
+    let mut lo = [[f32::INFINITY; LANES]; 3];
+    let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
+    let mut longest = [0.0f32; LANES];
+    let (up, down) = (f32::INFINITY.to_bits(), f32::NEG_INFINITY.to_bits());
+    for batch in batches {
+        let count = batch.count.min(LANES);
+        let used: [u32; LANES] = std::array::from_fn(|l| if l < count { u32::MAX } else { 0 });
+        let mut before = [[0.0f32; LANES]; 3];
+        let mut had = [0u32; LANES];
+        for node in batch.nodes.iter().skip(1).step_by(2) {
+            let x = &node.x;
+            // All bits set for a used lane whose coordinates are finite (below infinity in
+            // magnitude, which NaN is not).
+            let mut keep = [0u32; LANES];
+            for l in 0..LANES {
+                let finite = (x[0][l].abs() < f32::INFINITY)
+                    & (x[1][l].abs() < f32::INFINITY)
+                    & (x[2][l].abs() < f32::INFINITY);
+                keep[l] = used[l] & u32::from(finite).wrapping_neg();
+            }
+            // Lane loops innermost, one quantity at a time: the shape that vectorises.
+            let mut d2 = [0.0f32; LANES];
+            for i in 0..3 {
+                for l in 0..LANES {
+                    let d = x[i][l] - before[i][l];
+                    d2[l] += d * d;
+                    let bits = x[i][l].to_bits() & keep[l];
+                    lo[i][l] = lo[i][l].min(f32::from_bits(bits | (up & !keep[l])));
+                    hi[i][l] = hi[i][l].max(f32::from_bits(bits | (down & !keep[l])));
+                }
+            }
+            for l in 0..LANES {
+                // Zero (no longer than any segment) unless both ends are finite.
+                longest[l] = longest[l].max(f32::from_bits(d2[l].to_bits() & keep[l] & had[l]));
+                had[l] = keep[l];
+            }
+            before = *x;
+        }
+    }
+    let fold = |a: &Lane, f: fn(f32, f32) -> f32, start: f32| a.iter().copied().fold(start, f);
+    ParticleBox {
+        min: Vec3A::new(
+            fold(&lo[0], f32::min, f32::INFINITY),
+            fold(&lo[1], f32::min, f32::INFINITY),
+            fold(&lo[2], f32::min, f32::INFINITY),
+        ),
+        max: Vec3A::new(
+            fold(&hi[0], f32::max, f32::NEG_INFINITY),
+            fold(&hi[1], f32::max, f32::NEG_INFINITY),
+            fold(&hi[2], f32::max, f32::NEG_INFINITY),
+        ),
+        longest_sq: fold(&longest, f32::max, 0.0),
+    }
 }

@@ -20,13 +20,12 @@ use bevy::transform::components::TransformTreeChanged;
 use bevy::utils::Parallel;
 
 use super::attach::ComputedHair;
-use super::chain_lanes::LaneJoints;
+use super::chain_lanes::{LaneJoints, ParticleBox};
 use super::chains::BoneChainHair;
 use super::collider::{HairCollider, HairCollidesOnly};
 use super::contact::ContactShape;
 use super::limits::{limit_frame, limit_offset};
 use super::settings::HairSimSettings;
-use super::solver::{LANES, Lane};
 
 /// A bone-chain hair's posing buffers, kept between frames.
 #[derive(Component, Clone, Debug, Default)]
@@ -277,51 +276,12 @@ fn gather_near(
     near: &mut Vec<NearShape>,
 ) {
     near.clear();
-    // Over the solver's lanes as they lie in memory: per lane, the box of its finite particles
-    // and its longest segment between finite ones.
-    let mut lo = [[f32::INFINITY; LANES]; 3];
-    let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
-    let mut longest = [0.0f32; LANES];
-    for batch in &computed.batches {
-        let count = batch.count.min(LANES);
-        let mut before = [[0.0f32; LANES]; 3];
-        let mut had = [false; LANES];
-        for node in batch.nodes.iter().skip(1).step_by(2) {
-            for l in 0..LANES {
-                let p = [node.x[0][l], node.x[1][l], node.x[2][l]];
-                let finite = l < count && p.iter().all(|v| v.is_finite());
-                if finite {
-                    let mut d2 = 0.0;
-                    for i in 0..3 {
-                        lo[i][l] = lo[i][l].min(p[i]);
-                        hi[i][l] = hi[i][l].max(p[i]);
-                        d2 += (p[i] - before[i][l]) * (p[i] - before[i][l]);
-                    }
-                    if had[l] {
-                        longest[l] = longest[l].max(d2);
-                    }
-                }
-                had[l] = finite;
-                for i in 0..3 {
-                    before[i][l] = p[i];
-                }
-            }
-        }
-    }
-    let fold = |a: &Lane, f: fn(f32, f32) -> f32, start: f32| a.iter().copied().fold(start, f);
-    let lo = Vec3A::new(
-        fold(&lo[0], f32::min, f32::INFINITY),
-        fold(&lo[1], f32::min, f32::INFINITY),
-        fold(&lo[2], f32::min, f32::INFINITY),
-    );
-    let hi = Vec3A::new(
-        fold(&hi[0], f32::max, f32::NEG_INFINITY),
-        fold(&hi[1], f32::max, f32::NEG_INFINITY),
-        fold(&hi[2], f32::max, f32::NEG_INFINITY),
-    );
-    let longest_sq = fold(&longest, f32::max, 0.0);
-    let reach = Vec3A::splat(2.0 * longest_sq.sqrt());
-    let (lo, hi) = (lo - reach, hi + reach);
+    // Measured by the step this frame, else now.
+    let particles = computed
+        .particle_box
+        .unwrap_or_else(|| ParticleBox::of(&computed.batches));
+    let reach = Vec3A::splat(2.0 * particles.longest_sq.sqrt());
+    let (lo, hi) = (particles.min - reach, particles.max + reach);
     for &(e, first, end, c_lo, c_hi) in &frame.colliders {
         if only.is_some_and(|o| !o.0.contains(&e)) {
             continue;

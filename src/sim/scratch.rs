@@ -15,6 +15,8 @@ pub(super) type ShapeView = (Affine3A, Affine3A, LocalShape, bool);
 pub struct StepScratch {
     pub(super) input: StepInput,
     pub(super) templates: Vec<ShapeView>,
+    /// Each template's poses taken apart, to interpolate per substep.
+    pub(super) paths: Vec<super::step::Between>,
     pub(super) fields: Vec<(Affine3A, Affine3A, HairForceField)>,
     /// Each template's origin at the previous substep (friction follows its motion).
     pub(super) origins: Vec<Vec3A>,
@@ -40,6 +42,7 @@ impl StepScratch {
             of(&i.bone_motion),
             of(&i.carry),
             of(&self.templates),
+            of(&self.paths),
             of(&self.fields),
             of(&self.origins),
             of(&self.factors),

@@ -12,6 +12,7 @@ use crate::parallel;
 use super::attach::{
     ComputedHair, Hair, Strand, StrandOf, StrandParticles, draw_margin, margin_key,
 };
+use super::chain_lanes::ParticleBox;
 use super::collider::{HairCollider, HairCollidesOnly};
 use super::contact::LocalShape;
 use super::physics::{WorldColliders, WorldShape};
@@ -84,6 +85,9 @@ struct HairJob {
     /// Measure the free particles' bounds (the hair spreads by its density).
     measure: bool,
     bounds: super::volume::Bounds,
+    /// Measure the particles' box for posing (a bone-chain hair).
+    boxed: bool,
+    particle_box: ParticleBox,
     resets: u32,
 }
 
@@ -95,9 +99,40 @@ pub(crate) fn interpolate(a: &Affine3A, b: &Affine3A, t: f32) -> Affine3A {
     if t >= 1.0 {
         return *b;
     }
-    let (sa, ra, ta) = a.to_scale_rotation_translation();
-    let (sb, rb, tb) = b.to_scale_rotation_translation();
-    Affine3A::from_scale_rotation_translation(sa.lerp(sb, t), ra.slerp(rb, t), ta.lerp(tb, t))
+    Between::new(a, b).at(t)
+}
+
+/// Two affine transforms taken apart (scale, rotation, translation) once, to be interpolated
+/// at several times: [`interpolate`] without taking both apart at each one.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Between {
+    a: Affine3A,
+    b: Affine3A,
+    from: (Vec3, Quat, Vec3),
+    to: (Vec3, Quat, Vec3),
+}
+
+impl Between {
+    pub(crate) fn new(a: &Affine3A, b: &Affine3A) -> Self {
+        Self {
+            a: *a,
+            b: *b,
+            from: a.to_scale_rotation_translation(),
+            to: b.to_scale_rotation_translation(),
+        }
+    }
+
+    /// The same as `interpolate(a, b, t)`, bit for bit.
+    pub(crate) fn at(&self, t: f32) -> Affine3A {
+        if t <= 0.0 {
+            return self.a;
+        }
+        if t >= 1.0 {
+            return self.b;
+        }
+        let ((sa, ra, ta), (sb, rb, tb)) = (self.from, self.to);
+        Affine3A::from_scale_rotation_translation(sa.lerp(sb, t), ra.slerp(rb, t), ta.lerp(tb, t))
+    }
 }
 
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
@@ -214,6 +249,7 @@ pub(crate) fn step_hair_strands(
     ) in &mut hairs
     {
         let computed = &mut *computed;
+        computed.particle_box = None;
         let full = global.affine();
         if !usable_frame(&full) {
             computed.stats.invalid_bone_frames += 1;
@@ -296,6 +332,7 @@ pub(crate) fn step_hair_strands(
         let StepScratch {
             input,
             templates,
+            paths,
             fields: field_templates,
             origins,
             factors,
@@ -335,8 +372,9 @@ pub(crate) fn step_hair_strands(
                 1.0
             }
         };
+        let bone_path = Between::new(&from, &bone);
         for j in 0..substeps {
-            input.bones.push(interpolate(&from, &bone, substep_t(j)));
+            input.bones.push(bone_path.at(substep_t(j)));
         }
         // Wind: the hair's own, else the world's; sampled at each substep's time.
         let wind = own_wind
@@ -367,15 +405,16 @@ pub(crate) fn step_hair_strands(
         if let (Some(a), Some(b)) = (frame_from, frame_now)
             && a != b
         {
-            let mut prev = interpolate(&a, &b, start_t);
+            let path = Between::new(&a, &b);
+            let mut prev = path.at(start_t);
             for j in 0..substeps {
-                let now = interpolate(&a, &b, substep_t(j));
+                let now = path.at(substep_t(j));
                 input.carry.push(now * prev.inverse());
                 prev = now;
             }
         }
         if settings.damping_frame == HairDampingFrame::Bone {
-            let mut prev = interpolate(&from, &bone, start_t);
+            let mut prev = bone_path.at(start_t);
             for now in &input.bones {
                 input.bone_motion.push(*now * prev.inverse());
                 prev = *now;
@@ -475,15 +514,30 @@ pub(crate) fn step_hair_strands(
         input.sphere_count = spheres;
         input.contact_count = templates.len() - spheres;
         input.friction = settings.friction();
+        // Each template's path over the frame, taken apart once (a collider's shapes share
+        // one pose: taken apart once for all of them).
+        paths.clear();
+        for (i, (prev, now, _, _)) in templates.iter().enumerate() {
+            let same = i > 0 && templates[i - 1].0 == *prev && templates[i - 1].1 == *now;
+            let path = if same {
+                paths[i - 1]
+            } else {
+                Between::new(prev, now)
+            };
+            paths.push(path);
+        }
         origins.clear();
-        origins.extend(templates.iter().map(|(prev, now, shape, _)| {
-            interpolate(prev, now, start_t).transform_point3a(shape.origin())
-        }));
+        origins.extend(
+            templates
+                .iter()
+                .zip(paths.iter())
+                .map(|((_, _, shape, _), path)| path.at(start_t).transform_point3a(shape.origin())),
+        );
         // Substep-major: `spheres[s * sphere_count + i]`, `contacts[s * contact_count + i]`.
         for j in 0..substeps {
             let t = substep_t(j);
-            for (i, &(prev, now, shape, inside)) in templates.iter().enumerate() {
-                let pose = interpolate(&prev, &now, t);
+            for (i, &(_, _, shape, inside)) in templates.iter().enumerate() {
+                let pose = paths[i].at(t);
                 let origin = pose.transform_point3a(shape.origin());
                 let shift = origin - origins[i];
                 origins[i] = origin;
@@ -555,20 +609,22 @@ pub(crate) fn step_hair_strands(
         // Hair spread by its density needs its bounds: measured while stepping, while the
         // batches are in the stepping thread's cache.
         let measure = settings.volume.is_some() && computed.volume.wants_bounds();
+        // A chain hair's posing needs its particles' box: measured the same way (the volume
+        // pass moves particles after the step, so then posing measures it).
+        let boxed = chains && settings.volume.is_none();
         computed.scratch = scratch;
         if computed.batches.len() >= SHARED_HAIR_BATCHES {
             // A big hair: its batches shared out over the threads now.
             let ComputedHair {
                 batches, scratch, ..
             } = computed;
-            let (bounds, resets) = step_shared(
+            let (bounds, particle_box, resets) = step_shared(
                 pool,
                 batches,
-                &scratch.input,
-                &scratch.factors,
-                &last,
-                measure,
+                (&scratch.input, &scratch.factors, &last),
+                (measure, boxed),
             );
+            computed.particle_box = boxed.then_some(particle_box);
             finish_hair(
                 hair_entity,
                 settings,
@@ -586,6 +642,8 @@ pub(crate) fn step_hair_strands(
                 last,
                 measure,
                 bounds: super::volume::NO_BOUNDS,
+                boxed,
+                particle_box: ParticleBox::EMPTY,
                 resets: 0,
             });
         }
@@ -594,13 +652,11 @@ pub(crate) fn step_hair_strands(
     // batches out).
     let mut jobs = std::mem::take(&mut history.jobs);
     if let [job] = jobs.as_mut_slice() {
-        (job.bounds, job.resets) = step_shared(
+        (job.bounds, job.particle_box, job.resets) = step_shared(
             pool,
             &mut job.batches,
-            &job.scratch.input,
-            &job.scratch.factors,
-            &job.last,
-            job.measure,
+            (&job.scratch.input, &job.scratch.factors, &job.last),
+            (job.measure, job.boxed),
         );
     } else if !jobs.is_empty() {
         let per_part = jobs.len().div_ceil(parallel::workers(pool) * 2).max(1);
@@ -610,7 +666,8 @@ pub(crate) fn step_hair_strands(
             &|part: &mut [HairJob]| {
                 for job in part {
                     let (input, factors) = (&job.scratch.input, &job.scratch.factors);
-                    job.resets = step_batches(&mut job.batches, input, factors, &job.last);
+                    (job.resets, job.particle_box) =
+                        step_batches(&mut job.batches, input, factors, &job.last, job.boxed);
                     if job.measure {
                         job.bounds = super::volume::bounds_of(&job.batches);
                     }
@@ -628,6 +685,7 @@ pub(crate) fn step_hair_strands(
         };
         computed.batches = std::mem::take(&mut job.batches);
         computed.scratch = std::mem::take(&mut job.scratch);
+        computed.particle_box = job.boxed.then_some(job.particle_box);
         finish_hair(
             entity,
             settings,
@@ -643,14 +701,17 @@ pub(crate) fn step_hair_strands(
 }
 
 /// Steps `batches` with `input` and resets each strand whose state stopped being finite onto
-/// its anchors at `last`; returns how many strands were reset.
+/// its anchors at `last`; returns how many strands were reset, and (when `boxed`) the
+/// particles' box, each batch measured right after its step.
 fn step_batches(
     batches: &mut [Batch],
     input: &super::solver::StepInput,
     factors: &[(usize, Vec<f32>)],
     last: &Affine3A,
-) -> u32 {
+    boxed: bool,
+) -> (u32, ParticleBox) {
     let mut resets = 0;
+    let mut particle_box = ParticleBox::EMPTY;
     for b in batches.iter_mut() {
         let f = factors
             .iter()
@@ -670,8 +731,11 @@ fn step_batches(
                 }
             }
         }
+        if boxed {
+            particle_box = particle_box.merge(ParticleBox::of(std::slice::from_ref(b)));
+        }
     }
-    resets
+    (resets, particle_box)
 }
 
 /// [`step_batches`] with the batches shared out over `pool`'s threads, and (when `measure`)
@@ -679,28 +743,30 @@ fn step_batches(
 fn step_shared(
     pool: &bevy::tasks::TaskPool,
     batches: &mut [Batch],
-    input: &super::solver::StepInput,
-    factors: &[(usize, Vec<f32>)],
-    last: &Affine3A,
-    measure: bool,
-) -> (super::volume::Bounds, u32) {
+    (input, factors, last): (&super::solver::StepInput, &[(usize, Vec<f32>)], &Affine3A),
+    (measure, boxed): (bool, bool),
+) -> (super::volume::Bounds, ParticleBox, u32) {
     let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
     let resets = AtomicU32::new(0);
-    let bounds = std::sync::Mutex::new(super::volume::NO_BOUNDS);
+    let measured = std::sync::Mutex::new((super::volume::NO_BOUNDS, ParticleBox::EMPTY));
     parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {
-        resets.fetch_add(step_batches(part, input, factors, last), Ordering::Relaxed);
-        if measure {
-            let part = super::volume::bounds_of(part);
-            let mut all = bounds
+        let (reset, particle_box) = step_batches(part, input, factors, last, boxed);
+        resets.fetch_add(reset, Ordering::Relaxed);
+        let bounds = measure.then(|| super::volume::bounds_of(part));
+        if measure || boxed {
+            let mut all = measured
                 .lock()
                 .unwrap_or_else(std::sync::PoisonError::into_inner);
-            *all = super::volume::merge_bounds(*all, part);
+            if let Some(bounds) = bounds {
+                all.0 = super::volume::merge_bounds(all.0, bounds);
+            }
+            all.1 = all.1.merge(particle_box);
         }
     });
-    let bounds = bounds
+    let (bounds, particle_box) = measured
         .into_inner()
         .unwrap_or_else(std::sync::PoisonError::into_inner);
-    (bounds, resets.into_inner())
+    (bounds, particle_box, resets.into_inner())
 }
 
 /// After a hair's substeps: counts its resets, keeps its strands apart (hair–hair volume,

@@ -2,7 +2,11 @@
 
 use bevy::prelude::*;
 
+use std::cell::RefCell;
+
+use super::super::chain_lanes::ParticleBox;
 use super::super::chain_pose::{PosedBothWays, poses_both_ways};
+use super::super::solver::{Batch, LANES};
 use super::*;
 use crate::asset::{JointLimit, JointLimitShape};
 
@@ -106,6 +110,27 @@ fn lanes_app(unit: f32) -> (App, Entity, Vec<Vec<Entity>>) {
     (app, root, named)
 }
 
+/// Two ways of posing gave the same poses and particles, bit for bit (NaN included).
+fn assert_same_bits(a: &PosedBothWays, b: &PosedBothWays) {
+    let pose_bits = |p: &PosedBothWays| -> Vec<(Entity, Vec<u32>)> {
+        p.0.iter()
+            .map(|(e, q, w)| {
+                let (q, w) = (q.to_array(), w.to_cols_array());
+                (*e, q.iter().chain(&w).map(|v| v.to_bits()).collect())
+            })
+            .collect()
+    };
+    let particle_bits = |p: &PosedBothWays| -> Vec<[u32; 3]> {
+        p.1.iter().map(|v| v.to_array().map(f32::to_bits)).collect()
+    };
+    assert_eq!(a.2, b.2, "as many joints in lanes");
+    assert!(pose_bits(a) == pose_bits(b), "the same poses, bit for bit");
+    assert!(
+        particle_bits(a) == particle_bits(b),
+        "the same particles, bit for bit"
+    );
+}
+
 /// The farthest apart two hairs' poses and particles are: (rotation, world transform, particle).
 fn apart(a: &PosedBothWays, b: &PosedBothWays) -> (f32, f32, f32) {
     assert_eq!(a.0.len(), b.0.len());
@@ -143,12 +168,25 @@ fn lanes_posed_as_alone(unit: f32) {
     let (mut app, root, named) = lanes_app(unit);
     let mut hairs = Vec::new();
     let (mut in_lanes, mut joints, mut moved) = (0, 0, 0usize);
+    let mut vector_checked = 0;
     let mut worst = (0.0f32, 0.0f32, 0.0f32);
     let mut compare = |app: &mut App, tamper: &dyn Fn(&mut ComputedHair)| {
         let mut q = app.world_mut().query::<(Entity, &BoneChainHair)>();
         let found: Vec<Entity> = q.iter(app.world()).map(|(e, _)| e).collect();
         for hair in found {
+            // The lanes on the portable kernels and (where the CPU has it) on AVX2: the same
+            // bits.
+            let world = RefCell::new(app.world_mut());
+            let (portable, vector) = crate::simd::on_both_paths(|| {
+                let [lanes, _] = poses_both_ways(&mut world.borrow_mut(), hair, tamper);
+                lanes
+            });
+            if let Some(vector) = vector {
+                assert_same_bits(&portable, &vector);
+                vector_checked += 1;
+            }
             let [lanes, alone] = poses_both_ways(app.world_mut(), hair, tamper);
+            assert_same_bits(&portable, &lanes);
             assert_eq!(alone.2, 0, "posed alone, no joint is in lanes");
             let (r, w, p) = apart(&lanes, &alone);
             worst = (worst.0.max(r), worst.1.max(w), worst.2.max(p));
@@ -235,6 +273,9 @@ fn lanes_posed_as_alone(unit: f32) {
          posing; apart at most: rotation {:e}, world transform {:e}, particle {:e} m",
         worst.0, worst.1, worst.2
     );
+    if crate::simd::avx2() {
+        assert!(vector_checked > 0, "the AVX2 lanes were compared");
+    }
     assert!(
         in_lanes * 10 > joints * 6,
         "most joints are posed in lanes ({in_lanes} of {joints})"
@@ -246,5 +287,120 @@ fn lanes_posed_as_alone(unit: f32) {
     assert!(
         worst.0 < 2e-5 && worst.1 < 2e-5 && worst.2 < 2e-5,
         "the lanes pose as posing alone: {worst:?}"
+    );
+}
+
+/// The box of a batch's finite particles and its longest segment, particle by particle: what
+/// [`ParticleBox::of`] works out over the lanes.
+fn box_one_by_one(batches: &[Batch]) -> ParticleBox {
+    let mut found = ParticleBox::EMPTY;
+    for b in batches {
+        for l in 0..b.count.min(LANES) {
+            let mut before: Option<Vec3> = None;
+            for i in 0..b.nodes.len() / 2 {
+                let p = b.particle(l, i);
+                if !p.is_finite() {
+                    before = None;
+                    continue;
+                }
+                found.min = found.min.min(p.into());
+                found.max = found.max.max(p.into());
+                if let Some(q) = before {
+                    found.longest_sq = found.longest_sq.max(p.distance_squared(q));
+                }
+                before = Some(p);
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn the_particle_box_skips_what_is_not_finite_on_both_paths() {
+    let (mut app, _, _) = lanes_app(1.0);
+    app.update();
+    let mut q = app.world_mut().query::<&ComputedHair>();
+    let mut batches: Vec<Batch> = q
+        .iter(app.world())
+        .flat_map(|c| c.batches.clone())
+        .collect();
+    assert!(batches.len() >= 3, "several batches, one part-filled");
+    // A NaN, an infinity, and a far point in a lane past the batch's count (not a strand).
+    batches[0].set_particle(1, 2, Vec3::NAN);
+    batches[1].set_particle(0, 0, Vec3::new(f32::INFINITY, 0.0, 0.0));
+    let part = batches.iter_mut().find(|b| b.count < LANES).unwrap();
+    part.set_particle(LANES - 1, 1, Vec3::splat(1e6));
+    let want = box_one_by_one(&batches);
+    assert!(
+        want.max.max_element() < 100.0,
+        "the unused lane is not in the box"
+    );
+    let (portable, vector) = crate::simd::on_both_paths(|| ParticleBox::of(&batches));
+    assert_eq!(portable, want);
+    if let Some(vector) = vector {
+        assert_eq!(vector, want);
+    }
+    // Nothing finite: an empty box.
+    for b in &mut batches {
+        for l in 0..LANES {
+            for i in 0..b.nodes.len() / 2 {
+                b.set_particle(l, i, Vec3::NAN);
+            }
+        }
+    }
+    assert_eq!(ParticleBox::of(&batches), ParticleBox::EMPTY);
+}
+
+#[test]
+fn the_step_measures_the_box_posing_gathers_colliders_by() {
+    /// Hairs seen between the step and posing: with the box measured, without.
+    #[derive(Resource, Default)]
+    struct Seen(usize, usize);
+    let (mut app, root, _) = lanes_app(1.0);
+    app.init_resource::<Seen>().add_systems(
+        PostUpdate,
+        (|hairs: Query<(&ComputedHair, &HairSimSettings)>, mut seen: ResMut<Seen>| {
+            for (c, settings) in &hairs {
+                match c.particle_box {
+                    // Measured batch by batch after each step: as the step left them all.
+                    Some(measured) => {
+                        assert_eq!(measured, box_one_by_one(&c.batches));
+                        assert!(settings.volume.is_none());
+                        seen.0 += 1;
+                    }
+                    None => seen.1 += 1,
+                }
+            }
+        })
+        .after(super::super::step::step_hair_strands)
+        .before(super::super::chain_pose::pose_bone_chains),
+    );
+    for f in 0..30 {
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation =
+            Quat::from_rotation_y(1.4 * (f as f32 / 10.0).sin());
+        app.update();
+    }
+    let seen = app.world().resource::<Seen>();
+    assert!(
+        seen.0 >= 2 * 28,
+        "both hairs measured every frame: {}",
+        seen.0
+    );
+    // A volume pass moves particles after the step: posing measures them itself then.
+    let mut q = app
+        .world_mut()
+        .query_filtered::<&mut HairSimSettings, With<BoneChainHair>>();
+    for mut s in q.iter_mut(app.world_mut()) {
+        s.volume = Some(HairVolume::default());
+    }
+    *app.world_mut().resource_mut::<Seen>() = Seen::default();
+    for _ in 0..3 {
+        app.update();
+    }
+    let seen = app.world().resource::<Seen>();
+    assert_eq!(
+        (seen.0, seen.1),
+        (0, 6),
+        "no box measured with a volume pass"
     );
 }
