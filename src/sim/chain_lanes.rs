@@ -16,6 +16,10 @@
 //! scale (a mirrored or stretched joint), its tail joint, or a turn the lanes cannot take (a
 //! bone with no direction, a half turn) is handed, from that joint on, to the one-chain posing
 //! in `chain_pose`, which gives the same poses one joint at a time.
+//!
+//! Where the CPU has AVX2 the lane code runs compiled for it (a lane of eight numbers in one
+//! register); it gives the same bits as the portable build. The box a hair's nearby colliders
+//! are gathered by ([`ParticleBox`]) is measured here too, by the step right after each batch.
 #![cfg_attr(
     target_arch = "x86_64",
     expect(
