@@ -725,21 +725,13 @@ fn particle_box_lanes(batches: &[Batch]) -> ParticleBox {
     let mut longest = [0.0f32; LANES];
     let (up, down) = (f32::INFINITY.to_bits(), f32::NEG_INFINITY.to_bits());
     for batch in batches {
-        let count = batch.count.min(LANES);
-        let used: [u32; LANES] = std::array::from_fn(|l| if l < count { u32::MAX } else { 0 });
+        let live = batch.count.min(LANES);
         let mut before = [[0.0f32; LANES]; 3];
         let mut had = [0u32; LANES];
         for node in batch.nodes.iter().skip(1).step_by(2) {
             let x = &node.x;
-            // All bits set for a used lane whose coordinates are finite (below infinity in
-            // magnitude, which NaN is not).
-            let mut keep = [0u32; LANES];
-            for l in 0..LANES {
-                let finite = (x[0][l].abs() < f32::INFINITY)
-                    & (x[1][l].abs() < f32::INFINITY)
-                    & (x[2][l].abs() < f32::INFINITY);
-                keep[l] = used[l] & u32::from(finite).wrapping_neg();
-            }
+            // All bits set for a live lane whose coordinates are finite.
+            let keep = super::volume::placed(x, live);
             // Lane loops innermost, one quantity at a time: the shape that vectorises.
             let mut d2 = [0.0f32; LANES];
             for i in 0..3 {
@@ -759,18 +751,12 @@ fn particle_box_lanes(batches: &[Batch]) -> ParticleBox {
             before = *x;
         }
     }
-    let fold = |a: &Lane, f: fn(f32, f32) -> f32, start: f32| a.iter().copied().fold(start, f);
+    let across = |v: &[Lane; 3], f: fn(f32, f32) -> f32, start: f32| {
+        Vec3A::from_array(v.map(|c| c.into_iter().fold(start, f)))
+    };
     ParticleBox {
-        min: Vec3A::new(
-            fold(&lo[0], f32::min, f32::INFINITY),
-            fold(&lo[1], f32::min, f32::INFINITY),
-            fold(&lo[2], f32::min, f32::INFINITY),
-        ),
-        max: Vec3A::new(
-            fold(&hi[0], f32::max, f32::NEG_INFINITY),
-            fold(&hi[1], f32::max, f32::NEG_INFINITY),
-            fold(&hi[2], f32::max, f32::NEG_INFINITY),
-        ),
-        longest_sq: fold(&longest, f32::max, 0.0),
+        min: across(&lo, f32::min, f32::INFINITY),
+        max: across(&hi, f32::max, f32::NEG_INFINITY),
+        longest_sq: longest.into_iter().fold(0.0, f32::max),
     }
 }

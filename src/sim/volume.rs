@@ -353,13 +353,14 @@ pub(crate) fn bounds_of(batches: &[Batch]) -> Bounds {
 /// Which lanes of a node row count: all bits set for the first `live` lanes with a finite
 /// position, else 0 (a mask for branch-free selects, which the compiler vectorises).
 #[inline(always)]
-fn placed(x: &[Lane; 3], live: usize) -> [u32; LANES] {
+pub(super) fn placed(x: &[Lane; 3], live: usize) -> [u32; LANES] {
     let mut keep = [0u32; LANES];
     for (l, keep) in keep.iter_mut().enumerate() {
-        let finite = x[0][l].abs() < f32::INFINITY
-            && x[1][l].abs() < f32::INFINITY
-            && x[2][l].abs() < f32::INFINITY;
-        *keep = u32::from(finite && l < live).wrapping_neg();
+        // `&`, not `&&`: no branch per lane (NaN is not below infinity either).
+        let finite = (x[0][l].abs() < f32::INFINITY)
+            & (x[1][l].abs() < f32::INFINITY)
+            & (x[2][l].abs() < f32::INFINITY);
+        *keep = u32::from(finite & (l < live)).wrapping_neg();
     }
     keep
 }
