@@ -10,7 +10,10 @@
 //! (bone lookup, solver, writing the joints); `chains/vrm_reference` is the VRM 1.0 spring-bone
 //! step (verlet with drag, stiffness toward the bind direction, gravity, length kept, sphere and
 //! capsule pushes, joint rotations) over plain arrays, the same colliders and joints;
-//! `chains/bones_only` is the app with the same moving bones and no chains (Bevy's own frame).
+//! `chains/bones_only` is the app with the same moving bones and no chains (Bevy's own frame);
+//! `chains/hair_stages` is the part of `ours`'s frame spent in the hair's stages (attach and
+//! simulate: solver, posing, writing the joints), timed from inside the frame, which is the work
+//! the reference step stands for.
 //! Before the timings it prints how far apart each method's last joints are, shaken at 30 and at
 //! 144 frames a second: at the end of a second, and every sixth of a second over it.
 #![expect(
@@ -18,15 +21,16 @@
     reason = "criterion's macros define undocumented functions"
 )]
 
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use bevy::asset::AssetPlugin;
 use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use bevy_cartoon_hair::HairSchedulePlugin;
+use bevy::transform::TransformSystems;
 use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionSphere, HairAssetPlugin};
 use bevy_cartoon_hair::sim::{HairBoneChains, HairCollider, HairSimSettings, HairSimulationPlugin};
+use bevy_cartoon_hair::{HairSchedulePlugin, HairSystems};
 use criterion::{Criterion, criterion_group, criterion_main};
 
 const CHARACTERS: usize = 16;
@@ -264,6 +268,33 @@ impl VrmCrowd {
     }
 }
 
+/// When the hair's stages began in this frame, and the time spent in them since the last read.
+#[derive(Resource, Default)]
+struct StageClock {
+    began: Option<Instant>,
+    spent: Duration,
+}
+
+/// Times the hair's stages inside each frame of `app`: from the end of Bevy's transform
+/// propagation (which they wait for) to the end of the simulation stage.
+fn time_hair_stages(app: &mut App) {
+    let begin = |mut clock: ResMut<StageClock>| clock.began = Some(Instant::now());
+    let end = |mut clock: ResMut<StageClock>| {
+        if let Some(began) = clock.began.take() {
+            clock.spent += began.elapsed();
+        }
+    };
+    app.init_resource::<StageClock>().add_systems(
+        PostUpdate,
+        (
+            begin
+                .after(TransformSystems::Propagate)
+                .before(HairSystems::Attach),
+            end.after(HairSystems::Simulate),
+        ),
+    );
+}
+
 fn head_world(i: usize, rotation: Quat) -> Affine3A {
     Affine3A::from_rotation_translation(rotation, Vec3::new(i as f32 * 1.0, 0.0, 0.0))
         * Affine3A::from_translation(HEAD)
@@ -388,6 +419,27 @@ fn bench_chains(c: &mut Criterion) {
                 });
             });
         }
+        // Ours again, timing only the hair's stages of each frame.
+        let (mut app, roots, _) = our_app(characters, 60.0, true);
+        time_hair_stages(&mut app);
+        let mut frame = 0u32;
+        group.bench_function(format!("hair_stages_{characters}x40x6"), |b| {
+            b.iter_custom(|iterations| {
+                app.world_mut().resource_mut::<StageClock>().spent = Duration::ZERO;
+                for _ in 0..iterations {
+                    frame += 1;
+                    let r = shake(frame as f32 / 60.0);
+                    for root in &roots {
+                        app.world_mut()
+                            .get_mut::<Transform>(*root)
+                            .unwrap()
+                            .rotation = r;
+                    }
+                    app.update();
+                }
+                app.world().resource::<StageClock>().spent
+            });
+        });
         let mut crowd = VrmCrowd::new(characters);
         let mut frame = 0u32;
         group.bench_function(format!("vrm_reference_{characters}x40x6"), |b| {

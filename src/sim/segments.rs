@@ -13,7 +13,7 @@
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::solver::{Batch, ContactShape, LANES, PINNED, StepInput};
+use super::solver::{Batch, ContactShape, LANES, PINNED, StepInput, lanes_near, set_lanes};
 
 /// A segment end nearer its collider than this share of the segment is left to the particle
 /// collision.
@@ -125,13 +125,11 @@ impl Batch {
         for i in 0..particles.saturating_sub(1) {
             let (ia, ib) = (2 * i + 1, 2 * i + 3);
             let wa = if ia < PINNED { 0.0 } else { 1.0 };
-            for l in 0..LANES {
+            // Far from the collider: nothing to test.
+            let near = lanes_near(&self.nodes[ia].x, &self.nodes[ib].x, lo, hi);
+            for l in set_lanes(near) {
                 let a = get(&self.nodes[ia].x, l);
                 let b = get(&self.nodes[ib].x, l);
-                // Far from the collider: nothing to test.
-                if a.min(b).cmpgt(hi).any() || a.max(b).cmplt(lo).any() {
-                    continue;
-                }
                 let (t, near) = core.nearest_on(a, b);
                 if !(END..=1.0 - END).contains(&t) {
                     continue;

@@ -46,7 +46,7 @@
 
 use std::f32::consts::FRAC_PI_2;
 
-use bevy::math::{Affine3A, Vec3, Vec3A};
+use bevy::math::{Affine3A, BVec4A, Vec3, Vec3A, Vec4};
 
 use crate::math::orthonormalise;
 
@@ -238,6 +238,39 @@ pub(crate) fn set3(a: &mut [Lane; 3], l: usize, v: Vec3) {
     a[0][l] = v.x;
     a[1][l] = v.y;
     a[2][l] = v.z;
+}
+
+/// The lanes (bit `l` for lane `l`) whose span from `a` to `b` is not outside the box
+/// `lo`..`hi` on any axis: per axis, the smaller end above `hi` or the larger below `lo` is
+/// outside, with the ends ordered by glam's `min` and `max` as the per-particle tests order
+/// them, so the mask is those tests to the bit, NaN included. Four lanes a vector, without a
+/// branch per lane; the per-lane code that follows runs only for the lanes set. Pass the same
+/// rows twice for points.
+#[inline(always)]
+pub(crate) fn lanes_near(a: &[Lane; 3], b: &[Lane; 3], lo: Vec3A, hi: Vec3A) -> u32 {
+    let four = |row: &Lane, h: usize| Vec4::from_slice(&row[4 * h..4 * h + 4]);
+    let mut near = 0;
+    for h in 0..LANES / 4 {
+        let mut outside = BVec4A::splat(false);
+        for c in 0..3 {
+            let (p, q) = (four(&a[c], h), four(&b[c], h));
+            outside |= p.min(q).cmpgt(Vec4::splat(hi[c])) | p.max(q).cmplt(Vec4::splat(lo[c]));
+        }
+        near |= (!outside).bitmask() << (4 * h);
+    }
+    near
+}
+
+/// The lanes set in `mask`, lowest first.
+#[inline(always)]
+pub(crate) fn set_lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            l
+        })
+    })
 }
 
 /// `m * v` for every lane.
@@ -760,13 +793,11 @@ impl Batch {
     /// them), with friction.
     fn collide_contacts(&mut self, contacts: &[Contact], friction: f32, swept: bool) {
         for contact in contacts {
+            let (lo, hi) = contact.reach;
             for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
-                for l in 0..LANES {
+                // Particles outside the shape's reach are left as they are.
+                for l in set_lanes(lanes_near(&node.x, &node.x, lo, hi)) {
                     let x = get3(&node.x, l);
-                    let (lo, hi) = contact.reach;
-                    if Vec3A::from(x).cmplt(lo).any() || Vec3A::from(x).cmpgt(hi).any() {
-                        continue;
-                    }
                     let p = get3(&node.p, l);
                     // Where the particle was this substep's start, relative to where the shape
                     // is now.
@@ -798,13 +829,13 @@ impl Batch {
     /// the margin.
     fn collide_shapes(&mut self, shapes: &[ShapeCollider], friction: f32) {
         for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
-            for l in 0..LANES {
-                let x = get3(&node.x, l);
-                let m = self.margin[l];
-                for sc in shapes {
-                    if x.cmplt(sc.aabb_min).any() || x.cmpgt(sc.aabb_max).any() {
-                        continue;
-                    }
+            // Every shape tests where the particle was before any of them moved it.
+            let before = node.x;
+            for sc in shapes {
+                let (lo, hi) = (sc.aabb_min.into(), sc.aabb_max.into());
+                for l in set_lanes(lanes_near(&before, &before, lo, hi)) {
+                    let x = get3(&before, l);
+                    let m = self.margin[l];
                     let (point, inside) = sc.shape.project(x);
                     let to_surface = point - x;
                     let dist = to_surface.length();

@@ -5,7 +5,7 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 
-use super::solver::{Batch, LANES, PINNED, build_chain};
+use super::solver::{self, Batch, LANES, PINNED, build_chain};
 use super::*;
 use crate::asset::{CollisionSphere, HairAnimation, HairGroom, HairKeyframe, HeadCollision};
 use crate::curve::QuadraticCurve;
@@ -700,6 +700,71 @@ fn particles(app: &mut App) -> Vec<Vec<Vec3>> {
         .collect();
     v.sort_by_key(|(i, _)| *i);
     v.into_iter().map(|(_, p)| p).collect()
+}
+
+/// The lane mask the colliders' box tests take is, lane by lane, the test each particle and
+/// segment had: outside when on some axis the smaller end (glam's `min`) is above the box or
+/// the larger below it; for points and segments, on the box's faces, beyond it, infinite and
+/// NaN.
+#[test]
+fn the_lanes_near_a_box_are_the_per_lane_box_test() {
+    use bevy::math::Vec3A;
+    let (lo, hi) = (Vec3A::new(-1.0, 0.5, -0.25), Vec3A::new(1.0, 2.0, 0.25));
+    let specials = [
+        f32::NAN,
+        f32::INFINITY,
+        f32::NEG_INFINITY,
+        -1.0,
+        1.0,
+        0.5,
+        2.0,
+        -0.25,
+        0.25,
+        0.0,
+        3.0,
+        -3.0,
+    ];
+    let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+    let mut pick = |rng: &mut Rng| {
+        if rng.unit() < 0.5 {
+            specials[(rng.unit() * specials.len() as f32) as usize]
+        } else {
+            rng.next() * 3.0
+        }
+    };
+    let lane = |rows: &[[f32; LANES]; 3], l: usize| Vec3A::new(rows[0][l], rows[1][l], rows[2][l]);
+    let (mut near, mut far) = (0, 0);
+    for _ in 0..2_000 {
+        let (mut a, mut b) = ([[0.0; LANES]; 3], [[0.0; LANES]; 3]);
+        for c in 0..3 {
+            for l in 0..LANES {
+                a[c][l] = pick(&mut rng);
+                b[c][l] = if rng.unit() < 0.3 {
+                    a[c][l]
+                } else {
+                    pick(&mut rng)
+                };
+            }
+        }
+        for (a, b) in [(&a, &b), (&a, &a)] {
+            let mask = solver::lanes_near(a, b, lo, hi);
+            for l in 0..LANES {
+                let (p, q) = (lane(a, l), lane(b, l));
+                let outside = p.min(q).cmpgt(hi).any() || p.max(q).cmplt(lo).any();
+                assert_eq!(mask >> l & 1 == 1, !outside, "lane {l}: {p} to {q}");
+                if outside {
+                    far += 1;
+                } else {
+                    near += 1;
+                }
+            }
+        }
+    }
+    assert_eq!(
+        solver::set_lanes(0b1010_0110).collect::<Vec<_>>(),
+        [1, 2, 5, 7]
+    );
+    assert!(near > 1_000 && far > 1_000, "{near} near, {far} far");
 }
 
 mod attach;
