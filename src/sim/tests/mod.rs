@@ -725,7 +725,7 @@ fn the_lanes_near_a_box_are_the_per_lane_box_test() {
         -3.0,
     ];
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
-    let mut pick = |rng: &mut Rng| {
+    let pick = |rng: &mut Rng| {
         if rng.unit() < 0.5 {
             specials[(rng.unit() * specials.len() as f32) as usize]
         } else {
