@@ -15,7 +15,9 @@
 //! simulate: solver, posing, writing the joints), timed from inside the frame, which is the work
 //! the reference step stands for.
 //! Before the timings it prints how far apart each method's last joints are, shaken at 30 and at
-//! 144 frames a second: at the end of a second, and every sixth of a second over it.
+//! 144 frames a second: at the end of a second, and every sixth of a second over it; ours twice,
+//! with default settings and with the reference's joint parameters mapped as the VRM import maps
+//! them.
 #![expect(
     missing_docs,
     reason = "criterion's macros define undocumented functions"
@@ -28,8 +30,12 @@ use bevy::math::Affine3A;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::transform::TransformSystems;
-use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionSphere, HairAssetPlugin};
-use bevy_cartoon_hair::sim::{HairBoneChains, HairCollider, HairSimSettings, HairSimulationPlugin};
+use bevy_cartoon_hair::asset::{
+    CollisionCapsule, CollisionSphere, HairAssetPlugin, VrmJoint, VrmSpring, VrmVersion,
+};
+use bevy_cartoon_hair::sim::{
+    HairBoneChains, HairCollider, HairSimSettings, HairSimulationPlugin, vrm_sim_settings,
+};
 use bevy_cartoon_hair::{HairSchedulePlugin, HairSystems};
 use criterion::{Criterion, criterion_group, criterion_main};
 
@@ -78,7 +84,11 @@ fn shake(t: f32) -> Quat {
 // ---------------------------------------------------------------------------------------------
 // Ours: the plugin in a headless app.
 
-fn our_app(characters: usize, fps: f64, chains: bool) -> (App, Vec<Entity>, Vec<Vec<Entity>>) {
+fn our_app(
+    characters: usize,
+    fps: f64,
+    chains: Option<&HairSimSettings>,
+) -> (App, Vec<Entity>, Vec<Vec<Entity>>) {
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins.set(bevy_cartoon_hair::compute_on_every_core()),
@@ -129,10 +139,10 @@ fn our_app(characters: usize, fps: f64, chains: bool) -> (App, Vec<Entity>, Vec<
                 tips.push(parent);
             }
         }
-        if chains {
+        if let Some(settings) = chains {
             world.spawn((
                 HairBoneChains::matching(root, |n| n.starts_with("hair_")),
-                HairSimSettings::default(),
+                settings.clone(),
             ));
         }
         roots.push(root);
@@ -151,6 +161,27 @@ const STIFFNESS: f32 = 1.0;
 const DRAG: f32 = 0.4;
 const GRAVITY_POWER: f32 = 1.0;
 const HIT_RADIUS: f32 = 0.01;
+
+/// Our settings for a VRM 1.0 spring whose joints all have the reference step's parameters, as
+/// the crate's VRM import maps them (bones of `SEGMENT` metres).
+fn vrm_mapped_settings() -> HairSimSettings {
+    let joint = VrmJoint {
+        hit_radius: HIT_RADIUS,
+        stiffness: STIFFNESS,
+        gravity_power: GRAVITY_POWER,
+        gravity_dir: Vec3::NEG_Y,
+        drag_force: DRAG,
+        limit: None,
+    };
+    let spring = VrmSpring {
+        name: String::new(),
+        nodes: (0..=JOINTS as u32).collect(),
+        joints: vec![joint; JOINTS + 1],
+        groups: Vec::new(),
+        center: None,
+    };
+    vrm_sim_settings(&spring, VrmVersion::V1, SEGMENT)
+}
 
 struct VrmChain {
     /// Each joint's local translation and bind rotation (joint 0 in the head's frame).
@@ -309,8 +340,8 @@ const SAMPLES: u32 = 6;
 
 /// The last joints of character 0's chains, in the head's frame, every sixth of a second of
 /// shaking at `fps`.
-fn our_tips_after_shaking(fps: f64) -> Vec<Vec<Vec3>> {
-    let (mut app, roots, tips) = our_app(1, fps, true);
+fn our_tips_after_shaking(fps: f64, settings: &HairSimSettings) -> Vec<Vec<Vec3>> {
+    let (mut app, roots, tips) = our_app(1, fps, Some(settings));
     let frames = fps.round() as u32;
     let mut samples = Vec::new();
     for f in 0..frames {
@@ -391,15 +422,26 @@ fn shaken_frame(app: &mut App, roots: &[Entity], frame: &mut u32) {
 }
 
 fn bench_chains(c: &mut Criterion) {
-    let ours = apart(
-        &our_tips_after_shaking(30.0),
-        &our_tips_after_shaking(144.0),
-    );
+    let defaults = HairSimSettings::default();
+    let mapped = vrm_mapped_settings();
+    let ours = |settings| {
+        apart(
+            &our_tips_after_shaking(30.0, settings),
+            &our_tips_after_shaking(144.0, settings),
+        )
+    };
     let vrm = apart(
         &vrm_tips_after_shaking(30.0),
         &vrm_tips_after_shaking(144.0),
     );
-    for (name, (last, mean, most)) in [("ours", ours), ("the VRM reference step", vrm)] {
+    for (name, (last, mean, most)) in [
+        ("ours (default settings)", ours(&defaults)),
+        (
+            "ours (the reference's joint parameters, mapped)",
+            ours(&mapped),
+        ),
+        ("the VRM reference step", vrm),
+    ] {
         println!(
             "head shaking at 30 fps vs 144 fps, last joints apart, {name}: after 1 s {:.1} mm \
              at most; over the second (every 1/6 s, 40 chains) {:.1} mm on average, {:.1} mm at \
@@ -415,7 +457,7 @@ fn bench_chains(c: &mut Criterion) {
     for characters in [CHARACTERS, CROWD] {
         // Ours, and the same app and bones without the chains: Bevy's own frame (transform
         // propagation of the moving characters), which any game with these bones pays.
-        for (name, chains) in [("ours", true), ("bones_only", false)] {
+        for (name, chains) in [("ours", Some(&defaults)), ("bones_only", None)] {
             let (mut app, roots, _) = our_app(characters, 60.0, chains);
             let mut frame = 0u32;
             group.bench_function(format!("{name}_{characters}x40x6"), |b| {
@@ -423,7 +465,7 @@ fn bench_chains(c: &mut Criterion) {
             });
         }
         // Ours again, timing only the hair's stages of each frame.
-        let (mut app, roots, _) = our_app(characters, 60.0, true);
+        let (mut app, roots, _) = our_app(characters, 60.0, Some(&defaults));
         time_hair_stages(&mut app);
         let mut frame = 0u32;
         group.bench_function(format!("hair_stages_{characters}x40x6"), |b| {
