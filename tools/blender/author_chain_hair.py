@@ -187,7 +187,8 @@ def main(argv=None):
     scene.unit_settings.system = "METRIC"
     rig = ninja.make_armature()
     add_hair_bones(rig)
-    mb = ninja.build_character()
+    # No headband knot or tails: they would pierce the back mass.
+    mb = ninja.build_character(knot=False)
     hair_material = len(ninja.MATERIALS)
     # A cap over the scalp, on the head bone.
     v, f = ninja.ellipsoid(ninja.HEAD_C + [0.0, 0.004, 0.006], ninja.HEAD_R * 1.06, 28, 14, theta=(0.0, 1.25))

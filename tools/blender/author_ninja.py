@@ -224,7 +224,10 @@ def head_surface(phi, z_rel, offset=0.0):
     return HEAD_C + np.array([x, y, z_rel]) + d * offset
 
 
-def build_character():
+def build_character(knot=True):
+    """The ninja's body, head, hood, eyes and headband. ``knot``: the headband's knot and its two
+    tails at the back of the head (a character with a back mass of hair leaves them out: they
+    would pierce it)."""
     mb = MeshBuilder()
     # --- head, face
     v, f = ellipsoid(HEAD_C, HEAD_R, 32, 18)
@@ -266,11 +269,12 @@ def build_character():
     v, f = box(plate_c, (0.075, 0.006, 0.03))
     mb.add(v, f, M_METAL, "head", smooth=False)
     back_z = band_center_z(HEAD_R[1])
-    knot = head_surface(math.pi / 2, back_z, 0.018)
-    v, f = ellipsoid(knot, [0.02, 0.014, 0.016], 10, 6)
-    mb.add(v, f, M_RED, "head")
-    for sx in (-1.0, 1.0):
-        pts = [knot + [sx * (0.008 + 0.03 * t), 0.012 + 0.07 * t, -0.22 * t + 0.04 * t * t]
+    knot_c = head_surface(math.pi / 2, back_z, 0.018)
+    v, f = ellipsoid(knot_c, [0.02, 0.014, 0.016], 10, 6)
+    if knot:
+        mb.add(v, f, M_RED, "head")
+    for sx in (-1.0, 1.0) if knot else ():
+        pts = [knot_c + [sx * (0.008 + 0.03 * t), 0.012 + 0.07 * t, -0.22 * t + 0.04 * t * t]
                for t in np.linspace(0.0, 1.0, 7)]
         verts, faces = [], []
         for k, p in enumerate(pts):
