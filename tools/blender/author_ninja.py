@@ -268,22 +268,22 @@ def build_character(knot=True):
     plate_c = head_surface(-math.pi / 2, front_z, 0.016)
     v, f = box(plate_c, (0.075, 0.006, 0.03))
     mb.add(v, f, M_METAL, "head", smooth=False)
-    back_z = band_center_z(HEAD_R[1])
-    knot_c = head_surface(math.pi / 2, back_z, 0.018)
-    v, f = ellipsoid(knot_c, [0.02, 0.014, 0.016], 10, 6)
     if knot:
+        back_z = band_center_z(HEAD_R[1])
+        knot_c = head_surface(math.pi / 2, back_z, 0.018)
+        v, f = ellipsoid(knot_c, [0.02, 0.014, 0.016], 10, 6)
         mb.add(v, f, M_RED, "head")
-    for sx in (-1.0, 1.0) if knot else ():
-        pts = [knot_c + [sx * (0.008 + 0.03 * t), 0.012 + 0.07 * t, -0.22 * t + 0.04 * t * t]
-               for t in np.linspace(0.0, 1.0, 7)]
-        verts, faces = [], []
-        for k, p in enumerate(pts):
-            w = 0.016 * (1.0 - 0.3 * k / 6)
-            verts += [p + [-w, 0, 0], p + [w, 0, 0]]
-            if k:
-                a = 2 * (k - 1)
-                faces.append((a, a + 1, a + 3, a + 2))
-        mb.add(verts, faces, M_RED, "head")
+        for sx in (-1.0, 1.0):
+            pts = [knot_c + [sx * (0.008 + 0.03 * t), 0.012 + 0.07 * t, -0.22 * t + 0.04 * t * t]
+                   for t in np.linspace(0.0, 1.0, 7)]
+            verts, faces = [], []
+            for k, p in enumerate(pts):
+                w = 0.016 * (1.0 - 0.3 * k / 6)
+                verts += [p + [-w, 0, 0], p + [w, 0, 0]]
+                if k:
+                    a = 2 * (k - 1)
+                    faces.append((a, a + 1, a + 3, a + 2))
+            mb.add(verts, faces, M_RED, "head")
     # --- neck, torso, belt
     v, f = tube([[0, 0, 1.44], [0, 0, 1.53], [0, 0, 1.62]], [[0.052, 0.05], [0.05, 0.048], [0.05, 0.048]],
                 16, cap_start=False, cap_end=False)
