@@ -150,6 +150,11 @@ pub struct ToonShading {
     pub back_light_strength: f32,
     /// Rim colour. Default: white.
     pub back_light_color: Color,
+    /// How much the rim takes the hair's own colour, 0 to 1: at 0 it is
+    /// [`ToonShading::back_light_color`] as given, at 1 that colour times
+    /// [`ToonShading::base_color`] (a white or grey `back_light_color` brighter than 1 then gives
+    /// a glow in the hair's hue that follows the hair when the game recolours it). Default: `0.0`.
+    pub back_light_hair_tint: f32,
     /// Adds Blinn specular `(N.H)^shininess` on top. Default: `0.0` (off).
     pub specular_strength: f32,
     /// Adds the highlight drawn in a specular ramp
@@ -208,6 +213,7 @@ impl Default for ToonShading {
             back_light_power: 2.0,
             back_light_strength: 0.0,
             back_light_color: Color::WHITE,
+            back_light_hair_tint: 0.0,
             specular_strength: 0.0,
             specular_ramp: 0.0,
             shininess: 40.0,
@@ -248,7 +254,12 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
         ToonHairUniform {
             base_color: self.base_color.to_linear().to_vec4(),
             specular_color: self.specular_color.to_linear().to_vec4(),
-            back_light_color: self.back_light_color.to_linear().to_vec4(),
+            back_light_color: self
+                .back_light_color
+                .to_linear()
+                .to_vec4()
+                .truncate()
+                .extend(finite_or(self.back_light_hair_tint, 0.0).clamp(0.0, 1.0)),
             params: Vec4::new(
                 finite_or(self.z_min, 1.0).max(1e-3),
                 finite_or(self.z_scale, 6.0).max(1.0001),

@@ -610,6 +610,14 @@ fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
     m.z_scale = m.z_scale.max(1.0);
     slider_row(ui, "Back light r", &mut m.back_light_power, 0.0..=8.0);
     slider_row(ui, "Back light", &mut m.back_light_strength, 0.0..=1.0);
+    if m.back_light_strength > 0.0 {
+        slider_row(
+            ui,
+            "Rim in hair colour",
+            &mut m.back_light_hair_tint,
+            0.0..=1.0,
+        );
+    }
     slider_row(ui, "Specular", &mut m.specular_strength, 0.0..=2.0);
     slider_row(ui, "Specular ramp", &mut m.specular_ramp, 0.0..=2.0);
     ui.label("Shininess");

@@ -27,6 +27,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "back_light_rim_is_strongest_against_the_light",
         back_light_rim_is_strongest_against_the_light,
     ),
+    (
+        "back_light_hair_tint_takes_the_hairs_colour",
+        back_light_hair_tint_takes_the_hairs_colour,
+    ),
 ];
 
 /// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
@@ -500,6 +504,71 @@ fn back_light_rim_is_strongest_against_the_light() -> Result<(), Failed> {
     }
     if rim[0] <= 0.0 || rim[1] < 2.0 * rim[0] {
         return Err(format!("the rim lit from behind is not twice the front's: {rim:?}").into());
+    }
+    Ok(())
+}
+
+/// `back_light_hair_tint` multiplies the rim by the hair's colour: a white rim on green hair
+/// brightens red, green and blue alike at tint 0, and mostly green at tint 1, for any green.
+fn back_light_hair_tint_takes_the_hairs_colour() -> Result<(), Failed> {
+    // Red, green and blue summed over the frame, lit from behind.
+    let sums = |base: Color, strength: f32, tint: f32| -> Result<[f32; 3], Failed> {
+        let mut r = scene(Vec3::new(0.0, 0.3, -1.0), Vec3::new(0.0, 0.0, 3.0))?;
+        let ramp = ramps(&r).three_tone;
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            0.4,
+            ToonHairMaterial::new(
+                ToonShading {
+                    base_color: base,
+                    lighting: ToonLighting::FirstDirectional,
+                    back_light_strength: strength,
+                    back_light_color: Color::WHITE,
+                    back_light_hair_tint: tint,
+                    ..default()
+                },
+                ramp,
+            ),
+        );
+        let frame = r.capture()?;
+        save(&frame, &format!("back_light_tint_{tint}_{strength}"))?;
+        let mut sum = [0.0; 3];
+        for y in 0..frame.height {
+            for x in 0..frame.width {
+                let p = frame.pixel(x, y);
+                for (c, s) in sum.iter_mut().enumerate() {
+                    *s += f32::from(p[c]);
+                }
+            }
+        }
+        Ok(sum)
+    };
+    // What the rim adds to each channel.
+    let rim = |base: Color, tint: f32| -> Result<[f32; 3], Failed> {
+        let (with, without) = (sums(base, 0.5, tint)?, sums(base, 0.0, tint)?);
+        Ok([0, 1, 2].map(|c| with[c] - without[c]))
+    };
+    let green = Color::srgb(0.15, 0.45, 0.15);
+    let white_rim = rim(green, 0.0)?;
+    let hair_rim = rim(green, 1.0)?;
+    eprintln!("rim added (red, green, blue): tint 0 {white_rim:?}, tint 1 {hair_rim:?}");
+    // A white rim brightens blue about as much as green; the hair's green rim (8.8 times more
+    // green than blue in linear light; less in the frame's sRGB, which lifts the darker channel
+    // more) brightens green at least twice as much as blue, and is dimmer overall (times a
+    // colour below 1).
+    if white_rim[2] <= 0.0 || white_rim[1] > 2.0 * white_rim[2] {
+        return Err(format!("a white rim does not add to every channel: {white_rim:?}").into());
+    }
+    if hair_rim[1] <= 0.0 || hair_rim[1] < 2.0 * hair_rim[2] || hair_rim[1] < 2.0 * hair_rim[0] {
+        return Err(format!("the tinted rim is not the hair's green: {hair_rim:?}").into());
+    }
+    if hair_rim[1] >= white_rim[1] {
+        return Err(format!(
+            "the tinted rim adds as much green as the white one: {hair_rim:?} vs {white_rim:?}"
+        )
+        .into());
     }
     Ok(())
 }
