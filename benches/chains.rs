@@ -10,6 +10,9 @@
 //! (bone lookup, solver, writing the joints); `chains/vrm_reference` is the VRM 1.0 spring-bone
 //! step (verlet with drag, stiffness toward the bind direction, gravity, length kept, sphere and
 //! capsule pushes, joint rotations) over plain arrays, the same colliders and joints;
+//! `chains/bevy_vrm1` is the same app with bevy_vrm1 0.11's own spring-bone system moving the
+//! same chains with the reference's joint parameters (what a game that loads its avatars with
+//! bevy_vrm1 pays today; see `chains_baselines/bevy_vrm1.rs`);
 //! `chains/bones_only` is the app with the same moving bones and no chains (Bevy's own frame);
 //! `chains/hair_stages` is the part of `ours`'s frame spent in the hair's stages (attach and
 //! simulate: solver, posing, writing the joints), timed from inside the frame, which is the work
@@ -38,6 +41,9 @@ use bevy_cartoon_hair::sim::{
 };
 use bevy_cartoon_hair::{HairSchedulePlugin, HairSystems};
 use criterion::{Criterion, criterion_group, criterion_main};
+
+#[path = "chains_baselines/bevy_vrm1.rs"]
+mod vrm1_baseline;
 
 const CHARACTERS: usize = 16;
 /// A hundred avatars, the crowd a game with many VRM characters has.
@@ -408,6 +414,47 @@ fn apart(a: &[Vec<Vec3>], b: &[Vec<Vec3>]) -> (f32, f32, f32) {
     (last, mean, all.iter().copied().fold(0.0, f32::max))
 }
 
+/// bevy_vrm1's last joints of character 0 (those whose child is the tail), in the frame of the
+/// head turned by `rotation`, in the order the chains were spawned.
+fn vrm1_last_joints(app: &mut App, rotation: Quat) -> Vec<Vec3> {
+    let to_head = head_world(0, rotation).inverse();
+    let mut query = app.world_mut().query_filtered::<(
+        Entity,
+        &GlobalTransform,
+        &Children,
+    ), With<bevy_vrm1::vrm::spring_bone::SpringJointProps>>();
+    let world = app.world();
+    let mut last: Vec<(Entity, Vec3)> = query
+        .iter(world)
+        .filter(|(_, _, children)| children.iter().all(|c| world.get::<Children>(c).is_none()))
+        .map(|(e, g, _)| (e, to_head.transform_point3(g.translation())))
+        .collect();
+    last.sort_by_key(|(e, _)| *e);
+    assert_eq!(last.len(), CHAINS, "one last joint a chain");
+    last.into_iter().map(|(_, p)| p).collect()
+}
+
+/// As [`our_tips_after_shaking`], for bevy_vrm1's spring system; and where the same joints hung
+/// before the shaking.
+fn vrm1_tips_after_shaking(fps: f64) -> (Vec<Vec3>, Vec<Vec<Vec3>>) {
+    let (mut app, roots) = vrm1_baseline::app(1, fps);
+    let hung = vrm1_last_joints(&mut app, Quat::IDENTITY);
+    let frames = fps.round() as u32;
+    let mut samples = Vec::new();
+    for f in 0..frames {
+        let t = (f + 1) as f32 / fps as f32;
+        app.world_mut()
+            .get_mut::<Transform>(roots[0])
+            .unwrap()
+            .rotation = shake(t);
+        app.update();
+        if (f + 1) % (frames / SAMPLES) == 0 {
+            samples.push(vrm1_last_joints(&mut app, shake(t)));
+        }
+    }
+    (hung, samples)
+}
+
 /// The next 60 Hz frame of `app`: every character's root turned by the shake, then an update.
 fn shaken_frame(app: &mut App, roots: &[Entity], frame: &mut u32) {
     *frame += 1;
@@ -451,6 +498,31 @@ fn bench_chains(c: &mut Criterion) {
             most * 1000.0
         );
     }
+    // bevy_vrm1's system must really move its chains, or its timing means nothing.
+    let (hung, at_30) = vrm1_tips_after_shaking(30.0);
+    let (_, at_144) = vrm1_tips_after_shaking(144.0);
+    let end = &at_144[at_144.len() - 1];
+    let moved = hung
+        .iter()
+        .zip(end)
+        .map(|(a, b)| a.distance(*b))
+        .sum::<f32>()
+        / CHAINS as f32;
+    let (last, mean, most) = apart(&at_30, &at_144);
+    println!(
+        "head shaking at 30 fps vs 144 fps, last joints apart, bevy_vrm1 0.11's spring system: \
+         after 1 s {:.1} mm at most; over the second {:.1} mm on average, {:.1} mm at most (its \
+         last joints moved {:.1} mm on average from where they hung)",
+        last * 1000.0,
+        mean * 1000.0,
+        most * 1000.0,
+        moved * 1000.0
+    );
+    assert!(
+        moved.is_finite() && moved > 0.005,
+        "bevy_vrm1's spring system did not move its chains ({moved} m): its timing would be \
+         of an idle app"
+    );
     let mut group = c.benchmark_group("chains");
     group.sample_size(30);
     // The crowd the benches are named for, and a hundred avatars.
@@ -464,6 +536,12 @@ fn bench_chains(c: &mut Criterion) {
                 b.iter(|| shaken_frame(&mut app, &roots, &mut frame));
             });
         }
+        // The same crowd on bevy_vrm1's spring system.
+        let (mut app, roots) = vrm1_baseline::app(characters, 60.0);
+        let mut frame = 0u32;
+        group.bench_function(format!("bevy_vrm1_{characters}x40x6"), |b| {
+            b.iter(|| shaken_frame(&mut app, &roots, &mut frame));
+        });
         // Ours again, timing only the hair's stages of each frame.
         let (mut app, roots, _) = our_app(characters, 60.0, Some(&defaults));
         time_hair_stages(&mut app);
