@@ -347,6 +347,7 @@ pub fn build_specular_quads(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bevy::mesh::{Indices, VertexAttributeValues};
 
     #[test]
     fn runs_group_neighbours_above_the_threshold() {
@@ -404,5 +405,54 @@ mod tests {
             |_| 0.1,
         );
         assert!(b.indices.is_empty());
+    }
+
+    /// A strip mesh with nothing to draw still has vertices (Bevy warns at every upload of a
+    /// mesh without), one triangle of no area, and keeps its vertex colours (the same pipeline
+    /// as when it has strokes); filled again, it holds only what was put in.
+    #[test]
+    fn an_empty_strip_mesh_is_one_degenerate_triangle() {
+        for colored in [false, true] {
+            let mut mesh = StripBuffers::empty_mesh(colored);
+            for _ in 0..2 {
+                let positions = mesh
+                    .attribute(Mesh::ATTRIBUTE_POSITION)
+                    .and_then(|a| a.as_float3())
+                    .unwrap()
+                    .to_vec();
+                assert_eq!(positions.len(), 3);
+                let [a, b, c] = [0, 1, 2].map(|i| Vec3::from_array(positions[i]));
+                assert_eq!((b - a).cross(c - a), Vec3::ZERO);
+                assert_eq!(mesh.indices().map(Indices::len), Some(3));
+                assert_eq!(mesh.attribute(Mesh::ATTRIBUTE_COLOR).is_some(), colored);
+                assert_eq!(
+                    mesh.attribute(Mesh::ATTRIBUTE_UV_0)
+                        .map(VertexAttributeValues::len),
+                    Some(3)
+                );
+                // Emptied again: the same.
+                StripBuffers::take(&mut mesh).put(&mut mesh);
+            }
+            let mut b = StripBuffers::take(&mut mesh);
+            b.positions
+                .extend([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]);
+            b.uvs.extend([[0.0; 2]; 3]);
+            if colored {
+                b.colors.extend([[1.0; 4]; 3]);
+            }
+            b.indices.extend([0, 2, 1]);
+            b.put(&mut mesh);
+            assert_eq!(mesh.count_vertices(), 3);
+            assert_eq!(
+                mesh.indices().map(|i| i.iter().collect::<Vec<_>>()),
+                Some(vec![0, 2, 1])
+            );
+            let p = mesh
+                .attribute(Mesh::ATTRIBUTE_POSITION)
+                .unwrap()
+                .as_float3()
+                .unwrap();
+            assert_eq!(p[0], [1.0, 0.0, 0.0]);
+        }
     }
 }

@@ -819,25 +819,26 @@ pub(crate) struct StripBuffers {
     pub colors: Vec<[f32; 4]>,
     pub indices: Vec<u32>,
     normals: Vec<[f32; 3]>,
+    /// The mesh has vertex colours (kept when it is empty).
+    colored: bool,
 }
 
 impl StripBuffers {
     /// An empty strip mesh (positions, +Z normals, UVs, indices; vertex colours when
-    /// `with_colors`), for [`StripBuffers::take`] and [`StripBuffers::put`] to fill.
+    /// `with_colors`), for [`StripBuffers::take`] and [`StripBuffers::put`] to fill. Like every
+    /// strip mesh with nothing in it, it holds one degenerate triangle (see
+    /// [`StripBuffers::put`]).
     pub(crate) fn empty_mesh(with_colors: bool) -> Mesh {
-        let mesh = Mesh::new(
+        let mut mesh = Mesh::new(
             PrimitiveTopology::TriangleList,
             RenderAssetUsages::MAIN_WORLD | RenderAssetUsages::RENDER_WORLD,
-        )
-        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, Vec::<[f32; 3]>::new())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, Vec::<[f32; 3]>::new())
-        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, Vec::<[f32; 2]>::new())
-        .with_inserted_indices(Indices::U32(Vec::new()));
-        if with_colors {
-            mesh.with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, Vec::<[f32; 4]>::new())
-        } else {
-            mesh
+        );
+        Self {
+            colored: with_colors,
+            ..default()
         }
+        .put(&mut mesh);
+        mesh
     }
 
     /// A mesh of `quads` separate quads that a compute pass fills (the GPU's strokes and
@@ -880,6 +881,7 @@ impl StripBuffers {
             mesh.remove_attribute(Mesh::ATTRIBUTE_COLOR)
         {
             b.colors = v;
+            b.colored = true;
         }
         if let Some(Indices::U32(v)) = mesh.remove_indices() {
             b.indices = v;
@@ -893,8 +895,22 @@ impl StripBuffers {
         b
     }
 
-    /// Puts the buffers back; normals face +Z (the strip materials are unlit).
+    /// Puts the buffers back; normals face +Z (the strip materials are unlit). Nothing to draw
+    /// is one degenerate triangle (three vertices at the origin, which cover no pixel): Bevy
+    /// warns each time a mesh without vertices is uploaded, which a hair whose highlights or
+    /// strokes come and go would do every frame.
     pub(crate) fn put(mut self, mesh: &mut Mesh) {
+        if self.positions.is_empty() {
+            self.positions.resize(3, [0.0; 3]);
+            self.uvs.clear();
+            self.uvs.resize(3, [0.0; 2]);
+            self.colors.clear();
+            if self.colored {
+                self.colors.resize(3, [0.0; 4]);
+            }
+            self.indices.clear();
+            self.indices.extend([0, 1, 2]);
+        }
         self.normals.resize(self.positions.len(), [0.0, 0.0, 1.0]);
         mesh.insert_attribute(Mesh::ATTRIBUTE_POSITION, self.positions);
         mesh.insert_attribute(Mesh::ATTRIBUTE_NORMAL, self.normals);

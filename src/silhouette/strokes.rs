@@ -197,6 +197,9 @@ pub struct StrokeView {
     /// The strands, rings and sides of the GPU's stroke mesh the first mesh holds, while the
     /// GPU builds these strokes (see [`gpu_jobs`](super::gpu_jobs)).
     pub gpu_layout: Option<(usize, usize, usize)>,
+    /// Whether each mesh holds strokes: an entity whose mesh holds none is hidden, so it costs
+    /// no draw call.
+    pub drawn: Vec<bool>,
 }
 
 /// The per-strand work of [`extract_silhouettes`], with its reused buffers: keep one per thread
@@ -366,9 +369,13 @@ pub fn extract_silhouettes(
             } else {
                 Visibility::Hidden
             };
-            for &entity in &view.entities {
+            for (w, &entity) in view.entities.iter().enumerate() {
                 if let Ok(mut v) = visibility.get_mut(entity) {
-                    v.set_if_neq(want);
+                    v.set_if_neq(if view.drawn.get(w).copied().unwrap_or(true) {
+                        want
+                    } else {
+                        Visibility::Hidden
+                    });
                 }
             }
         }
@@ -428,6 +435,7 @@ pub fn extract_silhouettes(
                         entities: Vec::new(),
                         layer: None,
                         gpu_layout: None,
+                        drawn: Vec::new(),
                     });
                     computed.views.len() - 1
                 }
@@ -450,6 +458,7 @@ pub fn extract_silhouettes(
                 }
                 view.meshes.push(mesh);
                 view.entities.push(entity.id());
+                view.drawn.push(true);
             }
             let layer = layer_of(slot);
             if view.layer != layer {
@@ -483,13 +492,44 @@ pub fn extract_silhouettes(
                     camera: stroke_camera,
                     params,
                 });
+                show_drawn(view, |w| w == 0, &mut visibility);
                 continue;
             }
             view.gpu_layout = None;
+            let mut drawn = [false; STROKE_BLOCKS];
             for (w, handle) in view.meshes.iter().enumerate() {
-                if let Some(mut mesh) = meshes.get_mut(handle) {
-                    builder.swap_into_mesh(w, &mut mesh);
+                if let (Some(mut mesh), Some(d)) = (meshes.get_mut(handle), drawn.get_mut(w)) {
+                    *d = builder.swap_into_mesh(w, &mut mesh);
                 }
+            }
+            show_drawn(
+                view,
+                |w| drawn.get(w).copied().unwrap_or(false),
+                &mut visibility,
+            );
+        }
+    }
+}
+
+/// Records which of `view`'s meshes hold strokes now (`drawn(w)` for mesh `w`) and shows or
+/// hides the entities whose answer changed: the view is seen (its strokes were just built), so
+/// a mesh with strokes is shown and one without is hidden.
+fn show_drawn(
+    view: &mut StrokeView,
+    drawn: impl Fn(usize) -> bool,
+    visibility: &mut Query<&mut Visibility>,
+) {
+    view.drawn.resize(view.entities.len(), true);
+    for (w, (&entity, was)) in view.entities.iter().zip(&mut view.drawn).enumerate() {
+        let now = drawn(w);
+        if *was != now {
+            *was = now;
+            if let Ok(mut v) = visibility.get_mut(entity) {
+                v.set_if_neq(if now {
+                    Visibility::Inherited
+                } else {
+                    Visibility::Hidden
+                });
             }
         }
     }
@@ -563,8 +603,9 @@ impl StrokeBuilder {
 
     /// Moves block `b`'s strokes into `mesh` (positions, UVs, colours, indices; normals face
     /// +Z), taking the mesh's old buffers back for the next build: nothing is copied. A mesh
-    /// beyond the blocks is emptied.
-    pub fn swap_into_mesh(&mut self, b: usize, mesh: &mut Mesh) {
+    /// beyond the blocks is emptied. Returns whether the mesh holds any stroke (an empty one
+    /// holds a degenerate triangle, which draws nothing).
+    pub fn swap_into_mesh(&mut self, b: usize, mesh: &mut Mesh) -> bool {
         let mut buffers = StripBuffers::take(mesh);
         if let Some(Ok(worker)) = self.blocks.get_mut(b).map(Mutex::get_mut) {
             std::mem::swap(&mut buffers.positions, &mut worker.out.positions);
@@ -573,7 +614,9 @@ impl StrokeBuilder {
             std::mem::swap(&mut buffers.indices, &mut worker.out.indices);
             worker.clear();
         }
+        let drawn = !buffers.indices.is_empty();
         buffers.put(mesh);
+        drawn
     }
 }
 

@@ -31,6 +31,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         gpu_built_strokes_draw_only_the_quads_that_ink,
     ),
     (
+        "stroke_meshes_with_nothing_in_them_are_hidden_never_empty",
+        stroke_meshes_with_nothing_in_them_are_hidden_never_empty,
+    ),
+    (
         "strokes_of_several_hairs_drawn_by_count_keep_every_strands_place",
         strokes_of_several_hairs_drawn_by_count_keep_every_strands_place,
     ),
@@ -513,18 +517,19 @@ fn highlighted_spikes() -> Result<(bevy_cartoon_hair::headless::HeadlessRenderer
 }
 
 /// Triangles in the meshes of `hair`'s entities of kind `of` (its stroke or highlight
-/// meshes), as the main world made them.
+/// meshes) that are not hidden (a stroke mesh with nothing in it is), as the main world made
+/// them.
 fn mesh_triangles<C: Component>(
     r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
     hair: Entity,
     owner: impl Fn(&C) -> Entity,
 ) -> usize {
     let world = r.app.world_mut();
-    let mut parts = world.query::<(&C, &Mesh3d)>();
+    let mut parts = world.query::<(&C, &Mesh3d, &Visibility)>();
     let meshes: Vec<Handle<Mesh>> = parts
         .iter(world)
-        .filter(|(of, _)| owner(of) == hair)
-        .map(|(_, m)| m.0.clone())
+        .filter(|(of, _, shown)| owner(of) == hair && **shown != Visibility::Hidden)
+        .map(|(_, m, _)| m.0.clone())
         .collect();
     let assets = world.resource::<Assets<Mesh>>();
     meshes
@@ -627,6 +632,80 @@ fn gpu_built_highlights_shine_where_the_cpus_do() -> Result<(), Failed> {
             )
             .into());
         }
+    }
+    Ok(())
+}
+
+/// `hair`'s stroke meshes: how many are shown and how many hidden, and how many have no
+/// vertices (Bevy warns each time it uploads one).
+fn stroke_meshes(
+    r: &mut bevy_cartoon_hair::headless::HeadlessRenderer,
+    hair: Entity,
+) -> (usize, usize, usize) {
+    let world = r.app.world_mut();
+    let mut parts = world.query::<(
+        &bevy_cartoon_hair::silhouette::HairStrokesOf,
+        &Mesh3d,
+        &Visibility,
+    )>();
+    let parts: Vec<(Handle<Mesh>, bool)> = parts
+        .iter(world)
+        .filter(|(of, ..)| of.0 == hair)
+        .map(|(_, m, v)| (m.0.clone(), *v == Visibility::Hidden))
+        .collect();
+    let assets = world.resource::<Assets<Mesh>>();
+    let empty = parts
+        .iter()
+        .filter(|(m, _)| assets.get(m).is_none_or(|m| m.count_vertices() == 0))
+        .count();
+    let hidden = parts.iter().filter(|(_, h)| *h).count();
+    (parts.len() - hidden, hidden, empty)
+}
+
+/// A hair's strokes are built in blocks, a mesh each; a mesh with no stroke in it (every block
+/// but the first while the GPU builds the strokes) holds one triangle of no area, so Bevy never
+/// uploads a mesh without vertices (it warns each time), and its entity is hidden, so it costs
+/// no draw call. Built on the CPU again, every block is shown and drawn again.
+fn stroke_meshes_with_nothing_in_them_are_hidden_never_empty() -> Result<(), Failed> {
+    const TRANSPARENT: &str = "render/main_transparent_pass_3d/clipper_invocations";
+    let mut r = silhouette_scene()?;
+    r.app
+        .add_plugins(bevy::render::diagnostic::RenderDiagnosticsPlugin)
+        .insert_resource(bevy_cartoon_hair::render::HairCompactQuads(false));
+    let hair = spawn_outlined(r.app.world_mut(), spikes());
+    let mut seen = Vec::new();
+    for (name, builder) in [
+        ("CPU", HairMeshBuilder::Cpu),
+        ("GPU", HairMeshBuilder::Gpu),
+        ("CPU again", HairMeshBuilder::Cpu),
+    ] {
+        r.app.insert_resource(builder);
+        r.capture()?;
+        let drawn = settled_diagnostic(&mut r, TRANSPARENT)?;
+        let (shown, hidden, empty) = stroke_meshes(&mut r, hair);
+        eprintln!(
+            "{name}: {shown} stroke meshes shown, {hidden} hidden, {empty} without vertices; \
+             {drawn:.0} triangles drawn"
+        );
+        seen.push((shown, hidden, empty, drawn));
+    }
+    let blocks = bevy_cartoon_hair::silhouette::strokes::STROKE_BLOCKS;
+    let [cpu, gpu, again] = [seen[0], seen[1], seen[2]];
+    if seen.iter().any(|s| s.2 > 0) {
+        return Err(format!("a stroke mesh without vertices: {seen:?}").into());
+    }
+    if (cpu.0, cpu.1) != (blocks, 0) || (again.0, again.1) != (blocks, 0) {
+        return Err(format!("built on the CPU, not every block is shown: {seen:?}").into());
+    }
+    if (gpu.0, gpu.1) != (1, blocks - 1) {
+        return Err(format!("built on the GPU, the empty blocks are not hidden: {seen:?}").into());
+    }
+    if again.3 != cpu.3 {
+        return Err(format!(
+            "built on the CPU again, {} triangles drawn, {} the first time",
+            again.3, cpu.3
+        )
+        .into());
     }
     Ok(())
 }
