@@ -504,6 +504,7 @@ pub(super) fn report_failure(
         (HairAssetKind::Groom, false) => "no hair is built",
         (HairAssetKind::Animation, false) => "the hair anchors to the groom's own style",
         (HairAssetKind::Collision, false) => "the hair is built without a head collider",
+        (HairAssetKind::Character, false) => "the hair stays detached",
     };
     error!("hair {hair}: {kind:?} {path:?} failed to load ({consequence}): {error}");
     commands.trigger(HairAssetFailed {

@@ -5,14 +5,17 @@
 //! makes the hair entity a child of it ([`ChildOf`]); nothing else on the entity changes. A glTF
 //! character spawns asynchronously: while its root carries a `WorldAssetRoot` whose instance is
 //! not ready yet, the search waits; after that, a bone that is not there is an error (a log line
-//! naming the bone, the character and the bones it has, and a [`BoneNotFound`] event).
+//! naming the bone, the character and the bones it has, and a [`BoneNotFound`] event). A scene
+//! that fails to load (a wrong path, a broken file, a texture Bevy cannot decode) ends the wait:
+//! a log line naming the file and the loader's reason, and a [`HairAssetFailed`] of
+//! [`HairAssetKind::Character`].
 
 use std::sync::Arc;
 
 use bevy::prelude::*;
 use bevy::world_serialization::{WorldAssetRoot, WorldInstanceReady};
 
-use super::events::BoneNotFound;
+use super::events::{BoneNotFound, HairAssetFailed, HairAssetKind};
 
 /// Which bone of a character a hair hangs on.
 #[derive(Clone, Debug, Reflect)]
@@ -158,8 +161,7 @@ pub(crate) fn attach_to_bones(
     )>,
     roots: Query<(Option<&WorldAssetRoot>, Has<CharacterSpawned>)>,
     children: Query<&Children>,
-    names: Query<&Name>,
-    exists: Query<()>,
+    (names, exists, server): (Query<&Name>, Query<()>, Option<Res<AssetServer>>),
 ) {
     for (hair, attach, search, parent) in &hairs {
         let decided = matches!(search, Some(BoneSearch::Found(_) | BoneSearch::NotFound));
@@ -185,7 +187,21 @@ pub(crate) fn attach_to_bones(
                 let found = std::iter::once(attach.root)
                     .chain(children.iter_descendants(attach.root))
                     .find(matches);
-                if found.is_none() && scene.is_some() && !spawned {
+                if found.is_none()
+                    && let Some(scene) = scene
+                    && !spawned
+                {
+                    if let Some((file, reason)) = scene_failure(server.as_deref(), scene) {
+                        report_scene_failure(
+                            &mut commands,
+                            (hair, "hair", "the hair stays detached"),
+                            attach.root,
+                            file,
+                            reason,
+                        );
+                        commands.entity(hair).insert(BoneSearch::NotFound);
+                        continue;
+                    }
                     if search != Some(&BoneSearch::Waiting) {
                         commands.entity(hair).insert(BoneSearch::Waiting);
                     }
@@ -204,6 +220,45 @@ pub(crate) fn attach_to_bones(
             None => report(&mut commands, hair, &attach, &names, &children, false),
         }
     }
+}
+
+/// The file of a character's scene and the loader's reason, if the scene failed to load.
+pub(super) fn scene_failure(
+    server: Option<&AssetServer>,
+    scene: &WorldAssetRoot,
+) -> Option<(String, String)> {
+    let Some(bevy::asset::LoadState::Failed(error)) = server?.get_load_state(scene.0.id()) else {
+        return None;
+    };
+    let file = scene.0.path().map_or_else(
+        || format!("{:?}", scene.0.id()),
+        |p| p.without_label().to_string(),
+    );
+    let reason = super::attach::load_failure(&error);
+    Some((file, reason.lines().next().unwrap_or_default().to_string()))
+}
+
+/// Reports that the scene `file` of `character`, which `entity` (a hair, or a set of bone
+/// chains) waited on, did not load: an error in the log saying what is left undone
+/// (`consequence`) and a [`HairAssetFailed`].
+pub(super) fn report_scene_failure(
+    commands: &mut Commands,
+    (entity, what, consequence): (Entity, &str, &str),
+    character: Entity,
+    file: String,
+    reason: String,
+) {
+    error!(
+        "{what} {entity}: the scene {file:?} of its character {character} did not load, so \
+         there are no bones ({consequence}): {reason}. Fix the file or its path"
+    );
+    commands.trigger(HairAssetFailed {
+        entity,
+        asset: HairAssetKind::Character,
+        path: file,
+        error: reason,
+        kept_last_good: false,
+    });
 }
 
 /// The names of `root` and its descendants, depth first: what a missing-bone error lists.

@@ -20,7 +20,9 @@ use bevy::world_serialization::WorldAssetRoot;
 
 use super::attach::Hair;
 use super::attach_work::AttachWork;
-use super::bone::{BonePredicate, CharacterSpawned, names_under};
+use super::bone::{
+    BonePredicate, CharacterSpawned, names_under, report_scene_failure, scene_failure,
+};
 use super::chain_pose::{ChainJoint, ChainPose};
 use super::collider::{HairCollider, HairCollidesOnly};
 use super::events::BoneNotFound;
@@ -220,24 +222,32 @@ pub(crate) fn build_bone_chains(
     names: Query<&Name>,
     parents: Query<&ChildOf>,
     locals: Query<&Transform>,
-    roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
+    roots: Query<(Option<&WorldAssetRoot>, Has<CharacterSpawned>)>,
     plain: Query<(), PlainLeaf>,
     helper: TransformHelper,
-    (mut grooms, mut work, ticks): (
+    (mut grooms, mut work, ticks, server): (
         ResMut<Assets<HairGroom>>,
         ResMut<AttachWork>,
         bevy::ecs::system::SystemChangeTick,
+        Option<Res<AssetServer>>,
     ),
 ) {
     for (set, chains, settings, only, (limits, inertia)) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
             // A glTF character whose scene has not spawned yet: wait for it, as a bone search
-            // does.
-            if roots
-                .get(chains.root)
-                .is_ok_and(|(scene, spawned)| scene && !spawned)
-            {
+            // does, unless it failed to load.
+            if let Ok((Some(scene), false)) = roots.get(chains.root) {
+                if let Some((file, reason)) = scene_failure(server.as_deref(), scene) {
+                    report_scene_failure(
+                        &mut commands,
+                        (set, "hair bone chains", "no chain is simulated"),
+                        chains.root,
+                        file,
+                        reason,
+                    );
+                    commands.entity(set).insert(BoneChainHairs::default());
+                }
                 continue;
             }
             let available = names_under(chains.root, &names, &children);

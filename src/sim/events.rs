@@ -48,6 +48,12 @@ pub enum HairAssetKind {
     Animation,
     /// [`Hair::collision`](super::Hair::collision): the hair is built without a head collider.
     Collision,
+    /// The scene of the character the hair hangs on (the `WorldAssetRoot` of
+    /// [`AttachToBone::root`](super::AttachToBone::root) or
+    /// [`HairBoneChains::root`](super::HairBoneChains::root), a glTF or VRM file): it has no
+    /// bones, so the hair stays detached, or no chain is built. Triggered on the hair entity (on
+    /// the [`HairBoneChains`](super::HairBoneChains) entity for chains).
+    Character,
 }
 
 /// One of the hair's assets failed to load (missing file, or the loader's `file:line:col`

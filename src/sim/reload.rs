@@ -92,6 +92,8 @@ pub(crate) fn report_failed_reloads(
                 HairAssetKind::Groom => assets.grooms.contains(id.typed::<HairGroom>()),
                 HairAssetKind::Animation => assets.animations.contains(id.typed::<HairAnimation>()),
                 HairAssetKind::Collision => assets.collisions.contains(id.typed::<HeadCollision>()),
+                // Not a hair asset: its failure is reported where the bone is looked up.
+                HairAssetKind::Character => false,
             };
             if !kept {
                 continue;

@@ -900,3 +900,64 @@ fn systems_with_nothing_to_look_at_do_not_run() {
     ];
     assert_eq!(ran_in_a_frame(&mut h, &next), vec![true, false]);
 }
+
+/// A character whose scene does not load (here a path with no file) leaves no hair waiting
+/// for bones forever: the hair hung with `AttachToBone` and the set of `HairBoneChains` are
+/// each told once, with a `HairAssetFailed` of kind `Character` naming the file, and stop
+/// waiting.
+#[test]
+fn a_character_whose_scene_does_not_load_is_reported_not_waited_for() {
+    let mut app = event_app();
+    app.init_asset::<bevy::world_serialization::WorldAsset>();
+    let scene = app
+        .world()
+        .resource::<AssetServer>()
+        .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("characters/missing.glb"));
+    let root = app
+        .world_mut()
+        .spawn((
+            Transform::default(),
+            bevy::world_serialization::WorldAssetRoot(scene),
+        ))
+        .id();
+    let groom = app
+        .world_mut()
+        .resource_mut::<Assets<HairGroom>>()
+        .add(spiky_groom(5, 4));
+    let hair = app
+        .world_mut()
+        .spawn((
+            Hair { groom, ..default() },
+            AttachToBone::named(root, "head"),
+        ))
+        .id();
+    let chains = app
+        .world_mut()
+        .spawn(HairBoneChains::matching(root, |n| n.starts_with("hair_")))
+        .id();
+    for _ in 0..500 {
+        app.update();
+        if seen(&app).len() >= 2 {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    for _ in 0..10 {
+        app.update();
+    }
+    let events = seen(&app);
+    assert_eq!(events.len(), 2, "each told once: {events:?}");
+    for event in &events {
+        assert!(
+            event.starts_with("failed Character characters/missing.glb | ") && event.len() > 45,
+            "{events:?}"
+        );
+    }
+    assert_eq!(
+        app.world().get::<BoneSearch>(hair),
+        Some(&BoneSearch::NotFound)
+    );
+    assert!(app.world().get::<ChildOf>(hair).is_none());
+    assert!(app.world().get::<BoneChainHairs>(chains).is_some());
+    assert_eq!(strand_count(&mut app), 0);
+}
