@@ -200,6 +200,18 @@ pub struct ToonShading {
     pub angel_ring_profile: AngelRingProfile,
     /// Distance between the zig-zag's teeth, metres across the strands. Default: `0.02`.
     pub angel_ring_teeth: f32,
+    /// Tips in another colour (dyed or sun-bleached ends, a gradient toward the tips): the hair
+    /// colour blends from [`ToonShading::base_color`] toward this along each strand, from
+    /// [`ToonShading::tip_start`] to the tip, as far as [`ToonShading::tip_strength`]. Shading,
+    /// and a back light in the hair's colour, follow the blended colour. On the crate's strand
+    /// meshes the UV's `v` runs from root (0) to tip (1); on a mesh of your own the blend
+    /// follows its UVs' `v` (none without UVs). Default: white.
+    pub tip_color: Color,
+    /// Where along the strand the blend toward [`ToonShading::tip_color`] begins, 0 (root) to 1
+    /// (tip); it reaches the full strength at the tip. Default: `0.6`.
+    pub tip_start: f32,
+    /// How much of [`ToonShading::tip_color`] the tips take, 0 (off) to 1. Default: `0.0`.
+    pub tip_strength: f32,
 }
 
 impl Default for ToonShading {
@@ -229,6 +241,9 @@ impl Default for ToonShading {
             angel_ring_shift: 0.0,
             angel_ring_profile: AngelRingProfile::ZigZag,
             angel_ring_teeth: 0.02,
+            tip_color: Color::WHITE,
+            tip_start: 0.6,
+            tip_strength: 0.0,
         }
     }
 }
@@ -244,6 +259,7 @@ pub struct ToonHairUniform {
     params3: Vec4,
     angel_ring_color: Vec4,
     angel_ring: Vec4,
+    tip_color: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
@@ -288,8 +304,14 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 finite_or(self.angel_ring_width, 0.25).clamp(0.0, 1.0),
                 finite_or(self.angel_ring_sharpness, 60.0).clamp(1.0, 4096.0),
                 finite_or(self.angel_ring_shift, 0.0).clamp(-4.0, 4.0),
-                0.0,
+                finite_or(self.tip_start, 0.6).clamp(0.0, 0.999),
             ),
+            tip_color: self
+                .tip_color
+                .to_linear()
+                .to_vec4()
+                .truncate()
+                .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
         }
     }
 }

@@ -642,6 +642,11 @@ fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
             m.angel_ring_teeth = m.angel_ring_teeth.max(1e-4);
         }
     }
+    slider_row(ui, "Tip colour", &mut m.tip_strength, 0.0..=1.0);
+    if m.tip_strength > 0.0 {
+        color_row(ui, "Tips", &mut m.tip_color);
+        slider_row(ui, "Tips from", &mut m.tip_start, 0.0..=1.0);
+    }
     combo_row(ui, "Hatching", &mut m.hatching, &HATCHING_MODES);
     ui.label("HScale");
     ui.add(egui::Slider::new(&mut m.hatch_scale, 0.1..=10.0).logarithmic(true));

@@ -31,6 +31,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "back_light_hair_tint_takes_the_hairs_colour",
         back_light_hair_tint_takes_the_hairs_colour,
     ),
+    (
+        "tips_blend_toward_the_tip_colour",
+        tips_blend_toward_the_tip_colour,
+    ),
 ];
 
 /// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
@@ -569,6 +573,72 @@ fn back_light_hair_tint_takes_the_hairs_colour() -> Result<(), Failed> {
             "the tinted rim adds as much green as the white one: {hair_rim:?} vs {white_rim:?}"
         )
         .into());
+    }
+    Ok(())
+}
+
+/// `tip_color`: an orange strand (root on the left) whose tips blend toward blue from halfway
+/// along it: the root third keeps the colour it has without the blend, the tip third turns blue,
+/// and the blue grows toward the tip.
+fn tips_blend_toward_the_tip_colour() -> Result<(), Failed> {
+    // Mean red and blue of the strand's pixels in six columns of equal width, root to tip.
+    let columns = |strength: f32| -> Result<Vec<[f32; 2]>, Failed> {
+        let mut r = scene(Vec3::new(0.0, 0.3, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
+        let ramp = ramps(&r).three_tone;
+        spawn_strand(
+            &mut r,
+            Vec3::new(-1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            0.15,
+            ToonHairMaterial::new(
+                ToonShading {
+                    lighting: ToonLighting::FirstDirectional,
+                    tip_color: Color::srgb(0.1, 0.3, 0.9),
+                    tip_start: 0.5,
+                    tip_strength: strength,
+                    ..default()
+                },
+                ramp,
+            ),
+        );
+        let frame = r.capture()?;
+        save(&frame, &format!("tip_color_{strength}"))?;
+        let hair: Vec<(u32, [u8; 4])> = (0..frame.height)
+            .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
+            .map(|(x, y)| (x, frame.pixel(x, y)))
+            .filter(|(_, p)| *p != BACKGROUND)
+            .collect();
+        let (lo, hi) = hair
+            .iter()
+            .fold((u32::MAX, 0), |(lo, hi), (x, _)| (lo.min(*x), hi.max(*x)));
+        let width = (hi + 1 - lo.min(hi)) as f32;
+        let mut sums = [[0.0f32; 3]; 6];
+        for (x, p) in &hair {
+            let c = (((x - lo) as f32 / width) * 6.0).min(5.0) as usize;
+            sums[c][0] += f32::from(p[0]);
+            sums[c][1] += f32::from(p[2]);
+            sums[c][2] += 1.0;
+        }
+        Ok(sums
+            .iter()
+            .map(|[r, b, n]| [r / n.max(1.0), b / n.max(1.0)])
+            .collect())
+    };
+    let plain = columns(0.0)?;
+    let tipped = columns(1.0)?;
+    eprintln!("mean (red, blue) root to tip: without {plain:.0?}; with {tipped:.0?}");
+    if plain.len() != 6 || plain.iter().any(|[r, b]| r <= b) {
+        return Err(format!("the plain strand is not orange along its length: {plain:?}").into());
+    }
+    for c in 0..2 {
+        let ([r0, b0], [r1, b1]) = (plain[c], tipped[c]);
+        if (r0 - r1).abs() > 6.0 || (b0 - b1).abs() > 6.0 {
+            return Err(format!("the root third changed colour: {plain:?} vs {tipped:?}").into());
+        }
+    }
+    let [r5, b5] = tipped[5];
+    if b5 <= r5 || !(tipped[3][1] < tipped[4][1] && tipped[4][1] < tipped[5][1]) {
+        return Err(format!("the tips do not turn blue toward the tip: {tipped:?}").into());
     }
     Ok(())
 }
