@@ -269,16 +269,21 @@ pub fn build_specular_quads(
         // Hair no camera sees gets no quads (see `culling`), nor hair at level of detail 2 or
         // coarser (see `lod`).
         let shown = settings.enabled && in_view.0 && lod.level < 2;
-        if let Some(e) = existing
-            && let Ok(mut v) = visibility.get_mut(e)
-        {
-            v.set_if_neq(if shown {
-                Visibility::Inherited
-            } else {
-                Visibility::Hidden
-            });
-        }
+        // Shown while its mesh holds quads: a mesh with none (the light behind the hair) holds
+        // a degenerate triangle, not worth a draw call. Set once the mesh is known this frame.
+        let mut show = |drawn: bool| {
+            if let Some(e) = existing
+                && let Ok(mut v) = visibility.get_mut(e)
+            {
+                v.set_if_neq(if shown && drawn {
+                    Visibility::Inherited
+                } else {
+                    Visibility::Hidden
+                });
+            }
+        };
         let (Some(eye), true) = (eye, shown) else {
+            show(true);
             continue;
         };
         let handle: Handle<Mesh> = match existing.and_then(|e| highlight_meshes.get(e).ok()) {
@@ -314,6 +319,7 @@ pub fn build_specular_quads(
                 to_light,
                 settings: settings.clone(),
             });
+            show(true);
             continue;
         }
         builder.clear();
@@ -341,6 +347,7 @@ pub fn build_specular_quads(
             buffers.indices.extend_from_slice(&builder.indices);
             buffers.put(&mut mesh);
         }
+        show(!builder.indices.is_empty());
     }
 }
 

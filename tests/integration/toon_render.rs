@@ -30,6 +30,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         specular_quads_show_on_the_lit_side,
     ),
     (
+        "specular_quads_with_nothing_to_show_are_hidden_never_empty",
+        specular_quads_with_nothing_to_show_are_hidden_never_empty,
+    ),
+    (
         "depth_detail_back_light_and_specular_ramp_combine",
         depth_detail_back_light_and_specular_ramp_combine,
     ),
@@ -548,5 +552,79 @@ fn specular_quads_show_on_the_lit_side() -> Result<(), Failed> {
         }
     }
     println!("specular quads: white pixels off/on = {counts:?}");
+    Ok(())
+}
+
+/// Specular quads built on the CPU with the light behind the strand find nothing that shines:
+/// their mesh holds one triangle of no area (Bevy warns each time it uploads a mesh without
+/// vertices) and their entity is hidden (no draw call); lit from the front they are shown, and
+/// hidden again when the light goes back behind.
+fn specular_quads_with_nothing_to_show_are_hidden_never_empty() -> Result<(), Failed> {
+    use bevy_cartoon_hair::mesh::highlights::HairHighlightsOf;
+    use bevy_cartoon_hair::render::HairMeshBuilder;
+    let mut r = scene(Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 3.0))?;
+    r.app.insert_resource(HairMeshBuilder::Cpu);
+    let ramp = ramps(&r).three_tone;
+    spawn_strand(
+        &mut r,
+        Vec3::new(-1.2, 0.0, 0.0),
+        Vec3::new(1.2, 0.0, 0.0),
+        0.4,
+        ToonHairMaterial::new(ToonShading::default(), ramp),
+    );
+    let mut q = r.app.world_mut().query_filtered::<Entity, With<Hair>>();
+    let hair = q.single(r.app.world()).map_err(|e| e.to_string())?;
+    r.app.world_mut().entity_mut(hair).insert(SpecularQuads {
+        enabled: true,
+        threshold: 0.5,
+        ..default()
+    });
+    // (shown, triangles, vertices) of the hair's highlight mesh.
+    let state = |r: &mut HeadlessRenderer| -> Result<(bool, usize, usize), Failed> {
+        let world = r.app.world_mut();
+        let mut parts = world.query::<(&HairHighlightsOf, &Mesh3d, &Visibility)>();
+        let (_, mesh, shown) = parts
+            .iter(world)
+            .find(|(of, ..)| of.0 == hair)
+            .ok_or("the hair has no highlight entity")?;
+        let mesh = world
+            .resource::<Assets<Mesh>>()
+            .get(&mesh.0)
+            .ok_or("no highlight mesh")?;
+        Ok((
+            *shown != Visibility::Hidden,
+            mesh.indices().map_or(0, |i| i.len() / 3),
+            mesh.count_vertices(),
+        ))
+    };
+    let light = |r: &mut HeadlessRenderer, toward: Vec3| {
+        let world = r.app.world_mut();
+        let mut lights = world.query_filtered::<&mut Transform, With<DirectionalLight>>();
+        for mut t in lights.iter_mut(world) {
+            *t = Transform::from_translation(toward).looking_at(Vec3::ZERO, Vec3::Y);
+        }
+    };
+    let mut seen = Vec::new();
+    for (name, toward) in [
+        ("behind", Vec3::new(0.0, 0.0, -1.0)),
+        ("front", Vec3::new(0.0, 1.0, 1.0)),
+        ("behind again", Vec3::new(0.0, 0.0, -1.0)),
+    ] {
+        light(&mut r, toward);
+        r.capture()?;
+        let now = state(&mut r)?;
+        eprintln!("lit from {name}: (shown, triangles, vertices) {now:?}");
+        seen.push(now);
+    }
+    let ok = |(shown, triangles, vertices): (bool, usize, usize), lit: bool| {
+        vertices > 0 && shown == lit && (if lit { triangles > 2 } else { triangles == 1 })
+    };
+    if !(ok(seen[0], false) && ok(seen[1], true) && ok(seen[2], false)) {
+        return Err(format!(
+            "expected hidden with one triangle when lit from behind, shown with quads from the \
+             front: {seen:?}"
+        )
+        .into());
+    }
     Ok(())
 }
