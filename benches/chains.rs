@@ -344,39 +344,42 @@ fn head_world(i: usize, rotation: Quat) -> Affine3A {
 /// frames at both 30 and 144 fps).
 const SAMPLES: u32 = 6;
 
-/// The last joints of character 0's chains, in the head's frame, every sixth of a second of
-/// shaking at `fps`.
-fn our_tips_after_shaking(fps: f64, settings: &HairSimSettings) -> Vec<Vec<Vec3>> {
-    let (mut app, roots, tips) = our_app(1, fps, Some(settings));
+/// A second of shaking character 0 of `app` (its root `root`) at `fps`: `sample(app, head
+/// rotation)` every sixth of a second.
+fn shaken_second(
+    app: &mut App,
+    root: Entity,
+    fps: f64,
+    mut sample: impl FnMut(&mut App, Quat) -> Vec<Vec3>,
+) -> Vec<Vec<Vec3>> {
     let frames = fps.round() as u32;
     let mut samples = Vec::new();
     for f in 0..frames {
         let t = (f + 1) as f32 / fps as f32;
-        app.world_mut()
-            .get_mut::<Transform>(roots[0])
-            .unwrap()
-            .rotation = shake(t);
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(t);
         app.update();
-        if (f + 1) % (frames / SAMPLES) != 0 {
-            continue;
+        if (f + 1) % (frames / SAMPLES) == 0 {
+            samples.push(sample(app, shake(t)));
         }
-        let to_head = head_world(0, shake(t)).inverse();
-        // The tail particle is not a joint: compare the last joints.
-        samples.push(
-            tips[0]
-                .iter()
-                .map(|e| {
-                    to_head.transform_point3(
-                        app.world()
-                            .get::<GlobalTransform>(*e)
-                            .unwrap()
-                            .translation(),
-                    )
-                })
-                .collect(),
-        );
     }
     samples
+}
+
+/// The last joints of character 0's chains, in the head's frame, every sixth of a second of
+/// shaking at `fps`.
+fn our_tips_after_shaking(fps: f64, settings: &HairSimSettings) -> Vec<Vec<Vec3>> {
+    let (mut app, roots, tips) = our_app(1, fps, Some(settings));
+    shaken_second(&mut app, roots[0], fps, |app, rotation| {
+        let to_head = head_world(0, rotation).inverse();
+        // The tail particle is not a joint: compare the last joints.
+        tips[0]
+            .iter()
+            .map(|e| {
+                let world = app.world().get::<GlobalTransform>(*e).unwrap();
+                to_head.transform_point3(world.translation())
+            })
+            .collect()
+    })
 }
 
 /// As [`our_tips_after_shaking`], for the VRM reference step.
@@ -439,20 +442,10 @@ fn vrm1_last_joints(app: &mut App, rotation: Quat) -> Vec<Vec3> {
 fn vrm1_tips_after_shaking(fps: f64) -> (Vec<Vec3>, Vec<Vec<Vec3>>) {
     let (mut app, roots) = vrm1_baseline::app(1, fps);
     let hung = vrm1_last_joints(&mut app, Quat::IDENTITY);
-    let frames = fps.round() as u32;
-    let mut samples = Vec::new();
-    for f in 0..frames {
-        let t = (f + 1) as f32 / fps as f32;
-        app.world_mut()
-            .get_mut::<Transform>(roots[0])
-            .unwrap()
-            .rotation = shake(t);
-        app.update();
-        if (f + 1) % (frames / SAMPLES) == 0 {
-            samples.push(vrm1_last_joints(&mut app, shake(t)));
-        }
-    }
-    (hung, samples)
+    (
+        hung,
+        shaken_second(&mut app, roots[0], fps, vrm1_last_joints),
+    )
 }
 
 /// The next 60 Hz frame of `app`: every character's root turned by the shake, then an update.
