@@ -468,30 +468,48 @@ fn hair_meshes_have_particle_bounds_and_are_culled_off_screen() -> Result<(), Fa
     Ok(())
 }
 
+/// A frame of one horizontal strand from x = -1 (its root) to 1, `radius` thick, shaded with
+/// `shading` under the first directional light from `light`, seen from z = 3; saved as `name`.
+fn capture_strand(
+    light: Vec3,
+    radius: f32,
+    shading: ToonShading,
+    name: &str,
+) -> Result<CapturedFrame, Failed> {
+    let mut r = scene(light, Vec3::new(0.0, 0.0, 3.0))?;
+    let ramp = ramps(&r).three_tone;
+    let shading = ToonShading {
+        lighting: ToonLighting::FirstDirectional,
+        ..shading
+    };
+    spawn_strand(
+        &mut r,
+        Vec3::new(-1.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        radius,
+        ToonHairMaterial::new(shading, ramp),
+    );
+    let frame = r.capture()?;
+    save(&frame, name)?;
+    Ok(frame)
+}
+
 /// The additive back light (contre-jour) uses the light: a cyan rim on a strand is brighter lit
 /// from behind (the light facing the viewer) than lit from the front.
 fn back_light_rim_is_strongest_against_the_light() -> Result<(), Failed> {
     // Blue summed over the frame with the rim and without: the rim's own share.
     let blue = |light: Vec3, strength: f32, name: &str| -> Result<f32, Failed> {
-        let mut r = scene(light, Vec3::new(0.0, 0.0, 3.0))?;
-        let ramp = ramps(&r).three_tone;
-        spawn_strand(
-            &mut r,
-            Vec3::new(-1.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
+        let shading = ToonShading {
+            back_light_strength: strength,
+            back_light_color: Color::srgb(0.0, 0.8, 0.8),
+            ..default()
+        };
+        let frame = capture_strand(
+            light,
             0.4,
-            ToonHairMaterial::new(
-                ToonShading {
-                    lighting: ToonLighting::FirstDirectional,
-                    back_light_strength: strength,
-                    back_light_color: Color::srgb(0.0, 0.8, 0.8),
-                    ..default()
-                },
-                ramp,
-            ),
-        );
-        let frame = r.capture()?;
-        save(&frame, &format!("back_light_{name}_{strength}"))?;
+            shading,
+            &format!("back_light_{name}_{strength}"),
+        )?;
         Ok((0..frame.height)
             .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
             .map(|(x, y)| f32::from(frame.pixel(x, y)[2]))
@@ -517,27 +535,20 @@ fn back_light_rim_is_strongest_against_the_light() -> Result<(), Failed> {
 fn back_light_hair_tint_takes_the_hairs_colour() -> Result<(), Failed> {
     // Red, green and blue summed over the frame, lit from behind.
     let sums = |base: Color, strength: f32, tint: f32| -> Result<[f32; 3], Failed> {
-        let mut r = scene(Vec3::new(0.0, 0.3, -1.0), Vec3::new(0.0, 0.0, 3.0))?;
-        let ramp = ramps(&r).three_tone;
-        spawn_strand(
-            &mut r,
-            Vec3::new(-1.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
+        let shading = ToonShading {
+            base_color: base,
+            back_light_strength: strength,
+            back_light_color: Color::WHITE,
+            back_light_hair_tint: tint,
+            ..default()
+        };
+        let light = Vec3::new(0.0, 0.3, -1.0);
+        let frame = capture_strand(
+            light,
             0.4,
-            ToonHairMaterial::new(
-                ToonShading {
-                    base_color: base,
-                    lighting: ToonLighting::FirstDirectional,
-                    back_light_strength: strength,
-                    back_light_color: Color::WHITE,
-                    back_light_hair_tint: tint,
-                    ..default()
-                },
-                ramp,
-            ),
-        );
-        let frame = r.capture()?;
-        save(&frame, &format!("back_light_tint_{tint}_{strength}"))?;
+            shading,
+            &format!("back_light_tint_{tint}_{strength}"),
+        )?;
         let mut sum = [0.0; 3];
         for y in 0..frame.height {
             for x in 0..frame.width {
@@ -583,26 +594,14 @@ fn back_light_hair_tint_takes_the_hairs_colour() -> Result<(), Failed> {
 fn tips_blend_toward_the_tip_colour() -> Result<(), Failed> {
     // Mean red and blue of the strand's pixels in six columns of equal width, root to tip.
     let columns = |strength: f32| -> Result<Vec<[f32; 2]>, Failed> {
-        let mut r = scene(Vec3::new(0.0, 0.3, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
-        let ramp = ramps(&r).three_tone;
-        spawn_strand(
-            &mut r,
-            Vec3::new(-1.0, 0.0, 0.0),
-            Vec3::new(1.0, 0.0, 0.0),
-            0.15,
-            ToonHairMaterial::new(
-                ToonShading {
-                    lighting: ToonLighting::FirstDirectional,
-                    tip_color: Color::srgb(0.1, 0.3, 0.9),
-                    tip_start: 0.5,
-                    tip_strength: strength,
-                    ..default()
-                },
-                ramp,
-            ),
-        );
-        let frame = r.capture()?;
-        save(&frame, &format!("tip_color_{strength}"))?;
+        let shading = ToonShading {
+            tip_color: Color::srgb(0.1, 0.3, 0.9),
+            tip_start: 0.5,
+            tip_strength: strength,
+            ..default()
+        };
+        let light = Vec3::new(0.0, 0.3, 1.0);
+        let frame = capture_strand(light, 0.15, shading, &format!("tip_color_{strength}"))?;
         let hair: Vec<(u32, [u8; 4])> = (0..frame.height)
             .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
             .map(|(x, y)| (x, frame.pixel(x, y)))
