@@ -57,7 +57,8 @@ SPRINGS = [
 
 
 def read_glb(path):
-    data = open(path, "rb").read()
+    with open(path, "rb") as f:
+        data = f.read()
     magic, version, length = struct.unpack_from("<III", data, 0)
     if magic != 0x46546C67 or version != 2 or length != len(data):
         raise SystemExit("%s: not a binary glTF 2.0 file" % path)
@@ -82,7 +83,8 @@ def add_thumbnail(doc, rest, path, mime):
     texture index, the new binary chunk)."""
     length, kind = struct.unpack_from("<II", rest, 0)
     data = rest[8:8 + length]
-    image = open(path, "rb").read()
+    with open(path, "rb") as f:
+        image = f.read()
     offset = len(data)
     data += image + b"\0" * (-len(image) % 4)
     doc["buffers"][0]["byteLength"] = len(data)
