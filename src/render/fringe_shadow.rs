@@ -206,7 +206,7 @@ pub struct FringeShadowMeshesApplied(pub Vec<Entity>);
 /// Whether a character is a scene root, has spawned, wants its hair meshes dressed and has them
 /// dressed.
 type CharacterState = (
-    Has<WorldAssetRoot>,
+    Option<&'static WorldAssetRoot>,
     Has<CharacterSpawned>,
     Has<super::ToonHairMeshes>,
     Has<super::ToonHairMeshesApplied>,
@@ -229,13 +229,27 @@ pub(crate) fn apply_fringe_shadow(
         Res<Assets<StandardMaterial>>,
         ResMut<Assets<FringeShadowMaterial>>,
     ),
+    server: Option<Res<AssetServer>>,
 ) {
     for (character, wanted) in &characters {
-        // Not before the scene has spawned, nor before its hair meshes are dressed.
-        if roots
-            .get(character)
-            .is_ok_and(|(scene, spawned, hair, dressed)| (scene && !spawned) || (hair && !dressed))
-        {
+        let Ok((scene, spawned, hair, dressed)) = roots.get(character) else {
+            continue;
+        };
+        // A scene that failed to load never spawns: stop waiting, and say so.
+        if let Some(scene) = scene.filter(|_| !spawned) {
+            if let Some((file, reason)) = crate::sim::scene_failure(server.as_deref(), scene) {
+                error!(
+                    "FringeShadowMeshes on {character}: its scene {file:?} did not load, so no \
+                     face receives the fringe shadow: {reason}"
+                );
+                commands
+                    .entity(character)
+                    .insert(FringeShadowMeshesApplied(Vec::new()));
+            }
+            continue;
+        }
+        // Not before its hair meshes are dressed.
+        if hair && !dressed {
             continue;
         }
         let mut done = Vec::new();
@@ -382,5 +396,57 @@ mod tests {
             .0;
         assert_eq!(applied, &vec![face]);
         assert!(!extended(&app, hair) && !extended(&app, nameless));
+    }
+
+    /// A character whose scene does not load (here a path with no file) never spawns: neither
+    /// its `ToonHairMeshes` nor its `FringeShadowMeshes` waits for it forever; each is marked
+    /// done with no mesh (and an error in the log names the file).
+    #[test]
+    fn a_scene_that_does_not_load_ends_the_wait() {
+        let mut app = app();
+        app.init_asset::<bevy::world_serialization::WorldAsset>()
+            .init_asset::<crate::render::ToonHairMaterial>()
+            .insert_resource(crate::render::ToonRamps {
+                two_tone: Handle::default(),
+                three_tone: Handle::default(),
+                depth: Handle::default(),
+                back_light: Handle::default(),
+                specular: Handle::default(),
+            })
+            .add_systems(
+                Update,
+                super::super::user_mesh::apply_toon_to_user_meshes.before(apply_fringe_shadow),
+            );
+        let scene = app
+            .world()
+            .resource::<AssetServer>()
+            .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("characters/missing.glb"));
+        let root = app
+            .world_mut()
+            .spawn((
+                bevy::world_serialization::WorldAssetRoot(scene),
+                crate::render::ToonHairMeshes::matching(|n| n == "hair"),
+                FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::default()),
+            ))
+            .id();
+        for _ in 0..500 {
+            app.update();
+            if app.world().get::<FringeShadowMeshesApplied>(root).is_some() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(2));
+        }
+        let toon = app
+            .world()
+            .get::<crate::render::ToonHairMeshesApplied>(root);
+        let fringe = app.world().get::<FringeShadowMeshesApplied>(root);
+        assert!(
+            toon.is_some_and(|t| t.0.is_empty()),
+            "toon meshes still waiting"
+        );
+        assert!(
+            fringe.is_some_and(|f| f.0.is_empty()),
+            "fringe shadow still waiting"
+        );
     }
 }

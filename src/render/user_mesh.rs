@@ -113,7 +113,8 @@ pub(crate) type MeshNames = (
 pub(crate) fn apply_toon_to_user_meshes(
     mut commands: Commands,
     characters: Query<(Entity, &ToonHairMeshes), Without<ToonHairMeshesApplied>>,
-    roots: Query<(Has<WorldAssetRoot>, Has<CharacterSpawned>)>,
+    roots: Query<(Option<&WorldAssetRoot>, Has<CharacterSpawned>)>,
+    server: Option<Res<AssetServer>>,
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
@@ -124,10 +125,17 @@ pub(crate) fn apply_toon_to_user_meshes(
     ),
 ) {
     for (character, wanted) in &characters {
-        if roots
-            .get(character)
-            .is_ok_and(|(scene, spawned)| scene && !spawned)
-        {
+        if let Ok((Some(scene), false)) = roots.get(character) {
+            // A scene that failed to load never spawns: stop waiting, and say so.
+            if let Some((file, reason)) = crate::sim::scene_failure(server.as_deref(), scene) {
+                error!(
+                    "ToonHairMeshes on {character}: its scene {file:?} did not load, so no mesh \
+                     is drawn with the toon hair material: {reason}"
+                );
+                commands
+                    .entity(character)
+                    .insert(ToonHairMeshesApplied(Vec::new()));
+            }
             continue;
         }
         let material = match &wanted.material {

@@ -223,7 +223,7 @@ pub(crate) fn attach_to_bones(
 }
 
 /// The file of a character's scene and the loader's reason, if the scene failed to load.
-pub(super) fn scene_failure(
+pub(crate) fn scene_failure(
     server: Option<&AssetServer>,
     scene: &WorldAssetRoot,
 ) -> Option<(String, String)> {
