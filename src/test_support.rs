@@ -75,3 +75,26 @@ pub(crate) fn spiky_strands(
         })
         .collect()
 }
+
+/// The scene of a character whose file does not exist (`characters/missing.glb`), asked of
+/// `app`'s asset server: it fails to load a few updates later.
+pub(crate) fn missing_scene(app: &mut App) -> bevy::world_serialization::WorldAssetRoot {
+    app.init_asset::<bevy::world_serialization::WorldAsset>();
+    let scene = app
+        .world()
+        .resource::<AssetServer>()
+        .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("characters/missing.glb"));
+    bevy::world_serialization::WorldAssetRoot(scene)
+}
+
+/// Updates `app` until `done` holds, at most 500 times, 2 ms apart (the asset server loads on
+/// threads of its own).
+pub(crate) fn update_until(app: &mut App, done: impl Fn(&App) -> bool) {
+    for _ in 0..500 {
+        app.update();
+        if done(app) {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}

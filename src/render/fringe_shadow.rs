@@ -404,8 +404,7 @@ mod tests {
     #[test]
     fn a_scene_that_does_not_load_ends_the_wait() {
         let mut app = app();
-        app.init_asset::<bevy::world_serialization::WorldAsset>()
-            .init_asset::<crate::render::ToonHairMaterial>()
+        app.init_asset::<crate::render::ToonHairMaterial>()
             .insert_resource(crate::render::ToonRamps {
                 two_tone: Handle::default(),
                 three_tone: Handle::default(),
@@ -417,25 +416,18 @@ mod tests {
                 Update,
                 super::super::user_mesh::apply_toon_to_user_meshes.before(apply_fringe_shadow),
             );
-        let scene = app
-            .world()
-            .resource::<AssetServer>()
-            .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("characters/missing.glb"));
+        let scene = crate::test_support::missing_scene(&mut app);
         let root = app
             .world_mut()
             .spawn((
-                bevy::world_serialization::WorldAssetRoot(scene),
+                scene,
                 crate::render::ToonHairMeshes::matching(|n| n == "hair"),
                 FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::default()),
             ))
             .id();
-        for _ in 0..500 {
-            app.update();
-            if app.world().get::<FringeShadowMeshesApplied>(root).is_some() {
-                break;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(2));
-        }
+        crate::test_support::update_until(&mut app, |app| {
+            app.world().get::<FringeShadowMeshesApplied>(root).is_some()
+        });
         let toon = app
             .world()
             .get::<crate::render::ToonHairMeshesApplied>(root);

@@ -908,18 +908,8 @@ fn systems_with_nothing_to_look_at_do_not_run() {
 #[test]
 fn a_character_whose_scene_does_not_load_is_reported_not_waited_for() {
     let mut app = event_app();
-    app.init_asset::<bevy::world_serialization::WorldAsset>();
-    let scene = app
-        .world()
-        .resource::<AssetServer>()
-        .load(bevy::gltf::GltfAssetLabel::Scene(0).from_asset("characters/missing.glb"));
-    let root = app
-        .world_mut()
-        .spawn((
-            Transform::default(),
-            bevy::world_serialization::WorldAssetRoot(scene),
-        ))
-        .id();
+    let scene = crate::test_support::missing_scene(&mut app);
+    let root = app.world_mut().spawn((Transform::default(), scene)).id();
     let groom = app
         .world_mut()
         .resource_mut::<Assets<HairGroom>>()
@@ -935,13 +925,7 @@ fn a_character_whose_scene_does_not_load_is_reported_not_waited_for() {
         .world_mut()
         .spawn(HairBoneChains::matching(root, |n| n.starts_with("hair_")))
         .id();
-    for _ in 0..500 {
-        app.update();
-        if seen(&app).len() >= 2 {
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(2));
-    }
+    crate::test_support::update_until(&mut app, |app| seen(app).len() >= 2);
     for _ in 0..10 {
         app.update();
     }
