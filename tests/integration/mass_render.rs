@@ -35,6 +35,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "tips_blend_toward_the_tip_colour",
         tips_blend_toward_the_tip_colour,
     ),
+    (
+        "tips_blend_evenly_in_lightness",
+        tips_blend_evenly_in_lightness,
+    ),
 ];
 
 /// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
@@ -602,25 +606,9 @@ fn tips_blend_toward_the_tip_colour() -> Result<(), Failed> {
         };
         let light = Vec3::new(0.0, 0.3, 1.0);
         let frame = capture_strand(light, 0.15, shading, &format!("tip_color_{strength}"))?;
-        let hair: Vec<(u32, [u8; 4])> = (0..frame.height)
-            .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
-            .map(|(x, y)| (x, frame.pixel(x, y)))
-            .filter(|(_, p)| *p != BACKGROUND)
-            .collect();
-        let (lo, hi) = hair
+        Ok(strand_columns(&frame)
             .iter()
-            .fold((u32::MAX, 0), |(lo, hi), (x, _)| (lo.min(*x), hi.max(*x)));
-        let width = (hi + 1 - lo.min(hi)) as f32;
-        let mut sums = [[0.0f32; 3]; 6];
-        for (x, p) in &hair {
-            let c = (((x - lo) as f32 / width) * 6.0).min(5.0) as usize;
-            sums[c][0] += f32::from(p[0]);
-            sums[c][1] += f32::from(p[2]);
-            sums[c][2] += 1.0;
-        }
-        Ok(sums
-            .iter()
-            .map(|[r, b, n]| [r / n.max(1.0), b / n.max(1.0)])
+            .map(|[r, _, b]| [*r, *b])
             .collect())
     };
     let plain = columns(0.0)?;
@@ -638,6 +626,67 @@ fn tips_blend_toward_the_tip_colour() -> Result<(), Failed> {
     let [r5, b5] = tipped[5];
     if b5 <= r5 || !(tipped[3][1] < tipped[4][1] && tipped[4][1] < tipped[5][1]) {
         return Err(format!("the tips do not turn blue toward the tip: {tipped:?}").into());
+    }
+    Ok(())
+}
+
+/// Mean red, green and blue (8-bit sRGB) of a captured strand's pixels (all but the background)
+/// in six columns of equal width, left (the root) to right.
+fn strand_columns(frame: &CapturedFrame) -> Vec<[f32; 3]> {
+    let hair: Vec<(u32, [u8; 4])> = (0..frame.height)
+        .flat_map(|y| (0..frame.width).map(move |x| (x, y)))
+        .map(|(x, y)| (x, frame.pixel(x, y)))
+        .filter(|(_, p)| *p != BACKGROUND)
+        .collect();
+    let (lo, hi) = hair
+        .iter()
+        .fold((u32::MAX, 0), |(lo, hi), (x, _)| (lo.min(*x), hi.max(*x)));
+    let width = (hi + 1 - lo.min(hi)) as f32;
+    let mut sums = [[0.0f32; 4]; 6];
+    for (x, p) in &hair {
+        let c = (((x - lo) as f32 / width) * 6.0).min(5.0) as usize;
+        for i in 0..3 {
+            sums[c][i] += f32::from(p[i]);
+        }
+        sums[c][3] += 1.0;
+    }
+    sums.iter()
+        .map(|[r, g, b, n]| [r / n.max(1.0), g / n.max(1.0), b / n.max(1.0)])
+        .collect()
+}
+
+/// A dark brown strand whose tips blend to pale blonde from its root (an ombre): the lightness
+/// climbs evenly along it, as a painted gradient does. Between the root and tip columns, the
+/// middle two reach 30-60% of the way in luma; blended in linear light the pale colour takes
+/// over early (68% of the way by the middle).
+fn tips_blend_evenly_in_lightness() -> Result<(), Failed> {
+    let shading = ToonShading {
+        base_color: Color::srgb(0.1, 0.06, 0.04),
+        tip_color: Color::srgb(1.0, 0.93, 0.78),
+        tip_start: 0.0,
+        tip_strength: 1.0,
+        ..default()
+    };
+    let frame = capture_strand(Vec3::new(0.0, 0.3, 1.0), 0.15, shading, "tip_ombre")?;
+    let luma: Vec<f32> = strand_columns(&frame)
+        .iter()
+        .map(|[r, g, b]| 0.2126 * r + 0.7152 * g + 0.0722 * b)
+        .collect();
+    let middle = ((luma[2] + luma[3]) / 2.0 - luma[0]) / (luma[5] - luma[0]);
+    eprintln!(
+        "ombre luma root to tip {luma:.0?}: the middle {:.0}% of the way",
+        100.0 * middle
+    );
+    if luma.windows(2).any(|w| w[1] <= w[0]) || luma[5] - luma[0] < 60.0 {
+        return Err(format!("the strand does not lighten toward its tip: {luma:?}").into());
+    }
+    if !(0.3..=0.6).contains(&middle) {
+        return Err(format!(
+            "the middle of the blend is {:.0}% of the way from root to tip in luma, not 30-60%: \
+             {luma:?}",
+            100.0 * middle
+        )
+        .into());
     }
     Ok(())
 }
