@@ -212,6 +212,15 @@ pub struct ToonShading {
     pub tip_start: f32,
     /// How much of [`ToonShading::tip_color`] the tips take, 0 (off) to 1. Default: `0.0`.
     pub tip_strength: f32,
+    /// The shadow tones' colour: the ramp's darker tones are multiplied by it as far as they are
+    /// dark (not at all in a tone as bright as the lit one, fully at half its brightness or
+    /// below; the three-tone ramp's middle tone takes about half), so shadows can shift hue
+    /// (orange hair with red-brown or violet shadows, as anime and Unity Toon Shader's shade
+    /// colours paint them) while the ramp keeps its bands. It multiplies the hair's own
+    /// colour, so it follows a recoloured hair and its tips; a tint darker than white also
+    /// darkens the shadows. Channels are clamped to 0-16 (non-finite ones read as 1). Default:
+    /// white (shadows are darker hair colour).
+    pub shade_color: Color,
 }
 
 impl Default for ToonShading {
@@ -244,6 +253,7 @@ impl Default for ToonShading {
             tip_color: Color::WHITE,
             tip_start: 0.6,
             tip_strength: 0.0,
+            shade_color: Color::WHITE,
         }
     }
 }
@@ -260,6 +270,7 @@ pub struct ToonHairUniform {
     angel_ring_color: Vec4,
     angel_ring: Vec4,
     tip_color: Vec4,
+    shade_color: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
@@ -312,6 +323,12 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 .to_vec4()
                 .truncate()
                 .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
+            shade_color: Vec4::from_array(
+                self.shade_color
+                    .to_linear()
+                    .to_f32_array()
+                    .map(|c| finite_or(c, 1.0).clamp(0.0, 16.0)),
+            ),
         }
     }
 }

@@ -647,6 +647,7 @@ fn material_controls(ui: &mut egui::Ui, m: &mut ToonMaterialPreset) {
         color_row(ui, "Tips", &mut m.tip_color);
         slider_row(ui, "Tips from", &mut m.tip_start, 0.0..=1.0);
     }
+    color_row(ui, "Shade colour", &mut m.shade_color);
     combo_row(ui, "Hatching", &mut m.hatching, &HATCHING_MODES);
     ui.label("HScale");
     ui.add(egui::Slider::new(&mut m.hatch_scale, 0.1..=10.0).logarithmic(true));

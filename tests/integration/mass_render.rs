@@ -39,6 +39,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "tips_blend_evenly_in_lightness",
         tips_blend_evenly_in_lightness,
     ),
+    (
+        "shade_color_tints_only_the_shadowed_tones",
+        shade_color_tints_only_the_shadowed_tones,
+    ),
 ];
 
 /// One hair of `strands`, held still (no gravity, anchors rigid), drawn with `material` and
@@ -685,6 +689,90 @@ fn tips_blend_evenly_in_lightness() -> Result<(), Failed> {
             "the middle of the blend is {:.0}% of the way from root to tip in luma, not 30-60%: \
              {luma:?}",
             100.0 * middle
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// `shade_color`: an orange strand lit from above shows the three-tone ramp's lit, middle and
+/// dark tones across it. With a violet shade colour, every pixel of the lit tone is as it was
+/// (within 2 levels), and the darkest tone's pixels gain blue and lose green against red (by
+/// at least 25% and 15%: hue-shifted shadows), the middle tone's by less.
+fn shade_color_tints_only_the_shadowed_tones() -> Result<(), Failed> {
+    let light = Vec3::new(0.0, 1.0, 0.25);
+    let capture = |shade_color: Color, name: &str| {
+        let shading = ToonShading {
+            shade_color,
+            ..default()
+        };
+        capture_strand(light, 0.3, shading, name)
+    };
+    let plain = capture(Color::WHITE, "shade_color_off")?;
+    let shaded = capture(Color::srgb(0.6, 0.4, 1.0), "shade_color_violet")?;
+    // Each hair pixel by its tone without the shade colour (luma: lit, middle, dark), and by
+    // what share its blue-to-red and green-to-red ratios moved with it.
+    let luma =
+        |p: [u8; 4]| 0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2]);
+    let mut pixels: Vec<(f32, [u8; 4], [u8; 4])> = Vec::new();
+    for y in 0..plain.height {
+        for x in 0..plain.width {
+            let (a, b) = (plain.pixel(x, y), shaded.pixel(x, y));
+            if a != BACKGROUND {
+                pixels.push((luma(a), a, b));
+            }
+        }
+    }
+    let brightest = pixels.iter().map(|p| p.0).fold(0.0, f32::max);
+    let darkest = pixels.iter().map(|p| p.0).fold(f32::MAX, f32::min);
+    let (mut lit, mut lit_moved, mut dark, mut middle) = (0, 0, Vec::new(), Vec::new());
+    for (l, a, b) in &pixels {
+        let ratio = |p: &[u8; 4], c: usize| f32::from(p[c]) / f32::from(p[0]).max(1.0);
+        let shift = [
+            ratio(b, 2) / ratio(a, 2).max(1e-3) - 1.0,
+            ratio(b, 1) / ratio(a, 1).max(1e-3) - 1.0,
+        ];
+        if *l >= brightest - 3.0 {
+            lit += 1;
+            if (0..3).any(|c| a[c].abs_diff(b[c]) > 2) {
+                lit_moved += 1;
+            }
+        } else if *l <= darkest + 3.0 {
+            dark.push(shift);
+        } else if *l > darkest + 20.0 && *l < brightest - 20.0 {
+            middle.push(shift);
+        }
+    }
+    let mean = |v: &[[f32; 2]]| {
+        let n = v.len().max(1) as f32;
+        v.iter()
+            .fold([0.0, 0.0], |s, d| [s[0] + d[0] / n, s[1] + d[1] / n])
+    };
+    let (dark_shift, middle_shift) = (mean(&dark), mean(&middle));
+    eprintln!(
+        "shade colour: {lit} lit pixels ({lit_moved} changed); blue/red and green/red moved by \
+         {dark_shift:.3?} over {} dark pixels, {middle_shift:.3?} over {} middle ones",
+        dark.len(),
+        middle.len()
+    );
+    if lit < 50 || dark.len() < 50 || middle.len() < 50 {
+        return Err(format!(
+            "the strand does not show three tones: {lit} lit, {} middle, {} dark pixels",
+            middle.len(),
+            dark.len()
+        )
+        .into());
+    }
+    if lit_moved * 50 > lit {
+        return Err(format!("the shade colour changed {lit_moved} of {lit} lit pixels").into());
+    }
+    if dark_shift[0] < 0.25 || dark_shift[1] > -0.15 {
+        return Err(format!("the dark tone did not turn violet: {dark_shift:?}").into());
+    }
+    if !(middle_shift[0] > 0.0 && middle_shift[0] < dark_shift[0]) {
+        return Err(format!(
+            "the middle tone's shift {middle_shift:?} is not between none and the dark tone's \
+             {dark_shift:?}"
         )
         .into());
     }
