@@ -241,6 +241,18 @@ fn slider_row(
     changed
 }
 
+/// A labelled colour button (linear RGB; the alpha is kept).
+fn color_row(ui: &mut egui::Ui, label: &str, color: &mut Color) {
+    ui.label(label);
+    // egui's float colour button works in linear RGB.
+    let c = color.to_linear();
+    let mut rgb = [c.red, c.green, c.blue];
+    if ui.color_edit_button_rgb(&mut rgb).changed() {
+        *color = Color::linear_rgba(rgb[0], rgb[1], rgb[2], c.alpha);
+    }
+    ui.end_row();
+}
+
 /// A labelled drag value row in a grid; `true` when changed.
 fn drag_row(ui: &mut egui::Ui, label: &str, value: &mut f32, speed: f64) -> bool {
     ui.label(label);

@@ -5,7 +5,7 @@
 use bevy::prelude::*;
 use bevy_egui::egui;
 
-use super::{curve_row, drag_row, slider_row};
+use super::{color_row, curve_row, drag_row, slider_row};
 use crate::mesh::highlights::SpecularQuads;
 use crate::render::{ImageSpaceOutline, OutlineSource};
 use crate::silhouette::SilhouetteSettings;
@@ -137,6 +137,18 @@ pub(super) fn outline_controls(
                             l.width_px = w.round() as u32;
                             slider_row(ui, "Fade from (m)", &mut l.fade.x, 0.0..=20.0);
                             slider_row(ui, "Fade to (m)", &mut l.fade.y, 0.0..=40.0);
+                            let mut tinted = l.hair_tint.is_some();
+                            ui.label("Lock line colour");
+                            ui.checkbox(&mut tinted, "the hair's, darkened");
+                            ui.end_row();
+                            l.hair_tint = match (tinted, l.hair_tint) {
+                                (false, _) => None,
+                                (true, t) => {
+                                    let mut t = t.unwrap_or(Color::srgb(0.5, 0.35, 0.35));
+                                    color_row(ui, "Lock line tint", &mut t);
+                                    Some(t)
+                                }
+                            };
                             Some(l)
                         }
                     };

@@ -8,7 +8,9 @@
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 
-use super::{HairTuningUi, PanelState, TuningPanelLayout, curve_row, drag_row, slider_row};
+use super::{
+    HairTuningUi, PanelState, TuningPanelLayout, color_row, curve_row, drag_row, slider_row,
+};
 use crate::mesh::highlights::SpecularQuads;
 use crate::mesh::{HairMeshSettings, LockSection};
 use crate::preset::{HairPreset, LOOKS, RampKind, ToonMaterialPreset};
@@ -484,17 +486,6 @@ fn combo_row<T: PartialEq + Copy>(
                 ui.selectable_value(value, *v, *l);
             }
         });
-    ui.end_row();
-}
-
-fn color_row(ui: &mut egui::Ui, label: &str, color: &mut Color) {
-    ui.label(label);
-    // egui's float colour button works in linear RGB.
-    let c = color.to_linear();
-    let mut rgb = [c.red, c.green, c.blue];
-    if ui.color_edit_button_rgb(&mut rgb).changed() {
-        *color = Color::linear_rgba(rgb[0], rgb[1], rgb[2], c.alpha);
-    }
     ui.end_row();
 }
 

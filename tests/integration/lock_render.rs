@@ -20,6 +20,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "lock_lines_ink_a_lock_over_another_not_a_fold",
         lock_lines_ink_a_lock_over_another_not_a_fold,
     ),
+    (
+        "lock_lines_in_the_hairs_colour_keep_the_outline_ink",
+        lock_lines_in_the_hairs_colour_keep_the_outline_ink,
+    ),
 ];
 
 /// Magenta: neither the orange hair nor the black background.
@@ -51,6 +55,18 @@ fn lock_ink(
     strands: Vec<Vec<Vec3>>,
     lines: &[Option<LockLines>],
 ) -> Result<Vec<usize>, Failed> {
+    Ok(lock_frames(name, strands, lines)?
+        .iter()
+        .map(ink_count)
+        .collect())
+}
+
+/// The frames [`lock_ink`] counts.
+fn lock_frames(
+    name: &str,
+    strands: Vec<Vec<Vec3>>,
+    lines: &[Option<LockLines>],
+) -> Result<Vec<CapturedFrame>, Failed> {
     let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
     spawn_locks(
         &mut r,
@@ -68,7 +84,7 @@ fn lock_ink(
     let camera = world
         .query_filtered::<Entity, With<Camera3d>>()
         .single(world)?;
-    let mut counts = Vec::new();
+    let mut frames = Vec::new();
     for (i, lock_lines) in lines.iter().enumerate() {
         r.app
             .world_mut()
@@ -82,9 +98,9 @@ fn lock_ink(
             });
         let frame = r.capture()?;
         save(&frame, &format!("{name}_{i}"))?;
-        counts.push(ink_count(&frame));
+        frames.push(frame);
     }
-    Ok(counts)
+    Ok(frames)
 }
 
 /// `n + 1` points from `a` to `b`.
@@ -102,11 +118,7 @@ fn lock_lines_ink_a_lock_over_another_not_a_fold() -> Result<(), Failed> {
         fade: Vec2::new(1.0, 2.0),
         ..default()
     });
-    let crossing = vec![
-        line(Vec3::new(-0.8, 0.0, 0.3), Vec3::new(0.8, 0.0, 0.3), 8),
-        line(Vec3::new(0.0, -0.8, 0.0), Vec3::new(0.0, 0.8, 0.0), 8),
-    ];
-    let crossed = lock_ink("lock_lines_crossing", crossing, &[None, on, faded])?;
+    let crossed = lock_ink("lock_lines_crossing", crossing(), &[None, on, faded])?;
     // One strand curling once around (15 degrees a segment), coming 0.3 m nearer the camera on
     // the way, so that its end passes in front of its start.
     let fold: Vec<Vec3> = (0..=30)
@@ -139,6 +151,61 @@ fn lock_lines_ink_a_lock_over_another_not_a_fold() -> Result<(), Failed> {
         return Err(format!(
             "a lock folded over itself got {} px of lock lines",
             folded[1] as i64 - folded[0] as i64
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// Two locks (strands 0 and 1, two lock ids) crossing, the horizontal one 0.3 m in front.
+fn crossing() -> Vec<Vec<Vec3>> {
+    vec![
+        line(Vec3::new(-0.8, 0.0, 0.3), Vec3::new(0.8, 0.0, 0.3), 8),
+        line(Vec3::new(0.0, -0.8, 0.0), Vec3::new(0.0, 0.8, 0.0), 8),
+    ]
+}
+
+/// `LockLines::hair_tint`: the crossing locks with magenta lock lines, then with lines in the
+/// hair's colour. The mass outline stays magenta to the pixel; every pixel the lock lines
+/// inked magenta is then in the orange lock's hue (red above green above blue) and darker than
+/// the lock beside it in the frame without lines.
+fn lock_lines_in_the_hairs_colour_keep_the_outline_ink() -> Result<(), Failed> {
+    let tinted = Some(LockLines {
+        hair_tint: Some(Color::srgb(0.5, 0.35, 0.35)),
+        ..default()
+    });
+    let frames = lock_frames(
+        "lock_lines_tinted",
+        crossing(),
+        &[None, Some(LockLines::default()), tinted],
+    )?;
+    let magenta = |p: [u8; 4]| p[0] > 200 && p[1] < 60 && p[2] > 200;
+    let luma =
+        |p: [u8; 4]| 0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2]);
+    let (mut outline, mut outline_kept, mut lines, mut in_hue, mut darker) = (0, 0, 0, 0, 0);
+    for y in 0..frames[0].height {
+        for x in 0..frames[0].width {
+            let [plain, inked, tinted] = [0, 1, 2].map(|i| frames[i].pixel(x, y));
+            if magenta(plain) {
+                outline += 1;
+                outline_kept += usize::from(magenta(tinted));
+            } else if magenta(inked) {
+                lines += 1;
+                in_hue += usize::from(tinted[0] > tinted[1] && tinted[1] > tinted[2]);
+                darker += usize::from(luma(tinted) < luma(plain) - 20.0);
+            }
+        }
+    }
+    eprintln!(
+        "tinted lock lines: outline {outline_kept} of {outline} px still magenta; {lines} line px, \
+         {in_hue} in the lock's hue, {darker} darker than the lock"
+    );
+    if outline < 100 || outline_kept != outline {
+        return Err(format!("the outline kept its ink on {outline_kept} of {outline} px").into());
+    }
+    if lines < 12 || in_hue != lines || darker != lines {
+        return Err(format!(
+            "of {lines} lock line px, {in_hue} are in the lock's hue and {darker} darker than it"
         )
         .into());
     }

@@ -159,6 +159,13 @@ pub struct LockLines {
     /// past `fade.y`, so a crowd far away is not a tangle of lines. Perspective cameras only;
     /// `fade.y <= fade.x` never fades. Default: `(3, 8)`.
     pub fade: Vec2,
+    /// Lines in the hair's own colour: `Some(c)` draws each line in the colour of the lock it
+    /// lies on times `c` (`srgb(0.5, 0.35, 0.35)`: a darker line in the lock's hue and tone, as
+    /// anime colours the lines inside hair), at the outline's opacity; the mass outline keeps the
+    /// outline's ink. Channels are clamped to 0-4 (non-finite ones read as 0). `None`: in the
+    /// outline's ink. Default: `None`.
+    #[reflect(default)]
+    pub hair_tint: Option<Color>,
 }
 
 impl Default for LockLines {
@@ -167,6 +174,7 @@ impl Default for LockLines {
             threshold: 0.004,
             width_px: 1,
             fade: Vec2::new(3.0, 8.0),
+            hair_tint: None,
         }
     }
 }
@@ -209,6 +217,9 @@ pub struct GpuImageSpaceOutline {
     pub lock_fade: Vec2,
     /// The camera's near plane for the fade, `0` when it is not a perspective camera.
     pub near: f32,
+    /// [`LockLines::hair_tint`] in linear RGB; alpha 1 when it is set, 0 when the lines take the
+    /// outline's ink.
+    pub lock_tint: Vec4,
 }
 
 /// Which detection pipeline a view needs: its [`OutlineSource`], on the render world's view
@@ -266,6 +277,12 @@ impl ExtractComponent<RenderApp> for ImageSpaceOutline {
                     Some(Projection::Perspective(p)) if p.near.is_finite() => p.near.max(0.0),
                     _ => 0.0,
                 },
+                lock_tint: lock.and_then(|l| l.hair_tint).map_or(Vec4::ZERO, |c| {
+                    Vec4::from_array(c.to_linear().to_f32_array().map(|v| finite_or(v, 0.0)))
+                        .clamp(Vec4::ZERO, Vec4::splat(4.0))
+                        .truncate()
+                        .extend(1.0)
+                }),
             },
             OutlineSourceKey(outline.source),
         ))
