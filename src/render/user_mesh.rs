@@ -7,11 +7,19 @@
 //! scene's lights and shadows, the angel ring, and the mass outline (its prepass marks the mesh
 //! as hair). Meshes not selected keep their own material, so a VRM's MToon-derived materials stay
 //! as they are unless the user opts in.
+//!
+//! Modelled hair is often faceted (flat or ridged locks, low-poly caps), and toon bands follow
+//! every facet. [`ToonHairMeshes::mass_normals`] gives the meshes the normals of one smooth
+//! shape instead, the ellipsoid that fits each mesh's bounds (the normal transfer anime
+//! pipelines do in their modelling tool), so light and shadow fall on the hair as one mass.
 
 use bevy::gltf::GltfMaterialName;
+use bevy::mesh::VertexAttributeValues;
+use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
+use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
 use super::{ToonHairMaterial, ToonRamps};
@@ -39,6 +47,12 @@ pub struct ToonHairMeshes {
     /// The material. `None`: the crate's default (three-tone ramp, orange); give one for the
     /// hair's own colour.
     pub material: Option<Handle<ToonHairMaterial>>,
+    /// How far each mesh's normals turn toward those of the ellipsoid that fits its bounds
+    /// (its bind pose, in its own space), 0 to 1: at 1 the toon bands fall on the hair as on
+    /// one smooth shape, not facet by facet; in between, the locks' own relief shows that much.
+    /// Each mesh is copied with the new normals (one copy per source mesh and value; the
+    /// copy is skinned as the mesh was). Default: `0.0` (the meshes' own normals).
+    pub mass_normals: f32,
 }
 
 impl ToonHairMeshes {
@@ -47,6 +61,7 @@ impl ToonHairMeshes {
         Self {
             select: BonePredicate::new(test),
             material: None,
+            mass_normals: 0.0,
         }
     }
 
@@ -55,6 +70,62 @@ impl ToonHairMeshes {
         self.material = Some(material);
         self
     }
+
+    /// The same, with [`ToonHairMeshes::mass_normals`] at `amount`.
+    pub fn with_mass_normals(mut self, amount: f32) -> Self {
+        self.mass_normals = amount;
+        self
+    }
+}
+
+/// Turns `mesh`'s normals toward the normals of the ellipsoid that fits its positions' bounds,
+/// by `amount` (0 to 1), and renormalises them. A vertex at the ellipsoid's centre, or whose
+/// blend cancels out, keeps its normal. Errors when the mesh has no `Float32x3` positions and
+/// normals of the same length (a mesh whose data lives only on the GPU has none).
+pub fn turn_normals_to_mass(mesh: &mut Mesh, amount: f32) -> Result<(), &'static str> {
+    let amount = finite_or(amount, 0.0).clamp(0.0, 1.0);
+    let Some(VertexAttributeValues::Float32x3(positions)) =
+        mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+    else {
+        return Err("it has no positions on the CPU (Float32x3)");
+    };
+    let (lo, hi) = positions
+        .iter()
+        .map(|p| Vec3::from_array(*p))
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+    if lo.cmpgt(hi).any() {
+        return Err("it has no finite position");
+    }
+    let centre = (lo + hi) * 0.5;
+    // A flat mesh's thin axis still gets a (small) extent, so every direction is defined.
+    let half = ((hi - lo) * 0.5).max(Vec3::splat((hi - lo).max_element() * 0.01 + 1e-6));
+    let inv_half2 = (half * half).recip();
+    let proxy: Vec<Vec3> = positions
+        .iter()
+        .map(|p| ((Vec3::from_array(*p) - centre) * inv_half2).normalize_or_zero())
+        .collect();
+    let Some(VertexAttributeValues::Float32x3(normals)) =
+        mesh.attribute_mut(Mesh::ATTRIBUTE_NORMAL)
+    else {
+        return Err("it has no normals on the CPU (Float32x3)");
+    };
+    if normals.len() != proxy.len() {
+        return Err("its normals and positions differ in number");
+    }
+    for (n, to) in normals.iter_mut().zip(&proxy) {
+        let own = Vec3::from_array(*n);
+        if *to == Vec3::ZERO || !own.is_finite() {
+            continue;
+        }
+        let turned = own.lerp(*to, amount).normalize_or_zero();
+        if turned != Vec3::ZERO {
+            *n = turned.to_array();
+        }
+    }
+    Ok(())
 }
 
 /// On a [`ToonHairMeshes`] character once its meshes are dressed: the mesh entities. Remove it
@@ -105,6 +176,10 @@ pub(crate) type MeshNames = (
     Option<&'static ChildOf>,
 );
 
+/// Copies of source meshes with mass normals, by source mesh and amount (its bits). Only ids:
+/// a copy no entity uses any more is freed (and its entry dropped at the next dressing).
+type MassedMeshes = HashMap<(AssetId<Mesh>, u32), AssetId<Mesh>>;
+
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
     clippy::too_many_arguments,
@@ -122,6 +197,11 @@ pub(crate) fn apply_toon_to_user_meshes(
     (mut materials, mut default_material): (
         ResMut<Assets<ToonHairMaterial>>,
         Local<Option<Handle<ToonHairMaterial>>>,
+    ),
+    (mut mesh_assets, mesh_handles, mut massed): (
+        ResMut<Assets<Mesh>>,
+        Query<&Mesh3d>,
+        Local<MassedMeshes>,
     ),
 ) {
     for (character, wanted) in &characters {
@@ -150,11 +230,45 @@ pub(crate) fn apply_toon_to_user_meshes(
                 .clone(),
         };
         let dressed = meshes_passing(character, &wanted.select, false, &children, &meshes, &names);
+        let amount = finite_or(wanted.mass_normals, 0.0).clamp(0.0, 1.0);
+        massed.retain(|_, copy| mesh_assets.contains(*copy));
         for &e in &dressed {
-            commands
-                .entity(e)
+            let mut entity = commands.entity(e);
+            entity
                 .remove::<MeshMaterial3d<StandardMaterial>>()
                 .insert(MeshMaterial3d(material.clone()));
+            let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
+                continue;
+            };
+            if amount == 0.0 {
+                continue;
+            }
+            let key = (source.id(), amount.to_bits());
+            if let Some(copy) = massed
+                .get(&key)
+                .and_then(|id| mesh_assets.get_strong_handle(*id))
+            {
+                entity.insert(Mesh3d(copy));
+                continue;
+            }
+            let turned = mesh_assets
+                .get(source)
+                .ok_or("it is not loaded")
+                .and_then(|mesh| {
+                    let mut copy = mesh.clone();
+                    turn_normals_to_mass(&mut copy, amount).map(|()| copy)
+                });
+            match turned {
+                Ok(copy) => {
+                    let copy = mesh_assets.add(copy);
+                    massed.insert(key, copy.id());
+                    entity.insert(Mesh3d(copy));
+                }
+                Err(reason) => warn!(
+                    "ToonHairMeshes on {character}: the mesh of {e} keeps its own normals \
+                     (mass_normals {amount}): {reason}"
+                ),
+            }
         }
         if dressed.is_empty() {
             warn!(
@@ -165,5 +279,99 @@ pub(crate) fn apply_toon_to_user_meshes(
         commands
             .entity(character)
             .insert(ToonHairMeshesApplied(dressed));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use bevy::asset::RenderAssetUsages;
+    use bevy::mesh::PrimitiveTopology;
+
+    use super::*;
+
+    /// A flat-shaded box 2 x 1 x 0.5 (each face its own four vertices, its normal the face's):
+    /// the ellipsoid of its bounds has half extents 1, 0.5, 0.25.
+    fn faceted_box() -> Mesh {
+        Mesh::from(Cuboid::new(2.0, 1.0, 0.5))
+    }
+
+    #[test]
+    fn mass_normals_turn_facets_to_the_bounds_ellipsoid() {
+        let mut mesh = faceted_box();
+        let before = mesh
+            .attribute(Mesh::ATTRIBUTE_NORMAL)
+            .and_then(VertexAttributeValues::as_float3)
+            .unwrap()
+            .to_vec();
+        turn_normals_to_mass(&mut mesh, 1.0).unwrap();
+        let positions = mesh
+            .attribute(Mesh::ATTRIBUTE_POSITION)
+            .and_then(VertexAttributeValues::as_float3)
+            .unwrap()
+            .to_vec();
+        let after = mesh
+            .attribute(Mesh::ATTRIBUTE_NORMAL)
+            .and_then(VertexAttributeValues::as_float3)
+            .unwrap()
+            .to_vec();
+        let mut corners_alike = 0;
+        for ((p, n), old) in positions.iter().zip(&after).zip(&before) {
+            let (p, n) = (Vec3::from_array(*p), Vec3::from_array(*n));
+            // The ellipsoid's normal at a corner (x/a^2, y/b^2, z/c^2), by hand.
+            let expected = Vec3::new(p.x / 1.0, p.y / 0.25, p.z / 0.0625).normalize();
+            assert!(
+                n.distance(expected) < 1e-5,
+                "at {p}: {n} (was {old:?}), expected {expected}"
+            );
+            assert!((n.length() - 1.0).abs() < 1e-5);
+            corners_alike += usize::from(Vec3::from_array(*old).distance(n) > 0.1);
+        }
+        // Every vertex is a corner: the three faces meeting there had three normals, now one.
+        assert_eq!(corners_alike, positions.len());
+    }
+
+    #[test]
+    fn mass_normals_blend_by_the_amount_and_leave_zero_alone() {
+        let own = faceted_box();
+        let mut none = own.clone();
+        turn_normals_to_mass(&mut none, 0.0).unwrap();
+        let normals = |m: &Mesh| {
+            m.attribute(Mesh::ATTRIBUTE_NORMAL)
+                .and_then(VertexAttributeValues::as_float3)
+                .unwrap()
+                .iter()
+                .map(|n| Vec3::from_array(*n))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(normals(&none), normals(&own));
+        let mut full = own.clone();
+        turn_normals_to_mass(&mut full, 1.0).unwrap();
+        let mut half = own.clone();
+        turn_normals_to_mass(&mut half, 0.5).unwrap();
+        for ((h, o), f) in normals(&half).iter().zip(normals(&own)).zip(normals(&full)) {
+            assert!(
+                (*h - (o + f).normalize()).length() < 1e-5,
+                "{h} between {o} and {f}"
+            );
+        }
+        // Out of range and NaN: clamped, and NaN reads as 0.
+        let mut nan = own.clone();
+        turn_normals_to_mass(&mut nan, f32::NAN).unwrap();
+        assert_eq!(normals(&nan), normals(&own));
+    }
+
+    #[test]
+    fn a_mesh_without_normals_on_the_cpu_is_an_error() {
+        let mut mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32, 0.0, 0.0]; 3]);
+        assert!(turn_normals_to_mass(&mut mesh, 1.0).is_err());
+        let mut empty = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        );
+        assert!(turn_normals_to_mass(&mut empty, 1.0).is_err());
     }
 }

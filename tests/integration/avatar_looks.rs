@@ -9,7 +9,7 @@ use bevy::camera::RenderTarget;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use bevy::world_serialization::WorldAssetRoot;
-use bevy_cartoon_hair::headless::{CaptureSettings, HeadlessRenderer};
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{
     FringeShadow, FringeShadowMeshes, FringeShadowMeshesApplied, ToonHairMeshes,
@@ -23,10 +23,16 @@ use crate::look_suite::{
 };
 use crate::toon_render::save;
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "the_avatar_in_the_outlined_looks_from_three_views",
-    the_avatar_in_the_outlined_looks_from_three_views,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "the_avatar_in_the_outlined_looks_from_three_views",
+        the_avatar_in_the_outlined_looks_from_three_views,
+    ),
+    (
+        "mass_normals_shade_the_avatars_hair_as_one_shape",
+        mass_normals_shade_the_avatars_hair_as_one_shape,
+    ),
+];
 
 /// Each look: the avatar's hair mesh in the look's material, the camera with its outline; the
 /// character turned to face the camera, its left and its back. In every view the hair covers
@@ -37,59 +43,12 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
     let mut failures = Vec::new();
     for look_name in ["clean_anime", "anime_locks"] {
         let look = HairPreset::look(look_name).ok_or("a shipped look")??;
-        let mut r = HeadlessRenderer::new(CaptureSettings {
-            width: 320,
-            height: 240,
-            max_frames: 3_000,
-            ..default()
-        })?;
-        let target = r.target();
-        r.app
-            .add_plugins(CartoonHairPlugins)
-            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
-        let world = r.app.world_mut();
-        let ramps = world.resource::<ToonRamps>().clone();
-        let mut shipped = ToonHairMaterial::default();
-        look.material.apply(&mut shipped, &ramps);
-        let handle = world
-            .resource_mut::<Assets<ToonHairMaterial>>()
-            .add(shipped.clone());
-        let assets = world.resource::<AssetServer>().clone();
-        let character = world
-            .spawn((
-                WorldAssetRoot(
-                    assets.load(GltfAssetLabel::Scene(0).from_asset("chain_hair/chain_hair.glb")),
-                ),
-                Transform::default(),
-                ToonHairMeshes::matching(|n| n == "hair").with_material(handle.clone()),
-                // The face and body in the toon look too, the face taking the fringe's shadow.
-                FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
-            ))
-            .id();
-        world.spawn((
-            DirectionalLight {
-                illuminance: 9_000.0,
-                ..default()
-            },
-            Transform::from_xyz(1.0, 3.0, 2.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-        ));
         let outline = look.outline.clone().ok_or("the look has no outline")?;
-        world.spawn((
-            Camera3d::default(),
-            Camera {
-                clear_color: ClearColorConfig::Custom(Color::srgb(0.8, 0.85, 0.95)),
-                ..default()
-            },
-            RenderTarget::Image(target.into()),
-            Transform::from_xyz(0.0, 1.72, 0.85).looking_at(Vec3::new(0.0, 1.6, 0.0), Vec3::Y),
-            outline,
-        ));
-        r.warm_up(|world| {
-            let mut dressed = world.query::<&ToonHairMeshesApplied>();
-            let mut body = world.query::<&FringeShadowMeshesApplied>();
-            dressed.iter(world).any(|d| !d.0.is_empty())
-                && body.iter(world).any(|d| !d.0.is_empty())
-        })?;
+        let (mut r, character, handle, shipped) = avatar_scene(
+            &look,
+            Some(outline),
+            ToonHairMeshes::matching(|n| n == "hair"),
+        )?;
         let set_outline = |r: &mut HeadlessRenderer, on: bool| {
             let world = r.app.world_mut();
             let mut cameras = world.query::<&mut ImageSpaceOutline>();
@@ -148,4 +107,173 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
     } else {
         Err(failures.join("; ").into())
     }
+}
+
+/// The avatar in `look`'s material (`hair` selecting its hair mesh), lit from above in front,
+/// before a camera at head height with `outline`, warmed up until its meshes are dressed:
+/// the renderer, the character, the hair material's handle and the material as shipped.
+fn avatar_scene(
+    look: &HairPreset,
+    outline: Option<ImageSpaceOutline>,
+    hair: ToonHairMeshes,
+) -> Result<
+    (
+        HeadlessRenderer,
+        Entity,
+        Handle<ToonHairMaterial>,
+        ToonHairMaterial,
+    ),
+    Failed,
+> {
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        width: 320,
+        height: 240,
+        max_frames: 3_000,
+        ..default()
+    })?;
+    let target = r.target();
+    r.app
+        .add_plugins(CartoonHairPlugins)
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::ZERO));
+    let world = r.app.world_mut();
+    let ramps = world.resource::<ToonRamps>().clone();
+    let mut shipped = ToonHairMaterial::default();
+    look.material.apply(&mut shipped, &ramps);
+    let handle = world
+        .resource_mut::<Assets<ToonHairMaterial>>()
+        .add(shipped.clone());
+    let assets = world.resource::<AssetServer>().clone();
+    let character = world
+        .spawn((
+            WorldAssetRoot(
+                assets.load(GltfAssetLabel::Scene(0).from_asset("chain_hair/chain_hair.glb")),
+            ),
+            Transform::default(),
+            hair.with_material(handle.clone()),
+            // The face and body in the toon look too, the face taking the fringe's shadow.
+            FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
+        ))
+        .id();
+    world.spawn((
+        DirectionalLight {
+            illuminance: 9_000.0,
+            ..default()
+        },
+        Transform::from_xyz(1.0, 3.0, 2.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
+    ));
+    let mut camera = world.spawn((
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::srgb(0.8, 0.85, 0.95)),
+            ..default()
+        },
+        RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 1.72, 0.85).looking_at(Vec3::new(0.0, 1.6, 0.0), Vec3::Y),
+    ));
+    if let Some(outline) = outline {
+        camera.insert(outline);
+    }
+    warm_up_dressed(&mut r)?;
+    Ok((r, character, handle, shipped))
+}
+
+/// Runs frames until the avatar's hair and body are dressed.
+fn warm_up_dressed(r: &mut HeadlessRenderer) -> Result<(), Failed> {
+    r.warm_up(|world| {
+        let mut dressed = world.query::<&ToonHairMeshesApplied>();
+        let mut body = world.query::<&FringeShadowMeshesApplied>();
+        dressed.iter(world).any(|d| !d.0.is_empty()) && body.iter(world).any(|d| !d.0.is_empty())
+    })?;
+    Ok(())
+}
+
+/// `ToonHairMeshes::mass_normals`: the avatar's hair is faceted (rhombic locks on a low-poly
+/// cap), and in the three-tone `clean_anime` look every facet is a band of its own. With the
+/// normals of its bounds' ellipsoid the hair is shaded as one shape: from the back and the side,
+/// the tone edges inside the hair (neighbouring pixels 3 px or more inside the hair whose luma
+/// differs by more than 6) fall to under half.
+fn mass_normals_shade_the_avatars_hair_as_one_shape() -> Result<(), Failed> {
+    let look = HairPreset::look("clean_anime").ok_or("a shipped look")??;
+    let (mut r, character, handle, shipped) =
+        avatar_scene(&look, None, ToonHairMeshes::matching(|n| n == "hair"))?;
+    let mut edges = [[0usize; 2]; 2];
+    for (i, amount) in [0.0f32, 1.0].into_iter().enumerate() {
+        if amount > 0.0 {
+            r.app
+                .world_mut()
+                .entity_mut(character)
+                .insert(
+                    ToonHairMeshes::matching(|n| n == "hair")
+                        .with_material(handle.clone())
+                        .with_mass_normals(amount),
+                )
+                .remove::<ToonHairMeshesApplied>();
+            warm_up_dressed(&mut r)?;
+        }
+        for (v, yaw) in [std::f32::consts::PI, std::f32::consts::FRAC_PI_2]
+            .into_iter()
+            .enumerate()
+        {
+            r.app
+                .world_mut()
+                .entity_mut(character)
+                .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
+            set_material(&mut r, &handle, &mask_of(&shipped));
+            let mask = r.capture()?;
+            set_material(&mut r, &handle, &shipped);
+            let plain = r.capture()?;
+            save(&plain, &format!("avatar_mass_normals_{amount}_{v}"))?;
+            edges[i][v] = tone_edges(&mask, &plain);
+        }
+    }
+    eprintln!(
+        "tone edges inside the avatar's hair (back, side): own normals {:?}, mass normals {:?}",
+        edges[0], edges[1]
+    );
+    for v in 0..2 {
+        if edges[0][v] < 100 || edges[1][v] * 2 >= edges[0][v] {
+            return Err(format!(
+                "tone edges with the mesh's own normals {:?}, with mass normals {:?}",
+                edges[0], edges[1]
+            )
+            .into());
+        }
+    }
+    Ok(())
+}
+
+/// Neighbouring pixel pairs (right and down) at least 3 px inside the mask's hair (pure green)
+/// whose luma in `plain` differs by more than 6.
+fn tone_edges(mask: &CapturedFrame, plain: &CapturedFrame) -> usize {
+    let (w, h) = (mask.width as i32, mask.height as i32);
+    let green = |x: i32, y: i32| {
+        let [r, g, b, _] = mask.pixel(x as u32, y as u32);
+        g > 40 && u32::from(r) * 3 < u32::from(g) && u32::from(b) * 3 < u32::from(g)
+    };
+    let inside = |x: i32, y: i32| {
+        (-3..=3).all(|dy| {
+            (-3..=3).all(|dx| {
+                let (a, b) = (x + dx, y + dy);
+                a >= 0 && b >= 0 && a < w && b < h && green(a, b)
+            })
+        })
+    };
+    let luma = |x: i32, y: i32| {
+        let [r, g, b, _] = plain.pixel(x as u32, y as u32);
+        0.2126 * f32::from(r) + 0.7152 * f32::from(g) + 0.0722 * f32::from(b)
+    };
+    let mut edges = 0;
+    for y in 0..h - 1 {
+        for x in 0..w - 1 {
+            if !inside(x, y) {
+                continue;
+            }
+            for (nx, ny) in [(x + 1, y), (x, y + 1)] {
+                if inside(nx, ny) && (luma(x, y) - luma(nx, ny)).abs() > 6.0 {
+                    edges += 1;
+                }
+            }
+        }
+    }
+    edges
 }
