@@ -195,6 +195,16 @@ pub struct HairMaterial(pub Handle<ToonHairMaterial>);
 /// Gives every material whose specular layer is on ([`ToonShading::specular_ramp`]) but has no
 /// ramp for it the default one ([`ToonRamps::specular`]). Only materials that changed are looked
 /// at.
+/// A colour's linear RGBA with every channel finite (non-finite ones read as `default`) and
+/// within `[0, max]`, so a hostile colour in a preset or a panel never reaches a shader as NaN.
+pub(crate) fn linear_color(c: Color, default: f32, max: f32) -> Vec4 {
+    Vec4::from_array(
+        c.to_linear()
+            .to_f32_array()
+            .map(|v| crate::math::finite_or(v, default).clamp(0.0, max)),
+    )
+}
+
 fn assign_specular_ramps(
     mut events: MessageReader<AssetEvent<ToonHairMaterial>>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,

@@ -3,12 +3,13 @@
 use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{MaterialPipeline, MaterialPipelineKey};
 use bevy::prelude::*;
-
-use crate::math::finite_or;
 use bevy::render::render_resource::{
     AsBindGroup, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
 };
 use bevy::shader::ShaderRef;
+
+use super::linear_color;
+use crate::math::finite_or;
 
 /// What indexes the ramp texture's y axis (its x axis is always the light intensity
 /// `max(N.L, 0)`, X-Toon style).
@@ -278,13 +279,20 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
         &self,
         _images: &bevy::render::render_asset::RenderAssets<bevy::render::texture::GpuImage>,
     ) -> ToonHairUniform {
+        self.shading.uniform()
+    }
+}
+
+impl ToonShading {
+    /// The uniform block the shader reads: every value finite and within the range the shader
+    /// expects.
+    fn uniform(&self) -> ToonHairUniform {
         ToonHairUniform {
-            base_color: self.base_color.to_linear().to_vec4(),
-            specular_color: self.specular_color.to_linear().to_vec4(),
-            back_light_color: self
-                .back_light_color
-                .to_linear()
-                .to_vec4()
+            base_color: linear_color(self.base_color, 0.0, 1e4)
+                .truncate()
+                .extend(finite_or(self.base_color.alpha(), 1.0).clamp(0.0, 1.0)),
+            specular_color: linear_color(self.specular_color, 0.0, 1e4),
+            back_light_color: linear_color(self.back_light_color, 0.0, 1e4)
                 .truncate()
                 .extend(finite_or(self.back_light_hair_tint, 0.0).clamp(0.0, 1.0)),
             params: Vec4::new(
@@ -305,10 +313,7 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 self.angel_ring_profile.index(),
                 finite_or(self.specular_ramp, 0.0).clamp(0.0, 16.0),
             ),
-            angel_ring_color: self
-                .angel_ring_color
-                .to_linear()
-                .to_vec4()
+            angel_ring_color: linear_color(self.angel_ring_color, 0.0, 1e4)
                 .truncate()
                 .extend(finite_or(self.angel_ring, 0.0).clamp(0.0, 1.0)),
             angel_ring: Vec4::new(
@@ -317,18 +322,10 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
                 finite_or(self.angel_ring_shift, 0.0).clamp(-4.0, 4.0),
                 finite_or(self.tip_start, 0.6).clamp(0.0, 0.999),
             ),
-            tip_color: self
-                .tip_color
-                .to_linear()
-                .to_vec4()
+            tip_color: linear_color(self.tip_color, 0.0, 1e4)
                 .truncate()
                 .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
-            shade_color: Vec4::from_array(
-                self.shade_color
-                    .to_linear()
-                    .to_f32_array()
-                    .map(|c| finite_or(c, 1.0).clamp(0.0, 16.0)),
-            ),
+            shade_color: linear_color(self.shade_color, 1.0, 16.0),
         }
     }
 }
@@ -470,5 +467,78 @@ impl Material for ToonHairMaterial {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every number a preset or a panel can hand the shader, hostile: the uniform is finite.
+    #[test]
+    fn hostile_shading_reaches_the_shader_finite() {
+        let bad = Color::linear_rgba(f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::NAN);
+        let shading = ToonShading {
+            base_color: bad,
+            ramp_row: f32::NAN,
+            z_min: f32::NAN,
+            z_scale: f32::INFINITY,
+            back_light_power: f32::NAN,
+            back_light_strength: f32::INFINITY,
+            back_light_color: bad,
+            back_light_hair_tint: f32::NAN,
+            specular_strength: f32::NAN,
+            specular_ramp: f32::INFINITY,
+            shininess: f32::NAN,
+            specular_color: bad,
+            hatch_scale: f32::NEG_INFINITY,
+            full_light_lux: f32::NAN,
+            angel_ring: f32::NAN,
+            angel_ring_color: bad,
+            angel_ring_width: f32::INFINITY,
+            angel_ring_sharpness: f32::NAN,
+            angel_ring_shift: f32::NEG_INFINITY,
+            angel_ring_teeth: f32::NAN,
+            tip_color: bad,
+            tip_start: f32::NAN,
+            tip_strength: f32::INFINITY,
+            shade_color: bad,
+            ..default()
+        };
+        let u = shading.uniform();
+        let all = [
+            u.base_color,
+            u.specular_color,
+            u.back_light_color,
+            u.params,
+            u.params2,
+            u.params3,
+            u.angel_ring_color,
+            u.angel_ring,
+            u.tip_color,
+            u.shade_color,
+        ];
+        for (i, v) in all.iter().enumerate() {
+            assert!(v.is_finite(), "uniform vector {i}: {v}");
+        }
+        // The colours' non-finite channels read as their default, alpha opaque; finite ones
+        // out of range are clamped.
+        assert_eq!(u.base_color, Vec4::new(0.0, 0.0, 0.0, 1.0));
+        assert_eq!(u.shade_color.truncate(), Vec3::ONE);
+        let far = ToonShading {
+            base_color: Color::linear_rgba(2e4, -1.0, 0.5, 3.0),
+            shade_color: Color::linear_rgb(20.0, -1.0, 0.5),
+            ..default()
+        }
+        .uniform();
+        assert_eq!(far.base_color, Vec4::new(1e4, 0.0, 0.5, 1.0));
+        assert_eq!(far.shade_color.truncate(), Vec3::new(16.0, 0.0, 0.5));
+        // The defaults go through unchanged.
+        let d = ToonShading::default().uniform();
+        assert_eq!(
+            d.base_color,
+            ToonShading::default().base_color.to_linear().to_vec4()
+        );
+        assert_eq!(d.shade_color, Vec4::ONE);
     }
 }

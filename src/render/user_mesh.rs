@@ -198,11 +198,9 @@ pub(crate) fn apply_toon_to_user_meshes(
         ResMut<Assets<ToonHairMaterial>>,
         Local<Option<Handle<ToonHairMaterial>>>,
     ),
-    (mut mesh_assets, mesh_handles, mut massed): (
-        ResMut<Assets<Mesh>>,
-        Query<&Mesh3d>,
-        Local<MassedMeshes>,
-    ),
+    mut mesh_assets: Option<ResMut<Assets<Mesh>>>,
+    mesh_handles: Query<&Mesh3d>,
+    mut massed: Local<MassedMeshes>,
 ) {
     for (character, wanted) in &characters {
         if let Ok((Some(scene), false)) = roots.get(character) {
@@ -231,7 +229,9 @@ pub(crate) fn apply_toon_to_user_meshes(
         };
         let dressed = meshes_passing(character, &wanted.select, false, &children, &meshes, &names);
         let amount = finite_or(wanted.mass_normals, 0.0).clamp(0.0, 1.0);
-        massed.retain(|_, copy| mesh_assets.contains(*copy));
+        if let Some(assets) = &mesh_assets {
+            massed.retain(|_, copy| assets.contains(*copy));
+        }
         for &e in &dressed {
             let mut entity = commands.entity(e);
             entity
@@ -240,9 +240,9 @@ pub(crate) fn apply_toon_to_user_meshes(
             let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
                 continue;
             };
-            if amount == 0.0 {
+            let Some(mesh_assets) = mesh_assets.as_deref_mut().filter(|_| amount > 0.0) else {
                 continue;
-            }
+            };
             let key = (source.id(), amount.to_bits());
             if let Some(copy) = massed
                 .get(&key)

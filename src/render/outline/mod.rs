@@ -259,7 +259,9 @@ impl ExtractComponent<RenderApp> for ImageSpaceOutline {
             .filter(|_| outline.source == OutlineSource::Mass);
         Some((
             GpuImageSpaceOutline {
-                color: outline.color.to_linear().to_vec4(),
+                color: super::linear_color(outline.color, 0.0, 1e4)
+                    .truncate()
+                    .extend(finite_or(outline.color.alpha(), 1.0).clamp(0.0, 1.0)),
                 threshold,
                 dilation_x: outline.dilation_x.min(MAX_OUTLINE_DILATION),
                 dilation_y: outline.dilation_y.min(MAX_OUTLINE_DILATION),
@@ -278,10 +280,7 @@ impl ExtractComponent<RenderApp> for ImageSpaceOutline {
                     _ => 0.0,
                 },
                 lock_tint: lock.and_then(|l| l.hair_tint).map_or(Vec4::ZERO, |c| {
-                    Vec4::from_array(c.to_linear().to_f32_array().map(|v| finite_or(v, 0.0)))
-                        .clamp(Vec4::ZERO, Vec4::splat(4.0))
-                        .truncate()
-                        .extend(1.0)
+                    super::linear_color(c, 0.0, 4.0).truncate().extend(1.0)
                 }),
             },
             OutlineSourceKey(outline.source),
