@@ -360,6 +360,78 @@ mod tests {
         assert_eq!(normals(&nan), normals(&own));
     }
 
+    /// Two characters sharing one hair mesh, dressed with mass normals: both wear one copy
+    /// (normals turned, the source untouched); once neither is left the copy is freed, and a
+    /// third character gets a new one.
+    #[test]
+    fn characters_share_one_mass_normal_copy_until_it_is_freed() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<Image>()
+            .init_asset::<ToonHairMaterial>()
+            .add_systems(Update, apply_toon_to_user_meshes);
+        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
+        app.insert_resource(ramps);
+        let source = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(faceted_box());
+        let character = |app: &mut App| {
+            let root = app
+                .world_mut()
+                .spawn(ToonHairMeshes::matching(|n| n == "hair").with_mass_normals(1.0))
+                .id();
+            let hair = app
+                .world_mut()
+                .spawn((Name::new("hair"), Mesh3d(source.clone()), ChildOf(root)))
+                .id();
+            (root, hair)
+        };
+        let worn = |app: &App, hair: Entity| app.world().get::<Mesh3d>(hair).unwrap().0.clone();
+        let (a, hair_a) = character(&mut app);
+        let (b, hair_b) = character(&mut app);
+        app.update();
+        let copy = worn(&app, hair_a);
+        assert_ne!(copy.id(), source.id(), "the hair still wears its own mesh");
+        assert_eq!(worn(&app, hair_b).id(), copy.id(), "two copies of one mesh");
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let normals = |m: &Handle<Mesh>| {
+            meshes
+                .get(m)
+                .and_then(|m| m.attribute(Mesh::ATTRIBUTE_NORMAL))
+                .and_then(VertexAttributeValues::as_float3)
+                .unwrap()
+                .to_vec()
+        };
+        assert_ne!(
+            normals(&copy),
+            normals(&source),
+            "the copy's normals did not turn"
+        );
+        let built = faceted_box();
+        let fresh = built
+            .attribute(Mesh::ATTRIBUTE_NORMAL)
+            .and_then(VertexAttributeValues::as_float3)
+            .unwrap();
+        assert_eq!(normals(&source), fresh, "the source mesh changed");
+        let copy_id = copy.id();
+        drop(copy);
+        app.world_mut().entity_mut(a).despawn();
+        app.world_mut().entity_mut(b).despawn();
+        for _ in 0..3 {
+            app.update();
+        }
+        assert!(
+            !app.world().resource::<Assets<Mesh>>().contains(copy_id),
+            "the copy outlived every hair that wore it"
+        );
+        let (_, hair_c) = character(&mut app);
+        app.update();
+        let again = worn(&app, hair_c);
+        assert!(again.id() != source.id() && again.id() != copy_id);
+    }
+
     #[test]
     fn a_mesh_without_normals_on_the_cpu_is_an_error() {
         let mut mesh = Mesh::new(
