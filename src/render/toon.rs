@@ -270,7 +270,8 @@ pub struct ToonHairUniform {
     params3: Vec4,
     angel_ring_color: Vec4,
     angel_ring: Vec4,
-    tip_color: Vec4,
+    tip_lab: Vec4,
+    base_lab: Vec4,
     shade_color: Vec4,
 }
 
@@ -281,6 +282,13 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
     ) -> ToonHairUniform {
         self.shading.uniform()
     }
+}
+
+/// A linear RGB colour (the `xyz` of `c`) in Oklab, `(L, a, b)`: the tip blend's two ends,
+/// converted once here rather than in every fragment.
+fn oklab(c: Vec4) -> Vec3 {
+    let lab = bevy::color::Oklaba::from(LinearRgba::rgb(c.x, c.y, c.z));
+    Vec3::new(lab.lightness, lab.a, lab.b)
 }
 
 impl ToonShading {
@@ -322,9 +330,9 @@ impl ToonShading {
                 finite_or(self.angel_ring_shift, 0.0).clamp(-4.0, 4.0),
                 finite_or(self.tip_start, 0.6).clamp(0.0, 0.999),
             ),
-            tip_color: linear_color(self.tip_color, 0.0, 1e4)
-                .truncate()
+            tip_lab: oklab(linear_color(self.tip_color, 0.0, 1e4))
                 .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
+            base_lab: oklab(linear_color(self.base_color, 0.0, 1e4)).extend(0.0),
             shade_color: linear_color(self.shade_color, 1.0, 16.0),
         }
     }
@@ -515,7 +523,8 @@ mod tests {
             u.params3,
             u.angel_ring_color,
             u.angel_ring,
-            u.tip_color,
+            u.tip_lab,
+            u.base_lab,
             u.shade_color,
         ];
         for (i, v) in all.iter().enumerate() {
@@ -540,5 +549,16 @@ mod tests {
             ToonShading::default().base_color.to_linear().to_vec4()
         );
         assert_eq!(d.shade_color, Vec4::ONE);
+        // The tip blend's ends in Oklab: white is lightness 1 with no hue.
+        assert!(
+            d.tip_lab.truncate().distance(Vec3::X) < 1e-3,
+            "{}",
+            d.tip_lab
+        );
+        assert!(
+            d.base_lab.x > 0.5 && d.base_lab.y > 0.05,
+            "orange: {}",
+            d.base_lab
+        );
     }
 }
