@@ -55,6 +55,7 @@ pub use attach::{
     ComputedHair, Hair, HairStatus, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
     StrandParticles,
 };
+#[cfg(feature = "render")]
 pub(crate) use bone::scene_failure;
 pub use bone::{AttachToBone, BonePredicate, BoneRef, BoneSearch, CharacterSpawned};
 pub use chains::{BoneChainHair, BoneChainHairs, ChainSelect, HairBoneChains, MIN_TAIL};
