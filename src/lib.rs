@@ -182,7 +182,8 @@ pub mod prelude {
     pub use crate::curve::QuadraticCurve;
     pub use crate::mesh::highlights::SpecularQuads;
     pub use crate::mesh::{
-        HairCulling, HairLod, HairMeshSettings, HairShadowCaster, HairStrandSections, LockSection,
+        HairCulling, HairLod, HairMassShape, HairMeshSettings, HairShadowCaster,
+        HairStrandSections, LockSection,
     };
     pub use crate::plugins::CartoonHairPlugins;
     #[cfg(feature = "render")]

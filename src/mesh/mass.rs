@@ -21,7 +21,8 @@ pub enum HairMassShape {
     /// so a flat or single-strand groom still gets a round shape).
     #[default]
     Fitted,
-    /// An ellipsoid given in the bone's space, in the groom's units (as in the `.hair.xml`).
+    /// An ellipsoid given in the bone's space, in the groom's units (as in the `.hair.xml`);
+    /// for a character's own hair mesh (`ToonHairMeshes::mass_shapes`), in the mesh's space.
     Ellipsoid {
         /// Centre.
         centre: Vec3,

@@ -9,9 +9,10 @@
 //! as they are unless the user opts in.
 //!
 //! Modelled hair is often faceted (flat or ridged locks, low-poly caps), and toon bands follow
-//! every facet. [`ToonHairMeshes::mass_normals`] gives the meshes the normals of one smooth
-//! shape instead, the ellipsoid that fits each mesh's bounds (the normal transfer anime
-//! pipelines do in their modelling tool), so light and shadow fall on the hair as one mass.
+//! every facet. [`ToonHairMeshes::mass_normals`] gives the meshes the normals of smooth
+//! shapes instead, the ellipsoid that fits each mesh's bounds or ellipsoids of the user's own
+//! (the normal transfer anime pipelines do in their modelling tool, from proxy shapes), so
+//! light and shadow fall on the hair as one mass.
 
 use bevy::gltf::GltfMaterialName;
 use bevy::mesh::VertexAttributeValues;
@@ -20,6 +21,7 @@ use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
 use crate::math::finite_or;
+use crate::mesh::HairMassShape;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
 use super::{ToonHairMaterial, ToonRamps};
@@ -47,12 +49,23 @@ pub struct ToonHairMeshes {
     /// The material. `None`: the crate's default (three-tone ramp, orange); give one for the
     /// hair's own colour.
     pub material: Option<Handle<ToonHairMaterial>>,
-    /// How far each mesh's normals turn toward those of the ellipsoid that fits its bounds
-    /// (its bind pose, in its own space), 0 to 1: at 1 the toon bands fall on the hair as on
-    /// one smooth shape, not facet by facet; in between, the locks' own relief shows that much.
-    /// Each mesh is copied with the new normals (one copy per source mesh and value; the
-    /// copy is skinned as the mesh was). Default: `0.0` (the meshes' own normals).
+    /// How far each mesh's normals turn toward those of [`ToonHairMeshes::mass_shapes`]
+    /// (by default the ellipsoid that fits the mesh's bounds), 0 to 1: at 1 the toon bands
+    /// fall on the hair as on one smooth shape, not facet by facet; in between, the locks' own
+    /// relief shows that much. Each mesh is copied with the new normals (one copy per source
+    /// mesh, value and shapes; the copy is skinned as the mesh was). Default: `0.0` (the
+    /// meshes' own normals).
     pub mass_normals: f32,
+    /// The shapes the normals turn toward, in each mesh's own space (its bind pose, the
+    /// coordinates of its vertices; a glTF's are Y-up, so Blender's `(x, y, z)` is
+    /// `(x, z, -y)`). Each vertex takes the normal of the shape it is nearest to, measured in
+    /// each shape's own size (a point on a shape's surface is at 1, on one twice as large at
+    /// 2), blended smoothly where two are about as near. One ellipsoid spanning a long ponytail
+    /// or lock shades it as part of the head's mass; give the head and the ponytail an
+    /// ellipsoid each. [`HairMassShape::Fitted`] is the ellipsoid of the mesh's bounds.
+    /// Default: empty, which is `[HairMassShape::Fitted]`.
+    #[reflect(default)]
+    pub mass_shapes: Vec<HairMassShape>,
 }
 
 impl ToonHairMeshes {
@@ -62,6 +75,7 @@ impl ToonHairMeshes {
             select: BonePredicate::new(test),
             material: None,
             mass_normals: 0.0,
+            mass_shapes: Vec::new(),
         }
     }
 
@@ -76,44 +90,70 @@ impl ToonHairMeshes {
         self.mass_normals = amount;
         self
     }
+
+    /// The same, the normals turned toward `shapes` ([`ToonHairMeshes::mass_shapes`]).
+    pub fn with_mass_shapes(mut self, shapes: impl IntoIterator<Item = HairMassShape>) -> Self {
+        self.mass_shapes = shapes.into_iter().collect();
+        self
+    }
 }
 
-/// Turns `mesh`'s normals toward the normals of the ellipsoid that fits its positions' bounds,
-/// by `amount` (0 to 1), and renormalises them. A vertex at the ellipsoid's centre, or whose
-/// blend cancels out, keeps its normal. Errors when the mesh has no `Float32x3` positions and
-/// normals of the same length (a mesh whose data lives only on the GPU has none).
-pub fn turn_normals_to_mass(mesh: &mut Mesh, amount: f32) -> Result<(), &'static str> {
+/// How sharply a vertex's normal goes over from one mass shape to the next: a shape whose
+/// relative distance is 0.1 more than the nearest's weighs `exp(-0.8)` as much.
+const SHAPE_BLEND_SHARPNESS: f32 = 8.0;
+
+/// Turns `mesh`'s normals toward the normals of `shapes` (in the mesh's own space; empty:
+/// the ellipsoid that fits its positions' bounds, as [`HairMassShape::Fitted`]), by `amount`
+/// (0 to 1), and renormalises them. With several shapes each vertex takes the normal of the one
+/// it is nearest to relative to their sizes, blended where two are about as near (see
+/// [`ToonHairMeshes::mass_shapes`]). A vertex at a shape's centre, or whose blend cancels out,
+/// keeps its normal. Errors when the mesh has no `Float32x3` positions and normals of the same
+/// length (a mesh whose data lives only on the GPU has none), or a shape is not finite.
+pub fn turn_normals_to_mass(
+    mesh: &mut Mesh,
+    amount: f32,
+    shapes: &[HairMassShape],
+) -> Result<(), String> {
     let amount = finite_or(amount, 0.0).clamp(0.0, 1.0);
     let Some(VertexAttributeValues::Float32x3(positions)) =
         mesh.attribute(Mesh::ATTRIBUTE_POSITION)
     else {
-        return Err("it has no positions on the CPU (Float32x3)");
+        return Err("it has no positions on the CPU (Float32x3)".into());
     };
-    let (lo, hi) = positions
+    let bounds = positions
         .iter()
         .map(|p| Vec3::from_array(*p))
         .filter(|p| p.is_finite())
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
             (lo.min(p), hi.max(p))
         });
-    if lo.cmpgt(hi).any() {
-        return Err("it has no finite position");
+    if bounds.0.cmpgt(bounds.1).any() {
+        return Err("it has no finite position".into());
     }
-    let centre = (lo + hi) * 0.5;
-    // A flat mesh's thin axis still gets a (small) extent, so every direction is defined.
-    let half = ((hi - lo) * 0.5).max(Vec3::splat((hi - lo).max_element() * 0.01 + 1e-6));
-    let inv_half2 = (half * half).recip();
+    let fitted = [HairMassShape::Fitted];
+    let shapes = if shapes.is_empty() { &fitted } else { shapes };
+    // Each shape as its centre and its half extents' inverse.
+    let ellipsoids = shapes
+        .iter()
+        .enumerate()
+        .map(|(i, shape)| {
+            shape
+                .ellipsoid(Some(bounds), Vec3::ONE)
+                .map(|(centre, half)| (centre, half.recip()))
+                .ok_or_else(|| format!("its mass shape {i} is not finite: {shape:?}"))
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let proxy: Vec<Vec3> = positions
         .iter()
-        .map(|p| ((Vec3::from_array(*p) - centre) * inv_half2).normalize_or_zero())
+        .map(|p| mass_normal(Vec3::from_array(*p), &ellipsoids))
         .collect();
     let Some(VertexAttributeValues::Float32x3(normals)) =
         mesh.attribute_mut(Mesh::ATTRIBUTE_NORMAL)
     else {
-        return Err("it has no normals on the CPU (Float32x3)");
+        return Err("it has no normals on the CPU (Float32x3)".into());
     };
     if normals.len() != proxy.len() {
-        return Err("its normals and positions differ in number");
+        return Err("its normals and positions differ in number".into());
     }
     for (n, to) in normals.iter_mut().zip(&proxy) {
         let own = Vec3::from_array(*n);
@@ -126,6 +166,31 @@ pub fn turn_normals_to_mass(mesh: &mut Mesh, amount: f32) -> Result<(), &'static
         }
     }
     Ok(())
+}
+
+/// The normal at `p` of the ellipsoids `(centre, 1 / half extents)`: each one's (the gradient
+/// of `|(p - c) / h|²`) weighted by how much nearer it is than the others relative to its size.
+/// Zero at a lone shape's centre or where the blend cancels out.
+fn mass_normal(p: Vec3, ellipsoids: &[(Vec3, Vec3)]) -> Vec3 {
+    if let [(centre, inv_half)] = ellipsoids {
+        return ((p - *centre) * *inv_half * *inv_half).normalize_or_zero();
+    }
+    let near = ellipsoids
+        .iter()
+        .map(|(c, inv)| ((p - *c) * *inv).length())
+        .fold(f32::INFINITY, f32::min);
+    if !near.is_finite() {
+        return Vec3::ZERO;
+    }
+    ellipsoids
+        .iter()
+        .map(|(c, inv)| {
+            let u = (p - *c) * *inv;
+            let weight = (-SHAPE_BLEND_SHARPNESS * (u.length() - near)).exp();
+            (u * *inv).normalize_or_zero() * weight
+        })
+        .sum::<Vec3>()
+        .normalize_or_zero()
 }
 
 /// On a [`ToonHairMeshes`] character once its meshes are dressed: the mesh entities. Remove it
@@ -176,9 +241,31 @@ pub(crate) type MeshNames = (
     Option<&'static ChildOf>,
 );
 
-/// Copies of source meshes with mass normals, by source mesh and amount (its bits). Only ids:
-/// a copy no entity uses any more is freed (and its entry dropped at the next dressing).
-type MassedMeshes = HashMap<(AssetId<Mesh>, u32), AssetId<Mesh>>;
+/// Copies of source meshes with mass normals, by source mesh, amount (its bits) and shapes (a
+/// hash of their bits). Only ids: a copy no entity uses any more is freed (and its entry
+/// dropped at the next dressing).
+type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64), AssetId<Mesh>>;
+
+/// A hash of `shapes`' bits, for [`MassedMeshes`]' keys.
+fn shapes_key(shapes: &[HairMassShape]) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let mut hasher = std::hash::DefaultHasher::new();
+    for shape in shapes {
+        match shape {
+            HairMassShape::Ellipsoid {
+                centre,
+                half_extents,
+            } => centre
+                .to_array()
+                .iter()
+                .chain(&half_extents.to_array())
+                .for_each(|x| x.to_bits().hash(&mut hasher)),
+            // Fitted, and any shape added later, by its debug form.
+            other => format!("{other:?}").hash(&mut hasher),
+        }
+    }
+    hasher.finish()
+}
 
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
@@ -229,6 +316,7 @@ pub(crate) fn apply_toon_to_user_meshes(
         };
         let dressed = meshes_passing(character, &wanted.select, false, &children, &meshes, &names);
         let amount = finite_or(wanted.mass_normals, 0.0).clamp(0.0, 1.0);
+        let shapes = shapes_key(&wanted.mass_shapes);
         if let Some(assets) = &mesh_assets {
             massed.retain(|_, copy| assets.contains(*copy));
         }
@@ -243,7 +331,7 @@ pub(crate) fn apply_toon_to_user_meshes(
             let Some(mesh_assets) = mesh_assets.as_deref_mut().filter(|_| amount > 0.0) else {
                 continue;
             };
-            let key = (source.id(), amount.to_bits());
+            let key = (source.id(), amount.to_bits(), shapes);
             if let Some(copy) = massed
                 .get(&key)
                 .and_then(|id| mesh_assets.get_strong_handle(*id))
@@ -253,10 +341,10 @@ pub(crate) fn apply_toon_to_user_meshes(
             }
             let turned = mesh_assets
                 .get(source)
-                .ok_or("it is not loaded")
+                .ok_or_else(|| "it is not loaded".to_string())
                 .and_then(|mesh| {
                     let mut copy = mesh.clone();
-                    turn_normals_to_mass(&mut copy, amount).map(|()| copy)
+                    turn_normals_to_mass(&mut copy, amount, &wanted.mass_shapes).map(|()| copy)
                 });
             match turned {
                 Ok(copy) => {
@@ -303,7 +391,7 @@ mod tests {
             .and_then(VertexAttributeValues::as_float3)
             .unwrap()
             .to_vec();
-        turn_normals_to_mass(&mut mesh, 1.0).unwrap();
+        turn_normals_to_mass(&mut mesh, 1.0, &[]).unwrap();
         let positions = mesh
             .attribute(Mesh::ATTRIBUTE_POSITION)
             .and_then(VertexAttributeValues::as_float3)
@@ -334,7 +422,7 @@ mod tests {
     fn mass_normals_blend_by_the_amount_and_leave_zero_alone() {
         let own = faceted_box();
         let mut none = own.clone();
-        turn_normals_to_mass(&mut none, 0.0).unwrap();
+        turn_normals_to_mass(&mut none, 0.0, &[]).unwrap();
         let normals = |m: &Mesh| {
             m.attribute(Mesh::ATTRIBUTE_NORMAL)
                 .and_then(VertexAttributeValues::as_float3)
@@ -345,9 +433,9 @@ mod tests {
         };
         assert_eq!(normals(&none), normals(&own));
         let mut full = own.clone();
-        turn_normals_to_mass(&mut full, 1.0).unwrap();
+        turn_normals_to_mass(&mut full, 1.0, &[]).unwrap();
         let mut half = own.clone();
-        turn_normals_to_mass(&mut half, 0.5).unwrap();
+        turn_normals_to_mass(&mut half, 0.5, &[]).unwrap();
         for ((h, o), f) in normals(&half).iter().zip(normals(&own)).zip(normals(&full)) {
             assert!(
                 (*h - (o + f).normalize()).length() < 1e-5,
@@ -356,7 +444,7 @@ mod tests {
         }
         // Out of range and NaN: clamped, and NaN reads as 0.
         let mut nan = own.clone();
-        turn_normals_to_mass(&mut nan, f32::NAN).unwrap();
+        turn_normals_to_mass(&mut nan, f32::NAN, &[]).unwrap();
         assert_eq!(normals(&nan), normals(&own));
     }
 
@@ -430,6 +518,116 @@ mod tests {
         app.update();
         let again = worn(&app, hair_c);
         assert!(again.id() != source.id() && again.id() != copy_id);
+        // Other shapes: a copy of their own.
+        let shaped = app
+            .world_mut()
+            .spawn(
+                ToonHairMeshes::matching(|n| n == "hair")
+                    .with_mass_normals(1.0)
+                    .with_mass_shapes([HairMassShape::Ellipsoid {
+                        centre: Vec3::X,
+                        half_extents: Vec3::ONE,
+                    }]),
+            )
+            .id();
+        let hair_d = app
+            .world_mut()
+            .spawn((Name::new("hair"), Mesh3d(source.clone()), ChildOf(shaped)))
+            .id();
+        app.update();
+        let other = worn(&app, hair_d);
+        assert!(other.id() != again.id() && other.id() != source.id());
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let (a, b) = (meshes.get(&other).unwrap(), meshes.get(&again).unwrap());
+        assert_ne!(normals_of(a), normals_of(b));
+    }
+
+    /// A mesh of loose points, each with the normal +Z, for testing the mass shapes.
+    fn points(positions: &[[f32; 3]]) -> Mesh {
+        Mesh::new(PrimitiveTopology::PointList, RenderAssetUsages::default())
+            .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions.to_vec())
+            .with_inserted_attribute(
+                Mesh::ATTRIBUTE_NORMAL,
+                vec![[0.0f32, 0.0, 1.0]; positions.len()],
+            )
+    }
+
+    fn normals_of(mesh: &Mesh) -> Vec<Vec3> {
+        mesh.attribute(Mesh::ATTRIBUTE_NORMAL)
+            .and_then(VertexAttributeValues::as_float3)
+            .unwrap()
+            .iter()
+            .map(|n| Vec3::from_array(*n))
+            .collect()
+    }
+
+    /// Two shapes, a unit sphere at the origin (the head) and an ellipsoid at x = 3 with half
+    /// extents 0.5, 2, 0.5 (a ponytail). Expected normals worked out by hand (relative distance
+    /// `|(p - c) / h|`, normal `(p - c) / h²`, weights `exp(-8 (q - nearest))`).
+    #[test]
+    fn each_vertex_takes_the_normal_of_the_mass_shape_it_is_nearest() {
+        let shapes = [
+            HairMassShape::Ellipsoid {
+                centre: Vec3::ZERO,
+                half_extents: Vec3::ONE,
+            },
+            HairMassShape::Ellipsoid {
+                centre: Vec3::new(3.0, 0.0, 0.0),
+                half_extents: Vec3::new(0.5, 2.0, 0.5),
+            },
+        ];
+        let mut mesh = points(&[[0.0, 1.0, 0.0], [3.0, 1.5, 0.5], [2.0, 0.5, 0.0]]);
+        turn_normals_to_mass(&mut mesh, 1.0, &shapes).unwrap();
+        let n = normals_of(&mesh);
+        // On the sphere, six times its size from the ponytail: the sphere's normal.
+        assert!(n[0].distance(Vec3::Y) < 1e-5, "{}", n[0]);
+        // 1.25 from the ponytail, 3.39 from the sphere: the ponytail's (0, 0.75/2, 1/0.5).
+        let tail = Vec3::new(0.0, 0.375, 2.0).normalize();
+        assert!(n[1].distance(tail) < 1e-5, "{} against {tail}", n[1]);
+        // 2.06 from the sphere, 2.02 from the ponytail: both, the sphere's (0.970, 0.243, 0)
+        // weighing exp(-8 x 0.046) = 0.69 of the ponytail's (-0.9995, 0.031, 0).
+        let blend = Vec3::new(-0.85482, 0.518_925, 0.0);
+        assert!(n[2].distance(blend) < 1e-4, "{} against {blend}", n[2]);
+        // The bounds' ellipsoid alone gives none of these.
+        let mut fitted = points(&[[0.0, 1.0, 0.0], [3.0, 1.5, 0.5], [2.0, 0.5, 0.0]]);
+        turn_normals_to_mass(&mut fitted, 1.0, &[]).unwrap();
+        assert!(normals_of(&fitted)[1].distance(tail) > 0.1);
+    }
+
+    /// The bounds' ellipsoid given by hand is the fitted shape, and a shape that is not finite
+    /// is an error naming it (the mesh keeps its normals).
+    #[test]
+    fn a_given_ellipsoid_matches_the_fitted_one_and_a_broken_one_is_refused() {
+        let mut given = faceted_box();
+        turn_normals_to_mass(
+            &mut given,
+            1.0,
+            &[HairMassShape::Ellipsoid {
+                centre: Vec3::ZERO,
+                half_extents: Vec3::new(1.0, 0.5, 0.25),
+            }],
+        )
+        .unwrap();
+        let mut fitted = faceted_box();
+        turn_normals_to_mass(&mut fitted, 1.0, &[HairMassShape::Fitted]).unwrap();
+        for (a, b) in normals_of(&given).iter().zip(normals_of(&fitted)) {
+            assert!(a.distance(b) < 1e-6, "{a} against {b}");
+        }
+        let mut broken = faceted_box();
+        let err = turn_normals_to_mass(
+            &mut broken,
+            1.0,
+            &[
+                HairMassShape::Fitted,
+                HairMassShape::Ellipsoid {
+                    centre: Vec3::new(f32::NAN, 0.0, 0.0),
+                    half_extents: Vec3::ONE,
+                },
+            ],
+        )
+        .unwrap_err();
+        assert!(err.contains("mass shape 1"), "{err}");
+        assert_eq!(normals_of(&broken), normals_of(&faceted_box()));
     }
 
     #[test]
@@ -439,11 +637,11 @@ mod tests {
             RenderAssetUsages::default(),
         )
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, vec![[0.0f32, 0.0, 0.0]; 3]);
-        assert!(turn_normals_to_mass(&mut mesh, 1.0).is_err());
+        assert!(turn_normals_to_mass(&mut mesh, 1.0, &[]).is_err());
         let mut empty = Mesh::new(
             PrimitiveTopology::TriangleList,
             RenderAssetUsages::default(),
         );
-        assert!(turn_normals_to_mass(&mut empty, 1.0).is_err());
+        assert!(turn_normals_to_mass(&mut empty, 1.0, &[]).is_err());
     }
 }

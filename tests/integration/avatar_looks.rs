@@ -32,6 +32,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "mass_normals_shade_the_avatars_hair_as_one_shape",
         mass_normals_shade_the_avatars_hair_as_one_shape,
     ),
+    (
+        "a_ponytail_given_its_own_mass_shape_shades_as_its_own",
+        a_ponytail_given_its_own_mass_shape_shades_as_its_own,
+    ),
 ];
 
 /// Each look: the avatar's hair mesh in the look's material, the camera with its outline; the
@@ -45,6 +49,7 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
         let look = HairPreset::look(look_name).ok_or("a shipped look")??;
         let outline = look.outline.clone().ok_or("the look has no outline")?;
         let (mut r, character, handle, shipped) = avatar_scene(
+            (320, 240),
             &look,
             Some(outline),
             ToonHairMeshes::matching(|n| n == "hair"),
@@ -110,9 +115,11 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
 }
 
 /// The avatar in `look`'s material (`hair` selecting its hair mesh), lit from above in front,
-/// before a camera at head height with `outline`, warmed up until its meshes are dressed:
-/// the renderer, the character, the hair material's handle and the material as shipped.
+/// before a camera at head height with `outline`, warmed up until its meshes are dressed, in
+/// frames of `size`: the renderer, the character, the hair material's handle and the material
+/// as shipped.
 fn avatar_scene(
+    (width, height): (u32, u32),
     look: &HairPreset,
     outline: Option<ImageSpaceOutline>,
     hair: ToonHairMeshes,
@@ -126,8 +133,8 @@ fn avatar_scene(
     Failed,
 > {
     let mut r = HeadlessRenderer::new(CaptureSettings {
-        width: 320,
-        height: 240,
+        width,
+        height,
         max_frames: 3_000,
         ..default()
     })?;
@@ -194,8 +201,12 @@ fn warm_up_dressed(r: &mut HeadlessRenderer) -> Result<(), Failed> {
 /// differs by more than 6) fall to under half.
 fn mass_normals_shade_the_avatars_hair_as_one_shape() -> Result<(), Failed> {
     let look = HairPreset::look("clean_anime").ok_or("a shipped look")??;
-    let (mut r, character, handle, shipped) =
-        avatar_scene(&look, None, ToonHairMeshes::matching(|n| n == "hair"))?;
+    let (mut r, character, handle, shipped) = avatar_scene(
+        (320, 240),
+        &look,
+        None,
+        ToonHairMeshes::matching(|n| n == "hair"),
+    )?;
     let mut edges = [[0usize; 2]; 2];
     for (i, amount) in [0.0f32, 1.0].into_iter().enumerate() {
         if amount > 0.0 {
@@ -276,4 +287,133 @@ fn tone_edges(mask: &CapturedFrame, plain: &CapturedFrame) -> usize {
         }
     }
     edges
+}
+
+/// The avatar's hair mesh is a cap with locks and a ponytail hanging 25 cm down the back. One
+/// ellipsoid around all of it (the mesh's bounds) gives the ponytail normals pointing down and
+/// back from the bounds' centre, so seen from the side it falls into the shadow tones as one
+/// dark stroke. With an ellipsoid of its own beside the head's (mesh space, Y-up: the numbers of
+/// the avatar's authoring script), it shades as a shape of its own: from the side, lit from above
+/// in front, the upper half of its side facing the camera takes the lit tone. Measured over the ponytail's pixels
+/// (the hair's pixels within 4 px of its lower bones projected to the screen).
+fn a_ponytail_given_its_own_mass_shape_shades_as_its_own() -> Result<(), Failed> {
+    let look = HairPreset::look("clean_anime").ok_or("a shipped look")??;
+    let (mut r, character, handle, shipped) = avatar_scene(
+        (640, 480),
+        &look,
+        None,
+        ToonHairMeshes::matching(|n| n == "hair"),
+    )?;
+    let head = HairMassShape::Ellipsoid {
+        centre: Vec3::new(0.0, 1.686, -0.004),
+        half_extents: Vec3::new(0.125, 0.145, 0.135),
+    };
+    let ponytail = HairMassShape::Ellipsoid {
+        centre: Vec3::new(0.0, 1.60, -0.19),
+        half_extents: Vec3::new(0.035, 0.12, 0.05),
+    };
+    let mut lit = Vec::new();
+    for (name, shapes) in [
+        ("bounds", vec![]),
+        ("head_and_ponytail", vec![head, ponytail]),
+    ] {
+        r.app
+            .world_mut()
+            .entity_mut(character)
+            .insert((
+                ToonHairMeshes::matching(|n| n == "hair")
+                    .with_material(handle.clone())
+                    .with_mass_normals(1.0)
+                    .with_mass_shapes(shapes),
+                Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2)),
+            ))
+            .remove::<ToonHairMeshesApplied>();
+        warm_up_dressed(&mut r)?;
+        set_material(&mut r, &handle, &mask_of(&shipped));
+        let mask = r.capture()?;
+        set_material(&mut r, &handle, &shipped);
+        let plain = r.capture()?;
+        save(&plain, &format!("avatar_mass_shapes_{name}"))?;
+        let pixels = ponytail_pixels(&mut r, &mask)?;
+        let luma = |(x, y): (u32, u32)| {
+            let [r, g, b, _] = plain.pixel(x, y);
+            0.2126 * f32::from(r) + 0.7152 * f32::from(g) + 0.0722 * f32::from(b)
+        };
+        // The lit tone: within 8 of the brightest luma anywhere in the hair.
+        let brightest = (0..plain.height)
+            .flat_map(|y| (0..plain.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| is_green(mask.pixel(x, y)))
+            .map(luma)
+            .fold(0.0f32, f32::max);
+        let in_light = pixels
+            .iter()
+            .filter(|&&p| luma(p) > brightest - 8.0)
+            .count();
+        eprintln!(
+            "ponytail from the side, mass shapes {name}: {} pixels, {in_light} in the lit tone \
+             (hair's brightest luma {brightest:.0})",
+            pixels.len()
+        );
+        lit.push((pixels.len(), in_light));
+    }
+    let (bounds, own) = (lit[0], lit[1]);
+    if bounds.0 < 100 || own.0 < 100 {
+        return Err(format!("too few ponytail pixels: {bounds:?}, {own:?}").into());
+    }
+    // Fractions lit: with the bounds' ellipsoid under a tenth; with its own shape at least 30%
+    // (its upper half: lower down its own shape's normals turn down, away from the light).
+    let share = |(all, lit): (usize, usize)| lit as f32 / all as f32;
+    if share(bounds) >= 0.1 || share(own) < 0.3 {
+        return Err(format!(
+            "ponytail pixels in the lit tone: bounds {bounds:?}, its own shape {own:?}"
+        )
+        .into());
+    }
+    Ok(())
+}
+
+fn is_green([r, g, b, _]: [u8; 4]) -> bool {
+    g > 40 && u32::from(r) * 3 < u32::from(g) && u32::from(b) * 3 < u32::from(g)
+}
+
+/// The hair pixels of `mask` within 4 px of the ponytail's bones (`hair_tail_2` to the last,
+/// clear of the head) projected by the camera.
+fn ponytail_pixels(
+    r: &mut HeadlessRenderer,
+    mask: &CapturedFrame,
+) -> Result<Vec<(u32, u32)>, Failed> {
+    let world = r.app.world_mut();
+    let mut cameras = world.query::<(&Camera, &GlobalTransform)>();
+    let (camera, eye) = cameras.single(world)?;
+    let (camera, eye) = (camera.clone(), *eye);
+    let mut bones = world.query::<(&Name, &GlobalTransform)>();
+    let mut joints: Vec<(usize, Vec2)> = bones
+        .iter(world)
+        .filter_map(|(name, at)| {
+            let k = name
+                .as_str()
+                .strip_prefix("hair_tail_")?
+                .parse::<usize>()
+                .ok()?;
+            let p = camera.world_to_viewport(&eye, at.translation()).ok()?;
+            (k >= 2).then_some((k, p))
+        })
+        .collect();
+    joints.sort_by_key(|(k, _)| *k);
+    if joints.len() < 3 {
+        return Err(format!("found {} ponytail joints on screen", joints.len()).into());
+    }
+    let near = |q: Vec2| {
+        joints.windows(2).any(|w| {
+            let (a, b) = (w[0].1, w[1].1);
+            let t = ((q - a).dot(b - a) / (b - a).length_squared().max(1e-6)).clamp(0.0, 1.0);
+            q.distance(a + (b - a) * t) <= 4.0
+        })
+    };
+    Ok((0..mask.height)
+        .flat_map(|y| (0..mask.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            is_green(mask.pixel(x, y)) && near(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
+        })
+        .collect())
 }
