@@ -55,7 +55,9 @@ pub use toon::{
     AngelRingProfile, HatchingMode, RampMode, ToonHairMaterial, ToonHairMaterialKey,
     ToonHairUniform, ToonLighting, ToonShading,
 };
-pub use user_mesh::{ToonHairMeshes, ToonHairMeshesApplied, turn_normals_to_mass};
+pub use user_mesh::{
+    StrandUvs, ToonHairMeshes, ToonHairMeshesApplied, strand_uvs_from_height, turn_normals_to_mass,
+};
 
 /// Every WESL library module of the crate, as `(file, source)`, for validation and tools. A file
 /// `f.wesl` is embedded at `embedded://bevy_cartoon_hair/render/f.wesl` and imported as

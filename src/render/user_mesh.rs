@@ -66,6 +66,29 @@ pub struct ToonHairMeshes {
     /// Default: empty, which is `[HairMassShape::Fitted]`.
     #[reflect(default)]
     pub mass_shapes: Vec<HairMassShape>,
+    /// Where the toon material reads "along the strand" (its coloured tips, the angel ring's
+    /// strand direction, hatching). Default: [`StrandUvs::Mesh`], the mesh's own UVs.
+    #[reflect(default)]
+    pub strand_uvs: StrandUvs,
+}
+
+/// Where the toon material on a [`ToonHairMeshes`] mesh reads the strand's direction. It reads
+/// UV `v` as the way along a strand (0 at the root, 1 at the tip: the tip colour and the angel
+/// ring's direction) and `u` as the way around (hatching), as the crate's own strand tubes are
+/// laid out. A modelled mesh's UVs are a texture's layout instead (a VRM's atlas), or absent,
+/// and then the tips, the ring and the strokes follow that layout, or are not drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Reflect)]
+#[reflect(Default, Debug, PartialEq)]
+pub enum StrandUvs {
+    /// The mesh's own UVs, as they are.
+    #[default]
+    Mesh,
+    /// Hair hanging from the top of the head: `v` runs from the top of the mesh's bounds (0)
+    /// to its bottom (1) in its bind pose, and `u` once around its vertical axis (the seam at
+    /// `+z`, the front of a glTF character). The mesh is copied with these UVs (its own are
+    /// replaced; the toon material samples no texture with them), skinned as before. Hair
+    /// whose tips point up (spikes) is not hanging: give it UVs of its own.
+    Height,
 }
 
 impl ToonHairMeshes {
@@ -76,6 +99,7 @@ impl ToonHairMeshes {
             material: None,
             mass_normals: 0.0,
             mass_shapes: Vec::new(),
+            strand_uvs: StrandUvs::Mesh,
         }
     }
 
@@ -94,6 +118,12 @@ impl ToonHairMeshes {
     /// The same, the normals turned toward `shapes` ([`ToonHairMeshes::mass_shapes`]).
     pub fn with_mass_shapes(mut self, shapes: impl IntoIterator<Item = HairMassShape>) -> Self {
         self.mass_shapes = shapes.into_iter().collect();
+        self
+    }
+
+    /// The same, the strand's direction read from `uvs` ([`ToonHairMeshes::strand_uvs`]).
+    pub fn with_strand_uvs(mut self, uvs: StrandUvs) -> Self {
+        self.strand_uvs = uvs;
         self
     }
 }
@@ -165,6 +195,47 @@ pub fn turn_normals_to_mass(
             *n = turned.to_array();
         }
     }
+    Ok(())
+}
+
+/// Gives `mesh` the UVs of [`StrandUvs::Height`]: `v` from the top of its positions' bounds (0)
+/// to the bottom (1), `u` the angle around the vertical axis through the bounds' centre, 0 to 1
+/// from `+z` round through `+x`. A vertex whose position is not finite gets `(0, 0)`. Errors
+/// when the mesh has no `Float32x3` positions on the CPU or none of them is finite.
+pub fn strand_uvs_from_height(mesh: &mut Mesh) -> Result<(), String> {
+    let Some(VertexAttributeValues::Float32x3(positions)) =
+        mesh.attribute(Mesh::ATTRIBUTE_POSITION)
+    else {
+        return Err("it has no positions on the CPU (Float32x3)".into());
+    };
+    let (lo, hi) = positions
+        .iter()
+        .map(|p| Vec3::from_array(*p))
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+    if lo.cmpgt(hi).any() {
+        return Err("it has no finite position".into());
+    }
+    let centre = (lo + hi) * 0.5;
+    let height = (hi.y - lo.y).max(1e-9);
+    let uvs: Vec<[f32; 2]> = positions
+        .iter()
+        .map(|p| {
+            let p = Vec3::from_array(*p);
+            if !p.is_finite() {
+                return [0.0, 0.0];
+            }
+            let d = p - centre;
+            let around = d.x.atan2(d.z) / std::f32::consts::TAU;
+            [
+                around.rem_euclid(1.0),
+                ((hi.y - p.y) / height).clamp(0.0, 1.0),
+            ]
+        })
+        .collect();
+    mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs);
     Ok(())
 }
 
@@ -241,10 +312,10 @@ pub(crate) type MeshNames = (
     Option<&'static ChildOf>,
 );
 
-/// Copies of source meshes with mass normals, by source mesh, amount (its bits) and shapes (a
-/// hash of their bits). Only ids: a copy no entity uses any more is freed (and its entry
+/// Copies of source meshes with mass normals or strand UVs, by source mesh, amount (its bits),
+/// shapes (a hash of their bits) and UVs. Only ids: a copy no entity uses any more is freed (and its entry
 /// dropped at the next dressing).
-type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64), AssetId<Mesh>>;
+type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64, StrandUvs), AssetId<Mesh>>;
 
 /// A hash of `shapes`' bits, for [`MassedMeshes`]' keys.
 fn shapes_key(shapes: &[HairMassShape]) -> u64 {
@@ -328,10 +399,14 @@ pub(crate) fn apply_toon_to_user_meshes(
             let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
                 continue;
             };
-            let Some(mesh_assets) = mesh_assets.as_deref_mut().filter(|_| amount > 0.0) else {
+            let uvs = wanted.strand_uvs;
+            let Some(mesh_assets) = mesh_assets
+                .as_deref_mut()
+                .filter(|_| amount > 0.0 || uvs != StrandUvs::Mesh)
+            else {
                 continue;
             };
-            let key = (source.id(), amount.to_bits(), shapes);
+            let key = (source.id(), amount.to_bits(), shapes, uvs);
             if let Some(copy) = massed
                 .get(&key)
                 .and_then(|id| mesh_assets.get_strong_handle(*id))
@@ -339,22 +414,28 @@ pub(crate) fn apply_toon_to_user_meshes(
                 entity.insert(Mesh3d(copy));
                 continue;
             }
-            let turned = mesh_assets
+            let changed = mesh_assets
                 .get(source)
                 .ok_or_else(|| "it is not loaded".to_string())
                 .and_then(|mesh| {
                     let mut copy = mesh.clone();
-                    turn_normals_to_mass(&mut copy, amount, &wanted.mass_shapes).map(|()| copy)
+                    if amount > 0.0 {
+                        turn_normals_to_mass(&mut copy, amount, &wanted.mass_shapes)?;
+                    }
+                    if uvs == StrandUvs::Height {
+                        strand_uvs_from_height(&mut copy)?;
+                    }
+                    Ok(copy)
                 });
-            match turned {
+            match changed {
                 Ok(copy) => {
                     let copy = mesh_assets.add(copy);
                     massed.insert(key, copy.id());
                     entity.insert(Mesh3d(copy));
                 }
                 Err(reason) => warn!(
-                    "ToonHairMeshes on {character}: the mesh of {e} keeps its own normals \
-                     (mass_normals {amount}): {reason}"
+                    "ToonHairMeshes on {character}: the mesh of {e} is drawn as it is, without \
+                     mass normals ({amount}) or strand UVs ({uvs:?}): {reason}"
                 ),
             }
         }
@@ -628,6 +709,69 @@ mod tests {
         .unwrap_err();
         assert!(err.contains("mass shape 1"), "{err}");
         assert_eq!(normals_of(&broken), normals_of(&faceted_box()));
+    }
+
+    /// Four points around a vertical axis, top to bottom, and one not finite. UVs by hand: `v`
+    /// from the top (y = 2) to the bottom (y = -2), `u` the angle from `+z` toward `+x`.
+    #[test]
+    fn strand_uvs_run_from_the_top_down_and_around() {
+        let mut mesh = points(&[
+            [0.0, 2.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -2.0, -1.0],
+            [-1.0, 0.0, 0.0],
+            [f32::NAN, 0.0, 0.0],
+        ]);
+        strand_uvs_from_height(&mut mesh).unwrap();
+        let Some(VertexAttributeValues::Float32x2(uvs)) = mesh.attribute(Mesh::ATTRIBUTE_UV_0)
+        else {
+            panic!("no UVs");
+        };
+        let expected = [[0.0, 0.0], [0.25, 0.5], [0.5, 1.0], [0.75, 0.5], [0.0, 0.0]];
+        for (uv, want) in uvs.iter().zip(expected) {
+            assert!(
+                Vec2::from_array(*uv).distance(Vec2::from_array(want)) < 1e-6,
+                "{uv:?} against {want:?}"
+            );
+        }
+        let mut empty = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        );
+        assert!(strand_uvs_from_height(&mut empty).is_err());
+    }
+
+    /// A hair mesh without UVs dressed with `StrandUvs::Height` wears a copy with them; the
+    /// source keeps none, and the copy keeps the source's normals (no mass normals asked).
+    #[test]
+    fn a_mesh_dressed_with_height_uvs_wears_a_copy_with_them() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<Image>()
+            .init_asset::<ToonHairMaterial>()
+            .add_systems(Update, apply_toon_to_user_meshes);
+        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
+        app.insert_resource(ramps);
+        let mut bare = faceted_box();
+        bare.remove_attribute(Mesh::ATTRIBUTE_UV_0);
+        let source = app.world_mut().resource_mut::<Assets<Mesh>>().add(bare);
+        let root = app
+            .world_mut()
+            .spawn(ToonHairMeshes::matching(|n| n == "hair").with_strand_uvs(StrandUvs::Height))
+            .id();
+        let hair = app
+            .world_mut()
+            .spawn((Name::new("hair"), Mesh3d(source.clone()), ChildOf(root)))
+            .id();
+        app.update();
+        let worn = app.world().get::<Mesh3d>(hair).unwrap().0.clone();
+        assert_ne!(worn.id(), source.id());
+        let meshes = app.world().resource::<Assets<Mesh>>();
+        let (copy, source) = (meshes.get(&worn).unwrap(), meshes.get(&source).unwrap());
+        assert!(copy.attribute(Mesh::ATTRIBUTE_UV_0).is_some());
+        assert!(source.attribute(Mesh::ATTRIBUTE_UV_0).is_none());
+        assert_eq!(normals_of(copy), normals_of(source));
     }
 
     #[test]

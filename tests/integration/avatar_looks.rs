@@ -12,7 +12,7 @@ use bevy::world_serialization::WorldAssetRoot;
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{
-    FringeShadow, FringeShadowMeshes, FringeShadowMeshesApplied, ToonHairMeshes,
+    FringeShadow, FringeShadowMeshes, FringeShadowMeshesApplied, StrandUvs, ToonHairMeshes,
     ToonHairMeshesApplied, ToonRamps,
 };
 use libtest_mimic::Failed;
@@ -35,6 +35,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "a_ponytail_given_its_own_mass_shape_shades_as_its_own",
         a_ponytail_given_its_own_mass_shape_shades_as_its_own,
+    ),
+    (
+        "height_uvs_colour_the_avatars_tips_from_the_top_down",
+        height_uvs_colour_the_avatars_tips_from_the_top_down,
     ),
 ];
 
@@ -416,4 +420,84 @@ fn ponytail_pixels(
             is_green(mask.pixel(x, y)) && near(Vec2::new(x as f32 + 0.5, y as f32 + 0.5))
         })
         .collect())
+}
+
+/// Coloured tips on the avatar, whose hair mesh has no UVs: with its own (none) the toon
+/// material has no way along the strands and no hair pixel takes the tip colour; with
+/// `StrandUvs::Height` the tips blend from halfway down the mesh, so from the back the lowest
+/// third of the hair's rows is mostly toward the tip colour (blue at least half of red, which
+/// the orange hair's tones never reach) and the top third has none of it.
+fn height_uvs_colour_the_avatars_tips_from_the_top_down() -> Result<(), Failed> {
+    let mut look = HairPreset::look("clean_anime").ok_or("a shipped look")??;
+    look.material.shading.tip_color = Color::srgb(0.1, 0.3, 0.9);
+    look.material.shading.tip_start = 0.5;
+    look.material.shading.tip_strength = 1.0;
+    // The ring and the highlight, which UVs also switch on, are pale: left out, so only the
+    // tips shift the colour toward blue.
+    look.material.shading.angel_ring = 0.0;
+    look.material.shading.specular_strength = 0.0;
+    let (mut r, character, handle, shipped) = avatar_scene(
+        (320, 240),
+        &look,
+        None,
+        ToonHairMeshes::matching(|n| n == "hair"),
+    )?;
+    let mut thirds = Vec::new();
+    for uvs in [StrandUvs::Mesh, StrandUvs::Height] {
+        r.app
+            .world_mut()
+            .entity_mut(character)
+            .insert((
+                ToonHairMeshes::matching(|n| n == "hair")
+                    .with_material(handle.clone())
+                    .with_strand_uvs(uvs),
+                Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI)),
+            ))
+            .remove::<ToonHairMeshesApplied>();
+        warm_up_dressed(&mut r)?;
+        set_material(&mut r, &handle, &mask_of(&shipped));
+        let mask = r.capture()?;
+        set_material(&mut r, &handle, &shipped);
+        let plain = r.capture()?;
+        save(&plain, &format!("avatar_tips_{uvs:?}"))?;
+        let hair: Vec<(u32, u32)> = (0..mask.height)
+            .flat_map(|y| (0..mask.width).map(move |x| (x, y)))
+            .filter(|&(x, y)| is_green(mask.pixel(x, y)))
+            .collect();
+        let (top, bottom) = hair
+            .iter()
+            .fold((u32::MAX, 0), |(t, b), &(_, y)| (t.min(y), b.max(y)));
+        let third = (bottom - top + 1) as f32 / 3.0;
+        // Toward the tip colour: blue at least half of red (the orange hair's tones are at
+        // most a fifth; the Oklab blend reaches half about a third of the way to the tip).
+        let tipped = |rows: std::ops::Range<f32>| {
+            let inside: Vec<_> = hair
+                .iter()
+                .filter(|&&(_, y)| rows.contains(&((y - top) as f32)))
+                .collect();
+            let blue = inside
+                .iter()
+                .filter(|&&&(x, y)| {
+                    let [r, _, b, _] = plain.pixel(x, y);
+                    u32::from(b) * 2 > u32::from(r)
+                })
+                .count();
+            (blue, inside.len())
+        };
+        let (upper, lower) = (tipped(0.0..third), tipped(2.0 * third..3.0 * third + 1.0));
+        eprintln!(
+            "tip-coloured hair pixels from the back, {uvs:?} UVs: top third {upper:?}, bottom third \
+             {lower:?} (blue, all)"
+        );
+        thirds.push((upper, lower));
+    }
+    let ((own_top, own_bottom), (top, bottom)) = (thirds[0], thirds[1]);
+    if own_top.0 + own_bottom.0 > 0 || top.0 > 0 || bottom.0 * 2 < bottom.1 || bottom.1 < 100 {
+        return Err(format!(
+            "tip-coloured pixels (blue, all), top and bottom thirds: own UVs {own_top:?} \
+             {own_bottom:?}, height UVs {top:?} {bottom:?}"
+        )
+        .into());
+    }
+    Ok(())
 }

@@ -70,6 +70,7 @@ pub(crate) fn settle_and_freeze(r: &mut HeadlessRenderer) {
 pub(crate) fn mask_of(shipped: &ToonHairMaterial) -> ToonHairMaterial {
     let mut mask = shipped.clone();
     mask.base_color = Color::srgb(0.0, 1.0, 0.0);
+    mask.tip_strength = 0.0;
     mask.angel_ring = 0.0;
     mask.specular_strength = 0.0;
     mask.back_light_strength = 0.0;
