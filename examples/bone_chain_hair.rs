@@ -68,7 +68,11 @@ fn setup(
         base_color: Color::srgb(0.55, 0.22, 0.1),
         ..default()
     };
-    let look = materials.add(ToonHairMaterial::new(shading, ramps.three_tone.clone()));
+    let look = materials.add(ToonHairMaterial {
+        // The hair's glTF material is double-sided (its cap is open underneath): so is this.
+        double_sided: true,
+        ..ToonHairMaterial::new(shading, ramps.three_tone.clone())
+    });
     let character = commands
         .spawn((
             WorldAssetRoot(scene),

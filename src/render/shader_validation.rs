@@ -324,8 +324,8 @@ fn every_toon_material_variant_composes_and_validates() {
             });
         }
     });
-    assert_eq!(variants.len(), 384);
-    assert_eq!(checked, 384 + 2 * 24);
+    assert_eq!(variants.len(), 768);
+    assert_eq!(checked, 768 + 2 * 48);
 }
 
 #[test]
@@ -428,38 +428,39 @@ fn every_hair_prepass_variant_composes_and_validates() {
     let hair_mesh = crate::mesh::new_hair_mesh(&crate::mesh::tube::TubeTopology::new(4, 4), 2);
     let mut checked = 0;
     // As Bevy's prepass pipeline sets them: which targets the view has, and whether a
-    // directional shadow emulates unclipped depth.
-    for normals in [false, true] {
-        for motion in [false, true] {
-            for unclipped in [false, true] {
-                // With no target and no depth to write, Bevy runs no prepass fragment.
-                if !(normals || motion || unclipped) {
-                    continue;
-                }
-                let mut defs = mesh_pipeline_vertex_defs(&hair_mesh);
-                defs.retain(|d| *d != "MESH_PIPELINE");
-                defs.extend(["PREPASS_PIPELINE", "PREPASS_FRAGMENT"]);
-                if normals {
-                    defs.extend(["NORMAL_PREPASS", "NORMAL_PREPASS_OR_DEFERRED_PREPASS"]);
-                }
-                if motion {
-                    defs.push("MOTION_VECTOR_PREPASS");
-                }
-                if unclipped {
-                    defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
-                }
-                let module = compiler
-                    .compile(name, source, &defs, &values)
-                    .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
-                assert!(
-                    module.entry_points.iter().any(|e| e.name == "fragment"),
-                    "defs {defs:?}: no fragment entry point"
-                );
-                checked += 1;
-            }
+    // directional shadow emulates unclipped depth; and whether the material is double-sided.
+    for (normals, motion, unclipped, double_sided) in
+        (0..16).map(|i| (i & 1 != 0, i & 2 != 0, i & 4 != 0, i & 8 != 0))
+    {
+        // With no target and no depth to write, Bevy runs no prepass fragment.
+        if !(normals || motion || unclipped) {
+            continue;
         }
+        let mut defs = mesh_pipeline_vertex_defs(&hair_mesh);
+        defs.retain(|d| *d != "MESH_PIPELINE");
+        defs.extend(["PREPASS_PIPELINE", "PREPASS_FRAGMENT"]);
+        if normals {
+            defs.extend(["NORMAL_PREPASS", "NORMAL_PREPASS_OR_DEFERRED_PREPASS"]);
+        }
+        if motion {
+            defs.push("MOTION_VECTOR_PREPASS");
+        }
+        if unclipped {
+            defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
+        }
+        if double_sided {
+            defs.push("DOUBLE_SIDED");
+        }
+        let module = compiler
+            .compile(name, source, &defs, &values)
+            .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
+        assert!(
+            module.entry_points.iter().any(|e| e.name == "fragment"),
+            "defs {defs:?}: no fragment entry point"
+        );
+        checked += 1;
     }
-    assert_eq!(checked, 7);
+    assert_eq!(checked, 14);
 }
 
 #[test]

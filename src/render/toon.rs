@@ -113,6 +113,12 @@ pub struct ToonHairMaterial {
     #[texture(5)]
     #[sampler(6)]
     pub specular_ramp_texture: Option<Handle<Image>>,
+    /// Draw back faces too, lit as the side they show (the normal turned toward the viewer), as
+    /// a glTF material with `doubleSided` is drawn: for a character's hair modelled as single
+    /// sheets, which otherwise have holes wherever their back faces the camera. The crate's
+    /// strand tubes are closed and need no back faces (they would cost fragments and shadow
+    /// draws for nothing). Default: `false`.
+    pub double_sided: bool,
 }
 
 impl ToonHairMaterial {
@@ -123,6 +129,7 @@ impl ToonHairMaterial {
             ramp,
             tonal_art_map: None,
             specular_ramp_texture: None,
+            double_sided: false,
         }
     }
 }
@@ -348,6 +355,7 @@ pub struct ToonHairMaterialKey {
     scene_lights: bool,
     angel_ring: bool,
     specular_layer: bool,
+    double_sided: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -366,6 +374,7 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
             angel_ring: m.angel_ring > 0.0,
             // Without a ramp there is nothing to draw the highlight from.
             specular_layer: m.specular_ramp > 0.0 && m.specular_ramp_texture.is_some(),
+            double_sided: m.double_sided,
         }
     }
 }
@@ -400,6 +409,9 @@ impl ToonHairMaterialKey {
         if self.specular_layer {
             defs.push("SPECULAR_LAYER");
         }
+        if self.double_sided {
+            defs.push("DOUBLE_SIDED");
+        }
         defs
     }
 
@@ -422,15 +434,18 @@ impl ToonHairMaterialKey {
                         for scene_lights in [false, true] {
                             for angel_ring in [false, true] {
                                 for specular_layer in [false, true] {
-                                    v.push(Self {
-                                        ramp_mode,
-                                        blinn,
-                                        back_light,
-                                        hatching,
-                                        scene_lights,
-                                        angel_ring,
-                                        specular_layer,
-                                    });
+                                    for double_sided in [false, true] {
+                                        v.push(Self {
+                                            ramp_mode,
+                                            blinn,
+                                            back_light,
+                                            hatching,
+                                            scene_lights,
+                                            angel_ring,
+                                            specular_layer,
+                                            double_sided,
+                                        });
+                                    }
                                 }
                             }
                         }
@@ -468,7 +483,12 @@ impl Material for ToonHairMaterial {
         // Back faces are culled in every pass: the main pass's default, and the prepass and
         // shadow passes would otherwise draw them (Bevy leaves culling there to the material),
         // shading each tube's hidden half in the prepass and casting it into every cascade.
-        descriptor.primitive.cull_mode = Some(bevy::render::render_resource::Face::Back);
+        // A double-sided material (hair modelled as sheets) draws them everywhere.
+        descriptor.primitive.cull_mode = if key.bind_group_data.double_sided {
+            None
+        } else {
+            Some(bevy::render::render_resource::Face::Back)
+        };
         if let Some(fragment) = descriptor.fragment.as_mut() {
             for def in key.bind_group_data.shader_defs() {
                 fragment.shader_defs.push(def.into());

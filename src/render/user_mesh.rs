@@ -46,8 +46,11 @@ pub struct ToonHairMeshes {
     /// material's name; one passing is enough.
     #[reflect(ignore)]
     pub select: BonePredicate,
-    /// The material. `None`: the crate's default (three-tone ramp, orange); give one for the
-    /// hair's own colour.
+    /// The material. `None`: the crate's default (three-tone ramp, orange), double-sided for
+    /// the meshes whose glTF material is; give one for the hair's own colour (and set its
+    /// [`ToonHairMaterial::double_sided`] when the hair is modelled as single sheets: a mesh
+    /// whose glTF material is double-sided dressed in a material that is not is reported with
+    /// a warning naming it).
     pub material: Option<Handle<ToonHairMaterial>>,
     /// How far each mesh's normals turn toward those of [`ToonHairMeshes::mass_shapes`]
     /// (by default the ellipsoid that fits the mesh's bounds), 0 to 1: at 1 the toon bands
@@ -338,6 +341,9 @@ fn shapes_key(shapes: &[HairMassShape]) -> u64 {
     hasher.finish()
 }
 
+/// The default toon material, made once: single-sided and double-sided.
+type DefaultMaterials = [Option<Handle<ToonHairMaterial>>; 2];
+
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
     clippy::too_many_arguments,
@@ -354,7 +360,11 @@ pub(crate) fn apply_toon_to_user_meshes(
     ramps: Res<ToonRamps>,
     (mut materials, mut default_material): (
         ResMut<Assets<ToonHairMaterial>>,
-        Local<Option<Handle<ToonHairMaterial>>>,
+        Local<DefaultMaterials>,
+    ),
+    (gltf_materials, standard): (
+        Query<&MeshMaterial3d<StandardMaterial>>,
+        Option<Res<Assets<StandardMaterial>>>,
     ),
     mut mesh_assets: Option<ResMut<Assets<Mesh>>>,
     mesh_handles: Query<&Mesh3d>,
@@ -374,17 +384,6 @@ pub(crate) fn apply_toon_to_user_meshes(
             }
             continue;
         }
-        let material = match &wanted.material {
-            Some(m) => m.clone(),
-            None => default_material
-                .get_or_insert_with(|| {
-                    materials.add(ToonHairMaterial {
-                        ramp: ramps.three_tone.clone(),
-                        ..default()
-                    })
-                })
-                .clone(),
-        };
         let dressed = meshes_passing(character, &wanted.select, false, &children, &meshes, &names);
         let amount = finite_or(wanted.mass_normals, 0.0).clamp(0.0, 1.0);
         let shapes = shapes_key(&wanted.mass_shapes);
@@ -392,10 +391,38 @@ pub(crate) fn apply_toon_to_user_meshes(
             massed.retain(|_, copy| assets.contains(*copy));
         }
         for &e in &dressed {
+            // Drawn from both sides as its glTF material is (hair modelled as sheets).
+            let double_sided = gltf_materials
+                .get(e)
+                .ok()
+                .and_then(|m| standard.as_deref()?.get(&m.0))
+                .is_some_and(|m| m.double_sided || m.cull_mode.is_none());
+            let material = match &wanted.material {
+                Some(m) => {
+                    if double_sided && materials.get(m).is_some_and(|m| !m.double_sided) {
+                        warn!(
+                            "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
+                             double-sided and its toon material is not, so the mesh's back \
+                             faces are not drawn (holes where the hair is a single sheet); set \
+                             ToonHairMaterial::double_sided on that material"
+                        );
+                    }
+                    m.clone()
+                }
+                None => default_material[usize::from(double_sided)]
+                    .get_or_insert_with(|| {
+                        materials.add(ToonHairMaterial {
+                            ramp: ramps.three_tone.clone(),
+                            double_sided,
+                            ..default()
+                        })
+                    })
+                    .clone(),
+            };
             let mut entity = commands.entity(e);
             entity
                 .remove::<MeshMaterial3d<StandardMaterial>>()
-                .insert(MeshMaterial3d(material.clone()));
+                .insert(MeshMaterial3d(material));
             let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
                 continue;
             };

@@ -13,6 +13,7 @@ mod avatar_looks;
 mod chain_render;
 mod character_render;
 mod clip;
+mod double_sided_render;
 mod fringe_render;
 mod gpu_fallback_render;
 mod gpu_tubes_render;
@@ -86,6 +87,7 @@ fn main() {
         .chain(shadow_render::RENDER_TESTS)
         .chain(half_tube_render::RENDER_TESTS)
         .chain(avatar_looks::RENDER_TESTS)
+        .chain(double_sided_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
