@@ -324,8 +324,8 @@ fn every_toon_material_variant_composes_and_validates() {
             });
         }
     });
-    assert_eq!(variants.len(), 768);
-    assert_eq!(checked, 768 + 2 * 48);
+    assert_eq!(variants.len(), 1536);
+    assert_eq!(checked, 1536 + 2 * 96);
 }
 
 #[test]

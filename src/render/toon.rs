@@ -113,6 +113,12 @@ pub struct ToonHairMaterial {
     #[texture(5)]
     #[sampler(6)]
     pub specular_ramp_texture: Option<Handle<Image>>,
+    /// A colour texture multiplying [`ToonShading::base_color`] (sampled with the mesh's first
+    /// UVs; its alpha is not read): a character's painted hair (a VRM's hair texture) under the
+    /// toon ramp, its coloured tips blending from the painted colour. Default: none.
+    #[texture(7)]
+    #[sampler(8)]
+    pub base_color_texture: Option<Handle<Image>>,
     /// Draw back faces too, lit as the side they show (the normal turned toward the viewer), as
     /// a glTF material with `doubleSided` is drawn: for a character's hair modelled as single
     /// sheets, which otherwise have holes wherever their back faces the camera. The crate's
@@ -129,6 +135,7 @@ impl ToonHairMaterial {
             ramp,
             tonal_art_map: None,
             specular_ramp_texture: None,
+            base_color_texture: None,
             double_sided: false,
         }
     }
@@ -356,6 +363,7 @@ pub struct ToonHairMaterialKey {
     angel_ring: bool,
     specular_layer: bool,
     double_sided: bool,
+    base_texture: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -375,6 +383,7 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
             // Without a ramp there is nothing to draw the highlight from.
             specular_layer: m.specular_ramp > 0.0 && m.specular_ramp_texture.is_some(),
             double_sided: m.double_sided,
+            base_texture: m.base_color_texture.is_some(),
         }
     }
 }
@@ -412,6 +421,9 @@ impl ToonHairMaterialKey {
         if self.double_sided {
             defs.push("DOUBLE_SIDED");
         }
+        if self.base_texture {
+            defs.push("BASE_COLOR_TEXTURE");
+        }
         defs
     }
 
@@ -434,7 +446,9 @@ impl ToonHairMaterialKey {
                         for scene_lights in [false, true] {
                             for angel_ring in [false, true] {
                                 for specular_layer in [false, true] {
-                                    for double_sided in [false, true] {
+                                    for (double_sided, base_texture) in
+                                        [(false, false), (true, false), (false, true), (true, true)]
+                                    {
                                         v.push(Self {
                                             ramp_mode,
                                             blinn,
@@ -444,6 +458,7 @@ impl ToonHairMaterialKey {
                                             angel_ring,
                                             specular_layer,
                                             double_sided,
+                                            base_texture,
                                         });
                                     }
                                 }

@@ -3,10 +3,12 @@
 //! glTF material, skinned as before.
 //!
 //! The toon material needs only a mesh's standard attributes (positions and normals; UVs give
-//! the angel ring its strand direction), so any skinned or rigid mesh wears it: ramps under the
-//! scene's lights and shadows, the angel ring, and the mass outline (its prepass marks the mesh
-//! as hair). Meshes not selected keep their own material, so a VRM's MToon-derived materials stay
-//! as they are unless the user opts in.
+//! the angel ring its strand direction and carry a painted texture), so any skinned or rigid
+//! mesh wears it: ramps under the scene's lights and shadows, the angel ring, and the mass
+//! outline (its prepass marks the mesh as hair). Without a material of the user's, each glTF
+//! material's meshes wear a toon material in its colours (base colour and texture) and sides.
+//! Meshes not selected keep their own material, so a VRM's MToon-derived materials stay as they
+//! are unless the user opts in.
 //!
 //! Modelled hair is often faceted (flat or ridged locks, low-poly caps), and toon bands follow
 //! every facet. [`ToonHairMeshes::mass_normals`] gives the meshes the normals of smooth
@@ -46,8 +48,9 @@ pub struct ToonHairMeshes {
     /// material's name; one passing is enough.
     #[reflect(ignore)]
     pub select: BonePredicate,
-    /// The material. `None`: the crate's default (three-tone ramp, orange), double-sided for
-    /// the meshes whose glTF material is; give one for the hair's own colour (and set its
+    /// The material. `None`: for each glTF material, a toon material in its colours (the
+    /// three-tone ramp times its base colour and base colour texture), double-sided if it is;
+    /// orange for a mesh without one. Give one for a look of your own (and set its
     /// [`ToonHairMaterial::double_sided`] when the hair is modelled as single sheets: a mesh
     /// whose glTF material is double-sided dressed in a material that is not is reported with
     /// a warning naming it).
@@ -88,8 +91,9 @@ pub enum StrandUvs {
     Mesh,
     /// Hair hanging from the top of the head: `v` runs from the top of the mesh's bounds (0)
     /// to its bottom (1) in its bind pose, and `u` once around its vertical axis (the seam at
-    /// `+z`, the front of a glTF character). The mesh is copied with these UVs (its own are
-    /// replaced; the toon material samples no texture with them), skinned as before. Hair
+    /// `+z`, the front of a glTF character). The mesh is copied with these UVs, skinned as
+    /// before; its own are replaced, so a base colour texture would be sampled with these
+    /// instead of its layout (a warning says so): for unpainted hair. Hair
     /// whose tips point up (spikes) is not hanging: give it UVs of its own.
     Height,
 }
@@ -341,8 +345,9 @@ fn shapes_key(shapes: &[HairMassShape]) -> u64 {
     hasher.finish()
 }
 
-/// The default toon material, made once: single-sided and double-sided.
-type DefaultMaterials = [Option<Handle<ToonHairMaterial>>; 2];
+/// The default toon material made for each glTF material (in its colours and sides), and for
+/// meshes without one.
+type DefaultMaterials = HashMap<Option<AssetId<StandardMaterial>>, Handle<ToonHairMaterial>>;
 
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
@@ -391,12 +396,18 @@ pub(crate) fn apply_toon_to_user_meshes(
             massed.retain(|_, copy| assets.contains(*copy));
         }
         for &e in &dressed {
+            let gltf_id = gltf_materials.get(e).ok().map(|m| m.0.id());
+            let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
             // Drawn from both sides as its glTF material is (hair modelled as sheets).
-            let double_sided = gltf_materials
-                .get(e)
-                .ok()
-                .and_then(|m| standard.as_deref()?.get(&m.0))
-                .is_some_and(|m| m.double_sided || m.cull_mode.is_none());
+            let double_sided = gltf.is_some_and(|m| m.double_sided || m.cull_mode.is_none());
+            if let Some(m) = gltf.filter(|m| !matches!(m.alpha_mode, AlphaMode::Opaque)) {
+                warn!(
+                    "ToonHairMeshes on {character}: the glTF material of mesh {e} is drawn with \
+                     alpha ({:?}), which the toon material is not: its cut-out or see-through \
+                     parts are drawn solid",
+                    m.alpha_mode
+                );
+            }
             let material = match &wanted.material {
                 Some(m) => {
                     if double_sided && materials.get(m).is_some_and(|m| !m.double_sided) {
@@ -409,16 +420,33 @@ pub(crate) fn apply_toon_to_user_meshes(
                     }
                     m.clone()
                 }
-                None => default_material[usize::from(double_sided)]
-                    .get_or_insert_with(|| {
-                        materials.add(ToonHairMaterial {
+                None => default_material
+                    .entry(gltf_id.filter(|_| gltf.is_some()))
+                    .or_insert_with(|| {
+                        let mut toon = ToonHairMaterial {
                             ramp: ramps.three_tone.clone(),
                             double_sided,
                             ..default()
-                        })
+                        };
+                        if let Some(m) = gltf {
+                            toon.base_color = m.base_color;
+                            toon.base_color_texture = m.base_color_texture.clone();
+                        }
+                        materials.add(toon)
                     })
                     .clone(),
             };
+            let uvs = wanted.strand_uvs;
+            let painted = materials
+                .get(&material)
+                .is_some_and(|m| m.base_color_texture.is_some());
+            if uvs == StrandUvs::Height && painted {
+                warn!(
+                    "ToonHairMeshes on {character}: mesh {e} is painted (its toon material has a \
+                     base colour texture) and its strand UVs are by height, which replace the UVs \
+                     the paint is laid out by; use StrandUvs::Mesh for painted hair"
+                );
+            }
             let mut entity = commands.entity(e);
             entity
                 .remove::<MeshMaterial3d<StandardMaterial>>()
@@ -426,7 +454,6 @@ pub(crate) fn apply_toon_to_user_meshes(
             let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
                 continue;
             };
-            let uvs = wanted.strand_uvs;
             let Some(mesh_assets) = mesh_assets
                 .as_deref_mut()
                 .filter(|_| amount > 0.0 || uvs != StrandUvs::Mesh)

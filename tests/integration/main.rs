@@ -13,7 +13,6 @@ mod avatar_looks;
 mod chain_render;
 mod character_render;
 mod clip;
-mod double_sided_render;
 mod fringe_render;
 mod gpu_fallback_render;
 mod gpu_tubes_render;
@@ -31,6 +30,7 @@ mod see_through_render;
 mod shadow_render;
 mod silhouette_render;
 mod toon_render;
+mod user_mesh_render;
 mod vrm_interop_render;
 mod vrm_render;
 
@@ -87,7 +87,7 @@ fn main() {
         .chain(shadow_render::RENDER_TESTS)
         .chain(half_tube_render::RENDER_TESTS)
         .chain(avatar_looks::RENDER_TESTS)
-        .chain(double_sided_render::RENDER_TESTS)
+        .chain(user_mesh_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
