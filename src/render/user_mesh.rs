@@ -583,11 +583,8 @@ mod tests {
         assert_eq!(normals(&nan), normals(&own));
     }
 
-    /// Two characters sharing one hair mesh, dressed with mass normals: both wear one copy
-    /// (normals turned, the source untouched); once neither is left the copy is freed, and a
-    /// third character gets a new one.
-    #[test]
-    fn characters_share_one_mass_normal_copy_until_it_is_freed() {
+    /// An app with meshes, images, toon materials and ramps, running the dressing system.
+    fn dressing_app() -> App {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, AssetPlugin::default()))
             .init_asset::<Mesh>()
@@ -596,6 +593,15 @@ mod tests {
             .add_systems(Update, apply_toon_to_user_meshes);
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         app.insert_resource(ramps);
+        app
+    }
+
+    /// Two characters sharing one hair mesh, dressed with mass normals: both wear one copy
+    /// (normals turned, the source untouched); once neither is left the copy is freed, and a
+    /// third character gets a new one.
+    #[test]
+    fn characters_share_one_mass_normal_copy_until_it_is_freed() {
+        let mut app = dressing_app();
         let source = app
             .world_mut()
             .resource_mut::<Assets<Mesh>>()
@@ -799,14 +805,7 @@ mod tests {
     /// source keeps none, and the copy keeps the source's normals (no mass normals asked).
     #[test]
     fn a_mesh_dressed_with_height_uvs_wears_a_copy_with_them() {
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
-            .init_asset::<Mesh>()
-            .init_asset::<Image>()
-            .init_asset::<ToonHairMaterial>()
-            .add_systems(Update, apply_toon_to_user_meshes);
-        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
-        app.insert_resource(ramps);
+        let mut app = dressing_app();
         let mut bare = faceted_box();
         bare.remove_attribute(Mesh::ATTRIBUTE_UV_0);
         let source = app.world_mut().resource_mut::<Assets<Mesh>>().add(bare);

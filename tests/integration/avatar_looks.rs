@@ -321,22 +321,14 @@ fn a_ponytail_given_its_own_mass_shape_shades_as_its_own() -> Result<(), Failed>
         ("bounds", vec![]),
         ("head_and_ponytail", vec![head, ponytail]),
     ] {
-        r.app
-            .world_mut()
-            .entity_mut(character)
-            .insert((
-                ToonHairMeshes::matching(|n| n == "hair")
-                    .with_material(handle.clone())
-                    .with_mass_normals(1.0)
-                    .with_mass_shapes(shapes),
-                Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2)),
-            ))
-            .remove::<ToonHairMeshesApplied>();
-        warm_up_dressed(&mut r)?;
-        set_material(&mut r, &handle, &mask_of(&shipped));
-        let mask = r.capture()?;
-        set_material(&mut r, &handle, &shipped);
-        let plain = r.capture()?;
+        let (mask, plain) = redress(
+            &mut r,
+            (character, &handle, &shipped),
+            ToonHairMeshes::matching(|n| n == "hair")
+                .with_mass_normals(1.0)
+                .with_mass_shapes(shapes),
+            std::f32::consts::FRAC_PI_2,
+        )?;
         save(&plain, &format!("avatar_mass_shapes_{name}"))?;
         let pixels = ponytail_pixels(&mut r, &mask)?;
         let luma = |(x, y): (u32, u32)| {
@@ -374,6 +366,29 @@ fn a_ponytail_given_its_own_mass_shape_shades_as_its_own() -> Result<(), Failed>
         .into());
     }
     Ok(())
+}
+
+/// Dresses the avatar again with `dress` (in the material behind `handle`), turned by `yaw`, and
+/// captures its mask (the hair in flat green) and its look as `shipped`.
+fn redress(
+    r: &mut HeadlessRenderer,
+    (character, handle, shipped): (Entity, &Handle<ToonHairMaterial>, &ToonHairMaterial),
+    dress: ToonHairMeshes,
+    yaw: f32,
+) -> Result<(CapturedFrame, CapturedFrame), Failed> {
+    r.app
+        .world_mut()
+        .entity_mut(character)
+        .insert((
+            dress.with_material(handle.clone()),
+            Transform::from_rotation(Quat::from_rotation_y(yaw)),
+        ))
+        .remove::<ToonHairMeshesApplied>();
+    warm_up_dressed(r)?;
+    set_material(r, handle, &mask_of(shipped));
+    let mask = r.capture()?;
+    set_material(r, handle, shipped);
+    Ok((mask, r.capture()?))
 }
 
 fn is_green([r, g, b, _]: [u8; 4]) -> bool {
@@ -444,21 +459,12 @@ fn height_uvs_colour_the_avatars_tips_from_the_top_down() -> Result<(), Failed> 
     )?;
     let mut thirds = Vec::new();
     for uvs in [StrandUvs::Mesh, StrandUvs::Height] {
-        r.app
-            .world_mut()
-            .entity_mut(character)
-            .insert((
-                ToonHairMeshes::matching(|n| n == "hair")
-                    .with_material(handle.clone())
-                    .with_strand_uvs(uvs),
-                Transform::from_rotation(Quat::from_rotation_y(std::f32::consts::PI)),
-            ))
-            .remove::<ToonHairMeshesApplied>();
-        warm_up_dressed(&mut r)?;
-        set_material(&mut r, &handle, &mask_of(&shipped));
-        let mask = r.capture()?;
-        set_material(&mut r, &handle, &shipped);
-        let plain = r.capture()?;
+        let (mask, plain) = redress(
+            &mut r,
+            (character, &handle, &shipped),
+            ToonHairMeshes::matching(|n| n == "hair").with_strand_uvs(uvs),
+            std::f32::consts::PI,
+        )?;
         save(&plain, &format!("avatar_tips_{uvs:?}"))?;
         let hair: Vec<(u32, u32)> = (0..mask.height)
             .flat_map(|y| (0..mask.width).map(move |x| (x, y)))
