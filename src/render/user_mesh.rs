@@ -157,16 +157,7 @@ pub fn turn_normals_to_mass(
     else {
         return Err("it has no positions on the CPU (Float32x3)".into());
     };
-    let bounds = positions
-        .iter()
-        .map(|p| Vec3::from_array(*p))
-        .filter(|p| p.is_finite())
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
-    if bounds.0.cmpgt(bounds.1).any() {
-        return Err("it has no finite position".into());
-    }
+    let bounds = finite_bounds(positions)?;
     let fitted = [HairMassShape::Fitted];
     let shapes = if shapes.is_empty() { &fitted } else { shapes };
     // Each shape as its centre and its half extents' inverse.
@@ -215,16 +206,7 @@ pub fn strand_uvs_from_height(mesh: &mut Mesh) -> Result<(), String> {
     else {
         return Err("it has no positions on the CPU (Float32x3)".into());
     };
-    let (lo, hi) = positions
-        .iter()
-        .map(|p| Vec3::from_array(*p))
-        .filter(|p| p.is_finite())
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-            (lo.min(p), hi.max(p))
-        });
-    if lo.cmpgt(hi).any() {
-        return Err("it has no finite position".into());
-    }
+    let (lo, hi) = finite_bounds(positions)?;
     let centre = (lo + hi) * 0.5;
     let height = (hi.y - lo.y).max(1e-9);
     let uvs: Vec<[f32; 2]> = positions
@@ -244,6 +226,21 @@ pub fn strand_uvs_from_height(mesh: &mut Mesh) -> Result<(), String> {
         .collect();
     mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs);
     Ok(())
+}
+
+/// The bounds of `positions`' finite points; an error when none is finite.
+fn finite_bounds(positions: &[[f32; 3]]) -> Result<(Vec3, Vec3), String> {
+    let (lo, hi) = positions
+        .iter()
+        .map(|p| Vec3::from_array(*p))
+        .filter(|p| p.is_finite())
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(p), hi.max(p))
+        });
+    if lo.cmpgt(hi).any() {
+        return Err("it has no finite position".into());
+    }
+    Ok((lo, hi))
 }
 
 /// The normal at `p` of the ellipsoids `(centre, 1 / half extents)`: each one's (the gradient
