@@ -261,10 +261,7 @@ fn mass_normals_shade_the_avatars_hair_as_one_shape() -> Result<(), Failed> {
 /// whose luma in `plain` differs by more than 6.
 fn tone_edges(mask: &CapturedFrame, plain: &CapturedFrame) -> usize {
     let (w, h) = (mask.width as i32, mask.height as i32);
-    let green = |x: i32, y: i32| {
-        let [r, g, b, _] = mask.pixel(x as u32, y as u32);
-        g > 40 && u32::from(r) * 3 < u32::from(g) && u32::from(b) * 3 < u32::from(g)
-    };
+    let green = |x: i32, y: i32| is_green(mask.pixel(x as u32, y as u32));
     let inside = |x: i32, y: i32| {
         (-3..=3).all(|dy| {
             (-3..=3).all(|dx| {
@@ -298,8 +295,9 @@ fn tone_edges(mask: &CapturedFrame, plain: &CapturedFrame) -> usize {
 /// back from the bounds' centre, so seen from the side it falls into the shadow tones as one
 /// dark stroke. With an ellipsoid of its own beside the head's (mesh space, Y-up: the numbers of
 /// the avatar's authoring script), it shades as a shape of its own: from the side, lit from above
-/// in front, the upper half of its side facing the camera takes the lit tone. Measured over the ponytail's pixels
-/// (the hair's pixels within 4 px of its lower bones projected to the screen).
+/// in front, the upper half of its side facing the camera takes the lit tone. Measured over the
+/// ponytail's pixels (the hair's pixels within 4 px of its lower bones projected to the
+/// screen).
 fn a_ponytail_given_its_own_mass_shape_shades_as_its_own() -> Result<(), Failed> {
     let look = HairPreset::look("clean_anime").ok_or("a shipped look")??;
     let (mut r, character, handle, shipped) = avatar_scene(
