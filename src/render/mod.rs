@@ -64,6 +64,7 @@ pub use user_mesh::{
 /// `bevy_cartoon_hair::render::f`.
 pub const SHADER_LIBRARY: &[(&str, &str)] = &[
     ("curves.wesl", include_str!("curves.wesl")),
+    ("toon_material.wesl", include_str!("toon_material.wesl")),
     ("gpu/common.wesl", include_str!("gpu/common.wesl")),
     ("gpu/quads.wesl", include_str!("gpu/quads.wesl")),
 ];
@@ -94,6 +95,7 @@ pub struct HairShaderLibraryPlugin;
 impl Plugin for HairShaderLibraryPlugin {
     fn build(&self, app: &mut App) {
         load_shader_library!(app, "curves.wesl");
+        load_shader_library!(app, "toon_material.wesl");
         load_shader_library!(app, "gpu/common.wesl");
         load_shader_library!(app, "gpu/quads.wesl");
     }

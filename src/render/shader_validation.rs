@@ -324,8 +324,8 @@ fn every_toon_material_variant_composes_and_validates() {
             });
         }
     });
-    assert_eq!(variants.len(), 1536);
-    assert_eq!(checked, 1536 + 2 * 96);
+    assert_eq!(variants.len(), 2304);
+    assert_eq!(checked, 2304 + 2 * 144);
 }
 
 #[test]
@@ -426,41 +426,72 @@ fn every_hair_prepass_variant_composes_and_validates() {
         .find(|(n, _)| *n == "hair_prepass.wesl")
         .expect("hair_prepass.wesl is listed");
     let hair_mesh = crate::mesh::new_hair_mesh(&crate::mesh::tube::TubeTopology::new(4, 4), 2);
+    let mut vertex = mesh_pipeline_vertex_defs(&hair_mesh);
+    vertex.retain(|d| *d != "MESH_PIPELINE");
+    // A user's mesh with positions and normals only: a cut-out there reads the base alpha.
+    let bare: Vec<&str> = vertex
+        .iter()
+        .copied()
+        .filter(|d| !d.starts_with("VERTEX_UVS") && *d != "VERTEX_TANGENTS")
+        .collect();
     let mut checked = 0;
+    let mut depth_only = 0;
     // As Bevy's prepass pipeline sets them: which targets the view has, and whether a
-    // directional shadow emulates unclipped depth; and whether the material is double-sided.
-    for (normals, motion, unclipped, double_sided) in
-        (0..16).map(|i| (i & 1 != 0, i & 2 != 0, i & 4 != 0, i & 8 != 0))
-    {
-        // With no target and no depth to write, Bevy runs no prepass fragment.
-        if !(normals || motion || unclipped) {
+    // directional shadow emulates unclipped depth; and the material's defs that the prepass
+    // reads: double-sided, cut out (which Bevy's pipeline sees as MAY_DISCARD), painted.
+    for bits in 0..64u32 {
+        let [normals, motion, unclipped, double_sided, alpha_mask, painted] =
+            std::array::from_fn(|i| bits & (1 << i) != 0);
+        let fragment = normals || motion || unclipped;
+        // With no target and no depth to write, Bevy runs a prepass fragment only for a
+        // material that may discard: the depth-only entry.
+        if !fragment && !alpha_mask {
             continue;
         }
-        let mut defs = mesh_pipeline_vertex_defs(&hair_mesh);
-        defs.retain(|d| *d != "MESH_PIPELINE");
-        defs.extend(["PREPASS_PIPELINE", "PREPASS_FRAGMENT"]);
-        if normals {
-            defs.extend(["NORMAL_PREPASS", "NORMAL_PREPASS_OR_DEFERRED_PREPASS"]);
+        let layouts = if alpha_mask {
+            vec![&vertex, &bare]
+        } else {
+            vec![&vertex]
+        };
+        for layout in layouts {
+            let mut defs = layout.clone();
+            defs.push("PREPASS_PIPELINE");
+            if fragment {
+                defs.push("PREPASS_FRAGMENT");
+            } else {
+                depth_only += 1;
+            }
+            if normals {
+                defs.extend(["NORMAL_PREPASS", "NORMAL_PREPASS_OR_DEFERRED_PREPASS"]);
+            }
+            if motion {
+                defs.push("MOTION_VECTOR_PREPASS");
+            }
+            if unclipped {
+                defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
+            }
+            if double_sided {
+                defs.push("DOUBLE_SIDED");
+            }
+            if alpha_mask {
+                defs.extend(["ALPHA_MASK", "MAY_DISCARD"]);
+            }
+            if painted {
+                defs.push("BASE_COLOR_TEXTURE");
+            }
+            let module = compiler
+                .compile(name, source, &defs, &values)
+                .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
+            assert!(
+                module.entry_points.iter().any(|e| e.name == "fragment"),
+                "defs {defs:?}: no fragment entry point"
+            );
+            checked += 1;
         }
-        if motion {
-            defs.push("MOTION_VECTOR_PREPASS");
-        }
-        if unclipped {
-            defs.push("UNCLIPPED_DEPTH_ORTHO_EMULATION");
-        }
-        if double_sided {
-            defs.push("DOUBLE_SIDED");
-        }
-        let module = compiler
-            .compile(name, source, &defs, &values)
-            .unwrap_or_else(|e| panic!("defs {defs:?}: {e}"));
-        assert!(
-            module.entry_points.iter().any(|e| e.name == "fragment"),
-            "defs {defs:?}: no fragment entry point"
-        );
-        checked += 1;
     }
-    assert_eq!(checked, 14);
+    // A solid material: 28 prepasses on the hair mesh. A cut-out: 32 on each of two layouts,
+    // 4 of them depth-only.
+    assert_eq!((checked, depth_only), (28 + 2 * 32, 8));
 }
 
 #[test]

@@ -114,8 +114,9 @@ pub struct ToonHairMaterial {
     #[sampler(6)]
     pub specular_ramp_texture: Option<Handle<Image>>,
     /// A colour texture multiplying [`ToonShading::base_color`] (sampled with the mesh's first
-    /// UVs; its alpha is not read): a character's painted hair (a VRM's hair texture) under the
-    /// toon ramp, its coloured tips blending from the painted colour. Default: none.
+    /// UVs; its alpha is read only for [`alpha_cutoff`](Self::alpha_cutoff)): a character's
+    /// painted hair (a VRM's hair texture) under the toon ramp, its coloured tips blending from
+    /// the painted colour. Default: none.
     #[texture(7)]
     #[sampler(8)]
     pub base_color_texture: Option<Handle<Image>>,
@@ -125,9 +126,28 @@ pub struct ToonHairMaterial {
     /// strand tubes are closed and need no back faces (they would cost fragments and shadow
     /// draws for nothing). Default: `false`.
     pub double_sided: bool,
+    /// Cut the hair out where its alpha (the base colour's times the texture's) is below this,
+    /// as a glTF material with `alphaMode` `MASK`: hair cards with painted strand tips. The
+    /// cut-out parts are left out of the colour, the depth and normal prepasses (so outlines and
+    /// the fringe shadow follow the cut) and the shadow maps. Clamped to `[0, 1]`; a NaN is
+    /// `0.5`. Costs a texture sample per fragment in the prepass and shadow passes, and turns
+    /// off the early depth test for this material. Default: `None` (opaque).
+    pub alpha_cutoff: Option<f32>,
 }
 
 impl ToonHairMaterial {
+    /// The alpha cut-off the shaders use, if the material is cut out: finite, in `[0, 1]`.
+    pub fn cutoff(&self) -> Option<f32> {
+        self.alpha_cutoff.map(|c| finite_or(c, 0.5).clamp(0.0, 1.0))
+    }
+
+    /// The uniform block: the shading's, with the alpha cut-off.
+    fn uniform(&self) -> ToonHairUniform {
+        let mut uniform = self.shading.uniform();
+        uniform.base_lab.w = self.cutoff().unwrap_or(0.0);
+        uniform
+    }
+
     /// A material with this shading and `ramp`.
     pub fn new(shading: ToonShading, ramp: Handle<Image>) -> Self {
         Self {
@@ -137,6 +157,7 @@ impl ToonHairMaterial {
             specular_ramp_texture: None,
             base_color_texture: None,
             double_sided: false,
+            alpha_cutoff: None,
         }
     }
 }
@@ -294,7 +315,7 @@ impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for T
         &self,
         _images: &bevy::render::render_asset::RenderAssets<bevy::render::texture::GpuImage>,
     ) -> ToonHairUniform {
-        self.shading.uniform()
+        self.uniform()
     }
 }
 
@@ -364,6 +385,7 @@ pub struct ToonHairMaterialKey {
     specular_layer: bool,
     double_sided: bool,
     base_texture: bool,
+    alpha_mask: bool,
 }
 
 impl From<&ToonHairMaterial> for ToonHairMaterialKey {
@@ -384,6 +406,7 @@ impl From<&ToonHairMaterial> for ToonHairMaterialKey {
             specular_layer: m.specular_ramp > 0.0 && m.specular_ramp_texture.is_some(),
             double_sided: m.double_sided,
             base_texture: m.base_color_texture.is_some(),
+            alpha_mask: m.alpha_cutoff.is_some(),
         }
     }
 }
@@ -424,6 +447,9 @@ impl ToonHairMaterialKey {
         if self.base_texture {
             defs.push("BASE_COLOR_TEXTURE");
         }
+        if self.alpha_mask {
+            defs.push("ALPHA_MASK");
+        }
         defs
     }
 
@@ -446,9 +472,16 @@ impl ToonHairMaterialKey {
                         for scene_lights in [false, true] {
                             for angel_ring in [false, true] {
                                 for specular_layer in [false, true] {
-                                    for (double_sided, base_texture) in
-                                        [(false, false), (true, false), (false, true), (true, true)]
-                                    {
+                                    // A cut-out with and without paint, single- and
+                                    // double-sided.
+                                    for (double_sided, base_texture, alpha_mask) in [
+                                        (false, false, false),
+                                        (true, false, false),
+                                        (false, true, false),
+                                        (true, true, false),
+                                        (false, false, true),
+                                        (true, true, true),
+                                    ] {
                                         v.push(Self {
                                             ramp_mode,
                                             blinn,
@@ -459,6 +492,7 @@ impl ToonHairMaterialKey {
                                             specular_layer,
                                             double_sided,
                                             base_texture,
+                                            alpha_mask,
                                         });
                                     }
                                 }
@@ -487,6 +521,15 @@ impl Material for ToonHairMaterial {
             bevy::asset::AssetPath::from_path_buf(bevy::asset::embedded_path!("hair_prepass.wesl"))
                 .with_source("embedded"),
         )
+    }
+
+    /// Cut out ([`AlphaMode::Mask`]) with an [`alpha_cutoff`](Self::alpha_cutoff): drawn in
+    /// the alpha-mask phase, its prepass and shadow fragments run to discard.
+    fn alpha_mode(&self) -> AlphaMode {
+        match self.cutoff() {
+            Some(c) => AlphaMode::Mask(c),
+            None => AlphaMode::Opaque,
+        }
     }
 
     fn specialize(
@@ -595,5 +638,37 @@ mod tests {
             "orange: {}",
             d.base_lab
         );
+    }
+
+    /// A cut-out material is drawn masked at its cut-off, which reaches the shaders clamped and
+    /// finite, with the def that makes them discard; without one it is opaque.
+    #[test]
+    fn a_cut_out_material_masks_at_its_cutoff() {
+        let opaque = ToonHairMaterial::default();
+        assert_eq!(opaque.alpha_mode(), AlphaMode::Opaque);
+        assert_eq!(opaque.uniform().base_lab.w, 0.0);
+        assert!(
+            !ToonHairMaterialKey::from(&opaque)
+                .shader_defs()
+                .contains(&"ALPHA_MASK")
+        );
+        for (given, used) in [(0.3, 0.3), (f32::NAN, 0.5), (-2.0, 0.0), (7.0, 1.0)] {
+            let cut = ToonHairMaterial {
+                alpha_cutoff: Some(given),
+                ..default()
+            };
+            assert_eq!(cut.alpha_mode(), AlphaMode::Mask(used), "cut-off {given}");
+            assert_eq!(cut.uniform().base_lab.w, used, "cut-off {given}");
+            // The Oklab colour beside it is the shading's.
+            assert_eq!(
+                cut.uniform().base_lab.truncate(),
+                opaque.uniform().base_lab.truncate()
+            );
+            assert!(
+                ToonHairMaterialKey::from(&cut)
+                    .shader_defs()
+                    .contains(&"ALPHA_MASK")
+            );
+        }
     }
 }

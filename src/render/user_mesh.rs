@@ -397,22 +397,37 @@ pub(crate) fn apply_toon_to_user_meshes(
             let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
             // Drawn from both sides as its glTF material is (hair modelled as sheets).
             let double_sided = gltf.is_some_and(|m| m.double_sided || m.cull_mode.is_none());
-            if let Some(m) = gltf.filter(|m| !matches!(m.alpha_mode, AlphaMode::Opaque)) {
-                warn!(
-                    "ToonHairMeshes on {character}: the glTF material of mesh {e} is drawn with \
-                     alpha ({:?}), which the toon material is not: its cut-out or see-through \
-                     parts are drawn solid",
-                    m.alpha_mode
-                );
-            }
+            // Cut out where its glTF material is (hair cards); blended alpha, which an opaque
+            // toon ramp cannot sort, is cut at half.
+            let alpha_cutoff = gltf.and_then(|m| match m.alpha_mode {
+                AlphaMode::Opaque => None,
+                AlphaMode::Mask(cutoff) => Some(cutoff),
+                blended => {
+                    warn!(
+                        "ToonHairMeshes on {character}: the glTF material of mesh {e} blends \
+                         with alpha ({blended:?}), which the toon material does not: it is cut \
+                         out at alpha 0.5 instead (ToonHairMaterial::alpha_cutoff)"
+                    );
+                    Some(0.5)
+                }
+            });
             let material = match &wanted.material {
                 Some(m) => {
-                    if double_sided && materials.get(m).is_some_and(|m| !m.double_sided) {
+                    let given = materials.get(m);
+                    if double_sided && given.is_some_and(|m| !m.double_sided) {
                         warn!(
                             "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
                              double-sided and its toon material is not, so the mesh's back \
                              faces are not drawn (holes where the hair is a single sheet); set \
                              ToonHairMaterial::double_sided on that material"
+                        );
+                    }
+                    if alpha_cutoff.is_some() && given.is_some_and(|m| m.alpha_cutoff.is_none()) {
+                        warn!(
+                            "ToonHairMeshes on {character}: the glTF material of mesh {e} is cut \
+                             out by its alpha and its toon material is opaque, so the cut-out \
+                             parts are drawn solid; set ToonHairMaterial::alpha_cutoff on that \
+                             material"
                         );
                     }
                     m.clone()
@@ -423,6 +438,7 @@ pub(crate) fn apply_toon_to_user_meshes(
                         let mut toon = ToonHairMaterial {
                             ramp: ramps.three_tone.clone(),
                             double_sided,
+                            alpha_cutoff,
                             ..default()
                         };
                         if let Some(m) = gltf {
@@ -678,6 +694,61 @@ mod tests {
         let meshes = app.world().resource::<Assets<Mesh>>();
         let (a, b) = (meshes.get(&other).unwrap(), meshes.get(&again).unwrap());
         assert_ne!(normals_of(a), normals_of(b));
+    }
+
+    /// Without a material of the user's, each glTF material's meshes are drawn in a toon
+    /// material cut out as the glTF material is: opaque stays opaque, a mask keeps its cut-off,
+    /// blended alpha (which the toon material does not blend) is cut at half.
+    #[test]
+    fn the_default_material_is_cut_out_as_the_gltf_material_is() {
+        let mut app = dressing_app();
+        app.init_asset::<StandardMaterial>();
+        let source = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(faceted_box());
+        let root = app
+            .world_mut()
+            .spawn(ToonHairMeshes::matching(|n| n.starts_with("hair")))
+            .id();
+        let modes = [
+            AlphaMode::Opaque,
+            AlphaMode::Mask(0.3),
+            AlphaMode::Blend,
+            AlphaMode::Premultiplied,
+        ];
+        let hairs: Vec<Entity> = modes
+            .iter()
+            .enumerate()
+            .map(|(i, &alpha_mode)| {
+                let gltf = app
+                    .world_mut()
+                    .resource_mut::<Assets<StandardMaterial>>()
+                    .add(StandardMaterial {
+                        alpha_mode,
+                        ..default()
+                    });
+                app.world_mut()
+                    .spawn((
+                        Name::new(format!("hair {i}")),
+                        Mesh3d(source.clone()),
+                        MeshMaterial3d(gltf),
+                        ChildOf(root),
+                    ))
+                    .id()
+            })
+            .collect();
+        app.update();
+        let cutoffs: Vec<Option<f32>> = hairs
+            .iter()
+            .map(|&e| {
+                let toon = app.world().get::<MeshMaterial3d<ToonHairMaterial>>(e);
+                let toon = toon.expect("the mesh was not dressed");
+                let materials = app.world().resource::<Assets<ToonHairMaterial>>();
+                materials.get(&toon.0).unwrap().alpha_cutoff
+            })
+            .collect();
+        assert_eq!(cutoffs, [None, Some(0.3), Some(0.5), Some(0.5)]);
     }
 
     /// A mesh of loose points, each with the normal +Z, for testing the mass shapes.

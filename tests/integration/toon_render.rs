@@ -462,8 +462,7 @@ fn hatching_puts_more_ink_in_darker_regions() -> Result<(), Failed> {
                 ramp: flat,
                 tonal_art_map: Some(tam),
                 specular_ramp_texture: None,
-                base_color_texture: None,
-                double_sided: false,
+                ..default()
             },
         );
         let frame = r.capture()?;

@@ -1,11 +1,14 @@
 //! A character's own hair mesh in the toon look (`ToonHairMeshes`), on a square sheet: modelled
 //! as a single sheet (its glTF material double-sided) it is drawn from both sides, each lit as
-//! the side it shows; painted (a base colour texture) it keeps its paint under the ramp.
+//! the side it shows; painted (a base colour texture) it keeps its paint under the ramp; cut out
+//! (its glTF material's alpha mask) it leaves holes in its colour, its depth and its shadow.
 
 use bevy::asset::RenderAssetUsages;
+use bevy::camera::RenderTarget;
+use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-use bevy_cartoon_hair::headless::CapturedFrame;
+use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied};
 use libtest_mimic::Failed;
@@ -20,6 +23,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "a_painted_sheet_keeps_its_paint_under_the_toon_ramp",
         a_painted_sheet_keeps_its_paint_under_the_toon_ramp,
+    ),
+    (
+        "a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow",
+        a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow,
     ),
 ];
 
@@ -169,6 +176,171 @@ fn a_painted_sheet_keeps_its_paint_under_the_toon_ramp() -> Result<(), Failed> {
     eprintln!("painted sheet: red in its left quarter {left:?}, blue in its right {right:?}");
     if sheet.len() < 1_000 || left.0 * 10 < left.1 * 9 || right.0 * 10 < right.1 * 9 {
         return Err(format!("red on the left {left:?}, blue on the right {right:?}").into());
+    }
+    Ok(())
+}
+
+/// A 1 m hair card at the origin facing the camera (3 m away, with depth and normal prepasses),
+/// painted red on its left half and transparent (alpha 0, red too) on its right, its glTF
+/// material cut out at `mask` (opaque with `None`); a grey wall 0.5 m behind it, and a sun just
+/// above the camera casting shadows, so the card's shadow falls on the wall right behind it,
+/// a little lower.
+fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
+    r.app.add_plugins(CartoonHairPlugins);
+    let target = r.target();
+    let world = r.app.world_mut();
+    world.spawn((
+        DirectionalLight {
+            illuminance: 3_000.0,
+            shadow_maps_enabled: true,
+            ..default()
+        },
+        Transform::from_xyz(0.0, 1.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        Camera {
+            clear_color: ClearColorConfig::Custom(Color::BLACK),
+            ..default()
+        },
+        bevy::core_pipeline::tonemapping::Tonemapping::Linear,
+        Msaa::Off,
+        DepthPrepass,
+        NormalPrepass,
+        RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
+    ));
+    let wall = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Rectangle::new(4.0, 4.0));
+    let grey = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color: Color::srgb(0.6, 0.6, 0.6),
+            perceptual_roughness: 1.0,
+            ..default()
+        });
+    world.spawn((
+        Mesh3d(wall),
+        MeshMaterial3d(grey),
+        Transform::from_xyz(0.0, 0.0, -0.5),
+    ));
+    let red = [230u8, 40, 30, 255];
+    let clear = [230u8, 40, 30, 0];
+    let paint = Image::new(
+        Extent3d {
+            width: 4,
+            height: 1,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        [red, red, clear, clear].concat(),
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::default(),
+    );
+    let paint = world.resource_mut::<Assets<Image>>().add(paint);
+    let gltf = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color_texture: Some(paint),
+            alpha_mode: mask.map_or(AlphaMode::Opaque, AlphaMode::Mask),
+            ..default()
+        });
+    let card = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Rectangle::new(1.0, 1.0));
+    let root = world
+        .spawn((
+            Transform::default(),
+            Visibility::default(),
+            ToonHairMeshes::matching(|n| n == "hair"),
+        ))
+        .id();
+    world.spawn((
+        Name::new("hair"),
+        Mesh3d(card),
+        MeshMaterial3d(gltf),
+        Transform::default(),
+        ChildOf(root),
+    ));
+    r.warm_up(|world| {
+        let mut dressed = world.query::<&ToonHairMeshesApplied>();
+        dressed.iter(world).any(|d| !d.0.is_empty())
+    })?;
+    Ok(r.capture()?)
+}
+
+/// The card's red pixels and their bounds `(x0, y0, x1, y1)`, inclusive.
+fn red_pixels(frame: &CapturedFrame) -> (usize, [u32; 4]) {
+    let mut n = 0;
+    let mut b = [u32::MAX, u32::MAX, 0, 0];
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            let [r, g, bl, _] = frame.pixel(x, y).map(u32::from);
+            if r > 2 * g && r > 2 * bl && r > 40 {
+                n += 1;
+                b = [b[0].min(x), b[1].min(y), b[2].max(x), b[3].max(y)];
+            }
+        }
+    }
+    (n, b)
+}
+
+/// Red pixels and mean luma in the box `[x0, x1) x [y0, y1)`.
+fn region(frame: &CapturedFrame, [x0, y0, x1, y1]: [u32; 4]) -> (usize, f32) {
+    let (mut red, mut sum, mut n) = (0, 0.0, 0);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let [r, g, b, _] = frame.pixel(x, y).map(u32::from);
+            red += usize::from(r > 2 * g && r > 2 * b && r > 40);
+            sum += 0.2126 * r as f32 + 0.7152 * g as f32 + 0.0722 * b as f32;
+            n += 1;
+        }
+    }
+    (red, sum / n.max(1) as f32)
+}
+
+/// A hair card cut out by its glTF material's alpha (`MASK`), dressed with the default
+/// material: its transparent right half is not drawn, and through it the wall shows lit, as
+/// bright as the wall beside the card. So the cut reaches the colour, the depth prepass (a
+/// prepass depth there would hide the wall) and the shadow map (the card's right half would
+/// shade the wall behind it). Drawn opaque, the right half is red.
+fn a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow() -> Result<(), Failed> {
+    let solid = card_view(None)?;
+    let cut = card_view(Some(0.5))?;
+    save(&solid, "cut_out_card_opaque")?;
+    save(&cut, "cut_out_card")?;
+    let (whole, [x0, y0, x1, y1]) = red_pixels(&solid);
+    if whole < 1_000 {
+        return Err(format!("the opaque card drew {whole} red pixels").into());
+    }
+    let (w, h) = (x1 + 1 - x0, y1 + 1 - y0);
+    // The card's right quarter, its middle half of rows; the same box just right of the card.
+    let hole = [x1 + 1 - w / 4, y0 + h / 4, x1 + 1, y1 + 1 - h / 4];
+    let beside = [x1 + 1 + w / 8, hole[1], x1 + 1 + w / 8 + w / 4, hole[3]];
+    let left = [x0, hole[1], x0 + w / 4, hole[3]];
+    let (solid_hole, cut_hole, cut_beside, cut_left) = (
+        region(&solid, hole),
+        region(&cut, hole),
+        region(&cut, beside),
+        region(&cut, left),
+    );
+    let area = (w / 4 * (hole[3] - hole[1])) as usize;
+    eprintln!(
+        "cut-out card ({w} x {h} px): right quarter opaque {solid_hole:?}, cut {cut_hole:?}; \
+         the wall beside it {cut_beside:?}; the left quarter cut {cut_left:?} (red, mean luma; \
+         {area} px a box)"
+    );
+    let shows_wall = cut_hole.0 == 0
+        && cut_beside.1 > 20.0
+        && (cut_hole.1 - cut_beside.1).abs() < 0.1 * cut_beside.1;
+    if solid_hole.0 * 10 < area * 9 || cut_left.0 * 10 < area * 9 || !shows_wall {
+        return Err(format!(
+            "right quarter opaque {solid_hole:?}, cut {cut_hole:?}; beside {cut_beside:?}; \
+             left quarter cut {cut_left:?} of {area}"
+        )
+        .into());
     }
     Ok(())
 }
