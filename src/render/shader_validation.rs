@@ -440,8 +440,14 @@ fn every_hair_prepass_variant_composes_and_validates() {
     // directional shadow emulates unclipped depth; and the material's defs that the prepass
     // reads: double-sided, cut out (which Bevy's pipeline sees as MAY_DISCARD), painted.
     for bits in 0..64u32 {
-        let [normals, motion, unclipped, double_sided, alpha_mask, painted] =
-            std::array::from_fn(|i| bits & (1 << i) != 0);
+        let [
+            normals,
+            motion,
+            unclipped,
+            double_sided,
+            alpha_mask,
+            painted,
+        ] = std::array::from_fn(|i| bits & (1 << i) != 0);
         let fragment = normals || motion || unclipped;
         // With no target and no depth to write, Bevy runs a prepass fragment only for a
         // material that may discard: the depth-only entry.
