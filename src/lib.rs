@@ -190,9 +190,10 @@ pub mod prelude {
     pub use crate::preset::HairPreset;
     #[cfg(feature = "render")]
     pub use crate::render::{
-        FringeShadow, FringeShadowMeshes, HairGpuBuildFailed, HairMaterial, ImageSpaceOutline,
-        LockLines, OutlineSource, RampMode, ShowThroughHair, ShowThroughHairNamed,
-        ToonHairMaterial, ToonHairMeshes, ToonLighting, ToonRamps, ToonShading,
+        FringeShadow, FringeShadowMeshes, HairGpuBuildFailed, HairMaterial, HairPaint,
+        ImageSpaceOutline, LockLines, OutlineSource, RampMode, ShowThroughHair,
+        ShowThroughHairNamed, ToonHairMaterial, ToonHairMeshes, ToonLighting, ToonRamps,
+        ToonShading,
     };
     pub use crate::schedule::HairSystems;
     pub use crate::silhouette::{SilhouetteCamera, SilhouetteSettings, StrokeScope};

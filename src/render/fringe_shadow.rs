@@ -405,6 +405,7 @@ mod tests {
     fn a_scene_that_does_not_load_ends_the_wait() {
         let mut app = app();
         app.init_asset::<crate::render::ToonHairMaterial>()
+            .init_resource::<super::super::gltf_paint::LookCopies>()
             .insert_resource(crate::render::ToonRamps {
                 two_tone: Handle::default(),
                 three_tone: Handle::default(),

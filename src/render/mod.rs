@@ -13,6 +13,7 @@ use crate::schedule::HairSystems;
 use crate::silhouette::StrokeScope;
 
 mod fringe_shadow;
+mod gltf_paint;
 mod gpu;
 mod highlight;
 mod outline;
@@ -30,6 +31,7 @@ pub use fringe_shadow::{
     FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
     FringeShadowUniform,
 };
+pub use gltf_paint::HairPaint;
 #[doc(hidden)]
 pub use gpu::encode_gpu_inputs;
 pub use gpu::{
@@ -160,6 +162,7 @@ impl Plugin for ToonHairMaterialPlugin {
             .insert_resource(stroke)
             .insert_resource(highlight)
             .init_resource::<HatchingMapSettings>()
+            .init_resource::<gltf_paint::LookCopies>()
             .init_resource::<TonalArtMapCache>()
             .add_systems(
                 PostUpdate,
@@ -172,6 +175,7 @@ impl Plugin for ToonHairMaterialPlugin {
                         fringe_shadow::apply_fringe_shadow,
                     )
                         .chain(),
+                    gltf_paint::follow_look_edits,
                     apply_stroke_material,
                     apply_highlight_material,
                     (see_through::mark_named_parts, see_through::sync_overlays).chain(),

@@ -26,6 +26,7 @@ use crate::math::finite_or;
 use crate::mesh::HairMassShape;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
+use super::gltf_paint::{GltfPaint, HairPaint, LookCopies};
 use super::{ToonHairMaterial, ToonRamps};
 
 /// Put on a character (a glTF or VRM scene root): its descendant meshes whose entity name, parent
@@ -49,12 +50,15 @@ pub struct ToonHairMeshes {
     #[reflect(ignore)]
     pub select: BonePredicate,
     /// The material. `None`: for each glTF material, a toon material in its colours (the
-    /// three-tone ramp times its base colour and base colour texture), double-sided if it is;
-    /// orange for a mesh without one. Give one for a look of your own (and set its
-    /// [`ToonHairMaterial::double_sided`] when the hair is modelled as single sheets: a mesh
-    /// whose glTF material is double-sided dressed in a material that is not is reported with
-    /// a warning naming it).
+    /// three-tone ramp times its base colour and base colour texture), double-sided and cut out
+    /// as it is; orange for a mesh without one. Give one for a look of your own, worn as it is,
+    /// or over each mesh's own colours with [`HairPaint::Gltf`].
     pub material: Option<Handle<ToonHairMaterial>>,
+    /// With a [`material`](Self::material) of yours: whether every mesh wears it as it is
+    /// ([`HairPaint::Material`], the default) or each keeps its glTF material's colours,
+    /// texture, sides and cut-out under it ([`HairPaint::Gltf`]).
+    #[reflect(default)]
+    pub paint: HairPaint,
     /// How far each mesh's normals turn toward those of [`ToonHairMeshes::mass_shapes`]
     /// (by default the ellipsoid that fits the mesh's bounds), 0 to 1: at 1 the toon bands
     /// fall on the hair as on one smooth shape, not facet by facet; in between, the locks' own
@@ -104,6 +108,7 @@ impl ToonHairMeshes {
         Self {
             select: BonePredicate::new(test),
             material: None,
+            paint: HairPaint::Material,
             mass_normals: 0.0,
             mass_shapes: Vec::new(),
             strand_uvs: StrandUvs::Mesh,
@@ -113,6 +118,12 @@ impl ToonHairMeshes {
     /// The same, drawn with `material`.
     pub fn with_material(mut self, material: Handle<ToonHairMaterial>) -> Self {
         self.material = Some(material);
+        self
+    }
+
+    /// The same, the colours from `paint` ([`ToonHairMeshes::paint`]).
+    pub fn with_paint(mut self, paint: HairPaint) -> Self {
+        self.paint = paint;
         self
     }
 
@@ -360,9 +371,10 @@ pub(crate) fn apply_toon_to_user_meshes(
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
     ramps: Res<ToonRamps>,
-    (mut materials, mut default_material): (
+    (mut materials, mut default_material, mut copies): (
         ResMut<Assets<ToonHairMaterial>>,
         Local<DefaultMaterials>,
+        ResMut<LookCopies>,
     ),
     (gltf_materials, standard): (
         Query<&MeshMaterial3d<StandardMaterial>>,
@@ -395,26 +407,38 @@ pub(crate) fn apply_toon_to_user_meshes(
         for &e in &dressed {
             let gltf_id = gltf_materials.get(e).ok().map(|m| m.0.id());
             let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
-            // Drawn from both sides as its glTF material is (hair modelled as sheets).
-            let double_sided = gltf.is_some_and(|m| m.double_sided || m.cull_mode.is_none());
-            // Cut out where its glTF material is (hair cards); blended alpha, which an opaque
-            // toon ramp cannot sort, is cut at half.
-            let alpha_cutoff = gltf.and_then(|m| match m.alpha_mode {
-                AlphaMode::Opaque => None,
-                AlphaMode::Mask(cutoff) => Some(cutoff),
-                blended => {
-                    warn!(
-                        "ToonHairMeshes on {character}: the glTF material of mesh {e} blends \
-                         with alpha ({blended:?}), which the toon material does not: it is cut \
-                         out at alpha 0.5 instead (ToonHairMaterial::alpha_cutoff)"
-                    );
-                    Some(0.5)
+            // Its colours, sides (hair modelled as sheets) and cut-out (cards), as its glTF
+            // material has them.
+            let paint = gltf_id.zip(gltf).map(|(id, m)| (id, GltfPaint::of(m)));
+            let keeps_paint = wanted.material.is_none() || wanted.paint == HairPaint::Gltf;
+            let blends = paint.as_ref().is_some_and(|(_, p)| p.blends);
+            if let Some(m) = gltf.filter(|_| keeps_paint && blends) {
+                warn!(
+                    "ToonHairMeshes on {character}: the glTF material of mesh {e} blends with \
+                     alpha ({:?}), which the toon material does not: it is cut out at alpha 0.5 \
+                     instead (ToonHairMaterial::alpha_cutoff)",
+                    m.alpha_mode
+                );
+            }
+            let material = match (&wanted.material, paint) {
+                (Some(look), Some((gltf_id, paint))) if wanted.paint == HairPaint::Gltf => {
+                    match copies.copy(look, gltf_id, paint, &mut materials) {
+                        Some(copy) => copy,
+                        None => {
+                            warn!(
+                                "ToonHairMeshes on {character}: its material is not in the \
+                                 assets, so mesh {e} wears it as it is, without its glTF \
+                                 material's colours"
+                            );
+                            look.clone()
+                        }
+                    }
                 }
-            });
-            let material = match &wanted.material {
-                Some(m) => {
-                    let given = materials.get(m);
-                    if double_sided && given.is_some_and(|m| !m.double_sided) {
+                (Some(look), paint) => {
+                    let given = materials.get(look);
+                    let paint = paint
+                        .map_or_else(|| GltfPaint::of(&StandardMaterial::default()), |(_, p)| p);
+                    if paint.double_sided && given.is_some_and(|m| !m.double_sided) {
                         warn!(
                             "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
                              double-sided and its toon material is not, so the mesh's back \
@@ -422,7 +446,9 @@ pub(crate) fn apply_toon_to_user_meshes(
                              ToonHairMaterial::double_sided on that material"
                         );
                     }
-                    if alpha_cutoff.is_some() && given.is_some_and(|m| m.alpha_cutoff.is_none()) {
+                    if paint.alpha_cutoff.is_some()
+                        && given.is_some_and(|m| m.alpha_cutoff.is_none())
+                    {
                         warn!(
                             "ToonHairMeshes on {character}: the glTF material of mesh {e} is cut \
                              out by its alpha and its toon material is opaque, so the cut-out \
@@ -430,22 +456,19 @@ pub(crate) fn apply_toon_to_user_meshes(
                              material"
                         );
                     }
-                    m.clone()
+                    look.clone()
                 }
-                None => default_material
+                (None, paint) => default_material
                     .entry(gltf_id.filter(|_| gltf.is_some()))
                     .or_insert_with(|| {
-                        let mut toon = ToonHairMaterial {
+                        let look = ToonHairMaterial {
                             ramp: ramps.three_tone.clone(),
-                            double_sided,
-                            alpha_cutoff,
                             ..default()
                         };
-                        if let Some(m) = gltf {
-                            toon.base_color = m.base_color;
-                            toon.base_color_texture = m.base_color_texture.clone();
-                        }
-                        materials.add(toon)
+                        materials.add(match paint {
+                            Some((_, paint)) => paint.on(&look),
+                            None => look,
+                        })
                     })
                     .clone(),
             };
@@ -603,7 +626,14 @@ mod tests {
             .init_asset::<Mesh>()
             .init_asset::<Image>()
             .init_asset::<ToonHairMaterial>()
-            .add_systems(Update, apply_toon_to_user_meshes);
+            .init_resource::<LookCopies>()
+            .add_systems(
+                Update,
+                (
+                    apply_toon_to_user_meshes,
+                    super::super::gltf_paint::follow_look_edits,
+                ),
+            );
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         app.insert_resource(ramps);
         app
@@ -749,6 +779,125 @@ mod tests {
             })
             .collect();
         assert_eq!(cutoffs, [None, Some(0.3), Some(0.5), Some(0.5)]);
+    }
+
+    /// A look of the user's on meshes of two painted glTF materials: each glTF material's
+    /// meshes share one copy of the look in its paint; an edit to the look reaches both copies,
+    /// which keep their paint; with `HairPaint::Material` every mesh wears the look itself.
+    #[test]
+    fn a_look_of_yours_keeps_each_meshes_paint_and_follows_your_edits() {
+        let mut app = dressing_app();
+        app.init_asset::<StandardMaterial>();
+        let source = app
+            .world_mut()
+            .resource_mut::<Assets<Mesh>>()
+            .add(faceted_box());
+        let world = app.world_mut();
+        let textures: Vec<Handle<Image>> = (0..2)
+            .map(|_| world.resource_mut::<Assets<Image>>().add(Image::default()))
+            .collect();
+        let gltf: Vec<Handle<StandardMaterial>> = textures
+            .iter()
+            .zip([Color::srgb(1.0, 0.5, 0.5), Color::WHITE])
+            .map(|(t, base_color)| {
+                world
+                    .resource_mut::<Assets<StandardMaterial>>()
+                    .add(StandardMaterial {
+                        base_color,
+                        base_color_texture: Some(t.clone()),
+                        double_sided: true,
+                        cull_mode: None,
+                        ..default()
+                    })
+            })
+            .collect();
+        let look = world
+            .resource_mut::<Assets<ToonHairMaterial>>()
+            .add(ToonHairMaterial {
+                shading: super::super::ToonShading {
+                    base_color: Color::srgb(0.0, 0.0, 1.0),
+                    angel_ring: 0.7,
+                    ..default()
+                },
+                ..default()
+            });
+        let dress = |world: &mut World, paint: HairPaint| {
+            let root = world
+                .spawn(
+                    ToonHairMeshes::matching(|n| n.starts_with("hair"))
+                        .with_material(look.clone())
+                        .with_paint(paint),
+                )
+                .id();
+            // Meshes 0 and 1 in the first glTF material, 2 in the second.
+            [0, 0, 1]
+                .map(|k| {
+                    world
+                        .spawn((
+                            Name::new("hair"),
+                            Mesh3d(source.clone()),
+                            MeshMaterial3d(gltf[k].clone()),
+                            ChildOf(root),
+                        ))
+                        .id()
+                })
+                .to_vec()
+        };
+        let painted = dress(world, HairPaint::Gltf);
+        let recoloured = dress(world, HairPaint::Material);
+        app.update();
+        let worn = |app: &App, e: Entity| {
+            let handle = app
+                .world()
+                .get::<MeshMaterial3d<ToonHairMaterial>>(e)
+                .expect("the mesh was not dressed")
+                .0
+                .clone();
+            let m = app.world().resource::<Assets<ToonHairMaterial>>();
+            (handle.id(), m.get(&handle).unwrap().clone())
+        };
+        let (a, b, c) = (
+            worn(&app, painted[0]),
+            worn(&app, painted[1]),
+            worn(&app, painted[2]),
+        );
+        assert_eq!(a.0, b.0, "one copy for one glTF material");
+        assert!(a.0 != c.0 && a.0 != look.id() && c.0 != look.id());
+        for ((_, m), k) in [(&a, 0), (&c, 1)] {
+            assert_eq!(m.base_color_texture.as_ref(), Some(&textures[k]));
+            assert_eq!(m.base_color, gltf_color(&app, &gltf[k]));
+            assert_eq!(m.angel_ring, 0.7);
+            assert!(m.double_sided);
+        }
+        for &e in &recoloured {
+            assert_eq!(
+                worn(&app, e).0,
+                look.id(),
+                "HairPaint::Material wears the look"
+            );
+        }
+        // An edit to the look reaches its copies, in their paint.
+        app.world_mut()
+            .resource_mut::<Assets<ToonHairMaterial>>()
+            .get_mut(&look)
+            .unwrap()
+            .angel_ring = 0.2;
+        app.update();
+        app.update();
+        for (e, k) in [(painted[0], 0), (painted[2], 1)] {
+            let (_, m) = worn(&app, e);
+            assert_eq!(m.angel_ring, 0.2, "the edit did not reach mesh {e}'s copy");
+            assert_eq!(m.base_color_texture.as_ref(), Some(&textures[k]));
+            assert_eq!(m.base_color, gltf_color(&app, &gltf[k]));
+        }
+    }
+
+    fn gltf_color(app: &App, m: &Handle<StandardMaterial>) -> Color {
+        app.world()
+            .resource::<Assets<StandardMaterial>>()
+            .get(m)
+            .unwrap()
+            .base_color
     }
 
     /// A mesh of loose points, each with the normal +Z, for testing the mass shapes.

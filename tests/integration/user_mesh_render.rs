@@ -10,7 +10,7 @@ use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::{ToonHairMeshes, ToonHairMeshesApplied};
+use bevy_cartoon_hair::render::{HairPaint, ToonHairMeshes, ToonHairMeshesApplied};
 use libtest_mimic::Failed;
 
 use crate::toon_render::{BACKGROUND, save, scene};
@@ -31,12 +31,12 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
 ];
 
 /// A 1 m square sheet facing `+z` in `gltf` (its material as a glTF file gives it), dressed by
-/// a `ToonHairMeshes` (with `material`, or the default), seen from `side` (+1 in front, -1
-/// behind) at 3 m with the light over the viewer's shoulder.
+/// a `ToonHairMeshes` (with `material` in its paint, or the default), seen from `side` (+1 in
+/// front, -1 behind) at 3 m with the light over the viewer's shoulder.
 fn sheet_view(
     side: f32,
     gltf: impl FnOnce(&mut World) -> StandardMaterial,
-    material: Option<ToonHairMaterial>,
+    material: Option<(ToonHairMaterial, HairPaint)>,
 ) -> Result<CapturedFrame, Failed> {
     let eye = Vec3::new(0.0, 0.0, 3.0 * side);
     let mut r = scene(Vec3::new(0.8, 1.5, 3.0 * side), eye)?;
@@ -47,9 +47,11 @@ fn sheet_view(
     let gltf = gltf(world);
     let gltf_material = world.resource_mut::<Assets<StandardMaterial>>().add(gltf);
     let mut dress = ToonHairMeshes::matching(|n| n == "hair");
-    if let Some(mut m) = material {
+    if let Some((mut m, paint)) = material {
         m.ramp = world.resource::<ToonRamps>().three_tone.clone();
-        dress = dress.with_material(world.resource_mut::<Assets<ToonHairMaterial>>().add(m));
+        dress = dress
+            .with_material(world.resource_mut::<Assets<ToonHairMaterial>>().add(m))
+            .with_paint(paint);
     }
     let root = world
         .spawn((Transform::default(), Visibility::default(), dress))
@@ -87,8 +89,9 @@ fn drawn(frame: &CapturedFrame) -> (usize, f32) {
 
 /// With the default material, a sheet whose glTF material is double-sided is drawn from behind
 /// as from the front: as many pixels, in the same (lit) tone, the light being on the viewer's
-/// side both times. With a material of the user's that is not double-sided, its back is not
-/// drawn at all (and a warning says so).
+/// side both times; so it is with a material of the user's, which keeps the glTF material's
+/// sides. With the user's material as it is (`HairPaint::Material`), not double-sided, its back
+/// is not drawn at all (and a warning says so).
 fn a_double_sided_sheet_of_hair_shows_and_is_lit_from_behind() -> Result<(), Failed> {
     let sides = |_: &mut World| StandardMaterial {
         base_color: Color::srgb(0.95, 0.55, 0.15),
@@ -98,22 +101,34 @@ fn a_double_sided_sheet_of_hair_shows_and_is_lit_from_behind() -> Result<(), Fai
     };
     let front = sheet_view(1.0, sides, None)?;
     let back = sheet_view(-1.0, sides, None)?;
-    let single = sheet_view(-1.0, sides, Some(ToonHairMaterial::default()))?;
+    let look = sheet_view(
+        -1.0,
+        sides,
+        Some((ToonHairMaterial::default(), HairPaint::Gltf)),
+    )?;
+    let single = sheet_view(
+        -1.0,
+        sides,
+        Some((ToonHairMaterial::default(), HairPaint::Material)),
+    )?;
     save(&front, "double_sided_front")?;
     save(&back, "double_sided_back")?;
     save(&single, "double_sided_back_single_sided_material")?;
-    let (front, back, single) = (drawn(&front), drawn(&back), drawn(&single));
+    let (front, back, look, single) = (drawn(&front), drawn(&back), drawn(&look), drawn(&single));
     eprintln!(
-        "sheet pixels (count, mean luma): front {front:?}, behind {back:?}, behind with a \
-         single-sided material {single:?}"
+        "sheet pixels (count, mean luma): front {front:?}, behind {back:?}, behind with a look \
+         of the user's {look:?}, behind with a single-sided material as it is {single:?}"
     );
-    let alike = front.0 > 1_000
-        && back.0.abs_diff(front.0) * 50 < front.0
-        && (back.1 - front.1).abs() < 0.05 * front.1;
-    if !alike || single.0 != 0 {
-        return Err(
-            format!("front {front:?}, behind {back:?}, behind single-sided {single:?}").into(),
-        );
+    let alike = |back: (usize, f32)| {
+        front.0 > 1_000
+            && back.0.abs_diff(front.0) * 50 < front.0
+            && (back.1 - front.1).abs() < 0.05 * front.1
+    };
+    if !alike(back) || !alike(look) || single.0 != 0 {
+        return Err(format!(
+            "front {front:?}, behind {back:?}, look {look:?}, behind single-sided {single:?}"
+        )
+        .into());
     }
     Ok(())
 }
@@ -121,7 +136,9 @@ fn a_double_sided_sheet_of_hair_shows_and_is_lit_from_behind() -> Result<(), Fai
 /// A sheet painted red on its left half and blue on its right (a 4 x 1 texture, its glTF base
 /// colour white), dressed with the default material: under the toon ramp the left quarter of
 /// its pixels stays red (red over twice blue) and the right quarter blue (blue over twice red).
-/// The default material before took no texture: one colour all over.
+/// So it does under a green look of the user's, which keeps the glTF material's paint; with the
+/// look as it is (`HairPaint::Material`) the sheet is green. The default material before took
+/// no texture: one colour all over.
 fn a_painted_sheet_keeps_its_paint_under_the_toon_ramp() -> Result<(), Failed> {
     let red = [230u8, 40, 30, 255];
     let blue = [30u8, 60, 230, 255];
@@ -136,15 +153,50 @@ fn a_painted_sheet_keeps_its_paint_under_the_toon_ramp() -> Result<(), Failed> {
         TextureFormat::Rgba8UnormSrgb,
         RenderAssetUsages::default(),
     );
-    let frame = sheet_view(
-        1.0,
-        |world| StandardMaterial {
-            base_color_texture: Some(world.resource_mut::<Assets<Image>>().add(paint)),
+    let gltf = |world: &mut World| StandardMaterial {
+        base_color_texture: Some(world.resource_mut::<Assets<Image>>().add(paint.clone())),
+        ..default()
+    };
+    let green = ToonHairMaterial {
+        shading: ToonShading {
+            base_color: Color::srgb(0.1, 0.8, 0.1),
             ..default()
         },
-        None,
-    )?;
-    save(&frame, "painted_sheet")?;
+        ..default()
+    };
+    let mut quarters = Vec::new();
+    for (name, material) in [
+        ("painted_sheet", None),
+        (
+            "painted_sheet_under_a_look",
+            Some((green.clone(), HairPaint::Gltf)),
+        ),
+        (
+            "painted_sheet_recoloured",
+            Some((green, HairPaint::Material)),
+        ),
+    ] {
+        let frame = sheet_view(1.0, gltf, material)?;
+        save(&frame, name)?;
+        quarters.push(paint_quarters(&frame));
+    }
+    eprintln!(
+        "painted sheet, (red in its left quarter, blue in its right) of (pixels): default \
+         material {:?}, a look of the user's {:?}, the look as it is {:?}",
+        quarters[0], quarters[1], quarters[2]
+    );
+    let kept = |((red, n), (blue, m)): ((usize, usize), (usize, usize))| {
+        n >= 1_000 && red * 10 >= n * 9 && blue * 10 >= m * 9
+    };
+    let ((red, _), (blue, _)) = quarters[2];
+    if !kept(quarters[0]) || !kept(quarters[1]) || red + blue > 0 {
+        return Err(format!("{quarters:?}").into());
+    }
+    Ok(())
+}
+
+/// Of a painted sheet's pixels: (red, all) in its left quarter and (blue, all) in its right.
+fn paint_quarters(frame: &CapturedFrame) -> ((usize, usize), (usize, usize)) {
     let mut sheet: Vec<(u32, u32)> = Vec::new();
     for y in 0..frame.height {
         for x in 0..frame.width {
@@ -169,15 +221,10 @@ fn a_painted_sheet_keeps_its_paint_under_the_toon_ramp() -> Result<(), Failed> {
             .count();
         (painted, inside.len())
     };
-    let (left, right) = (
+    (
         share(lo..lo + quarter, true),
         share(hi + 1 - quarter..hi + 1, false),
-    );
-    eprintln!("painted sheet: red in its left quarter {left:?}, blue in its right {right:?}");
-    if sheet.len() < 1_000 || left.0 * 10 < left.1 * 9 || right.0 * 10 < right.1 * 9 {
-        return Err(format!("red on the left {left:?}, blue on the right {right:?}").into());
-    }
-    Ok(())
+    )
 }
 
 /// A 1 m hair card at the origin facing the camera (3 m away, with depth and normal prepasses),
