@@ -6,7 +6,9 @@
 //! the angel ring its strand direction and carry a painted texture), so any skinned or rigid
 //! mesh wears it: ramps under the scene's lights and shadows, the angel ring, and the mass
 //! outline (its prepass marks the mesh as hair). Without a material of the user's, each glTF
-//! material's meshes wear a toon material in its colours (base colour and texture) and sides.
+//! material's meshes wear a toon material in its colours (base colour and texture), sides and
+//! cut-out; a material of the user's is worn as it is, or over each mesh's own colours
+//! ([`HairPaint`](super::HairPaint), `gltf_paint.rs`).
 //! Meshes not selected keep their own material, so a VRM's MToon-derived materials stay as they
 //! are unless the user opts in.
 //!
