@@ -628,6 +628,7 @@ mod tests {
             .init_asset::<Mesh>()
             .init_asset::<Image>()
             .init_asset::<ToonHairMaterial>()
+            .init_asset::<StandardMaterial>()
             .init_resource::<LookCopies>()
             .add_systems(
                 Update,
@@ -734,7 +735,6 @@ mod tests {
     #[test]
     fn the_default_material_is_cut_out_as_the_gltf_material_is() {
         let mut app = dressing_app();
-        app.init_asset::<StandardMaterial>();
         let source = app
             .world_mut()
             .resource_mut::<Assets<Mesh>>()
@@ -789,7 +789,6 @@ mod tests {
     #[test]
     fn a_look_of_yours_keeps_each_meshes_paint_and_follows_your_edits() {
         let mut app = dressing_app();
-        app.init_asset::<StandardMaterial>();
         let source = app
             .world_mut()
             .resource_mut::<Assets<Mesh>>()

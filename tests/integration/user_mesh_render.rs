@@ -4,11 +4,10 @@
 //! (its glTF material's alpha mask) it leaves holes in its colour, its depth and its shadow.
 
 use bevy::asset::RenderAssetUsages;
-use bevy::camera::RenderTarget;
 use bevy::core_pipeline::prepass::{DepthPrepass, NormalPrepass};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
-use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
+use bevy_cartoon_hair::headless::{CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{HairPaint, ToonHairMeshes, ToonHairMeshesApplied};
 use libtest_mimic::Failed;
@@ -53,13 +52,25 @@ fn sheet_view(
             .with_material(world.resource_mut::<Assets<ToonHairMaterial>>().add(m))
             .with_paint(paint);
     }
+    dress_and_capture(r, sheet, gltf_material, dress)
+}
+
+/// A character of one mesh called "hair" at the origin, in `gltf` (its glTF material), under a
+/// root that `dress`es it; captured once it is dressed.
+fn dress_and_capture(
+    mut r: HeadlessRenderer,
+    mesh: Handle<Mesh>,
+    gltf: Handle<StandardMaterial>,
+    dress: ToonHairMeshes,
+) -> Result<CapturedFrame, Failed> {
+    let world = r.app.world_mut();
     let root = world
         .spawn((Transform::default(), Visibility::default(), dress))
         .id();
     world.spawn((
         Name::new("hair"),
-        Mesh3d(sheet),
-        MeshMaterial3d(gltf_material),
+        Mesh3d(mesh),
+        MeshMaterial3d(gltf),
         Transform::default(),
         ChildOf(root),
     ));
@@ -68,6 +79,21 @@ fn sheet_view(
         dressed.iter(world).any(|d| !d.0.is_empty())
     })?;
     Ok(r.capture()?)
+}
+
+/// A 4 x 1 sRGB texture: `left` on its left half, `right` on its right.
+fn halves(left: [u8; 4], right: [u8; 4]) -> Image {
+    Image::new(
+        Extent3d {
+            width: 4,
+            height: 1,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        [left, left, right, right].concat(),
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::default(),
+    )
 }
 
 /// The drawn pixels of `frame` and their mean luma.
@@ -140,19 +166,7 @@ fn a_double_sided_sheet_of_hair_shows_and_is_lit_from_behind() -> Result<(), Fai
 /// look as it is (`HairPaint::Material`) the sheet is green. The default material before took
 /// no texture: one colour all over.
 fn a_painted_sheet_keeps_its_paint_under_the_toon_ramp() -> Result<(), Failed> {
-    let red = [230u8, 40, 30, 255];
-    let blue = [30u8, 60, 230, 255];
-    let paint = Image::new(
-        Extent3d {
-            width: 4,
-            height: 1,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        [red, red, blue, blue].concat(),
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::default(),
-    );
+    let paint = halves([230, 40, 30, 255], [30, 60, 230, 255]);
     let gltf = |world: &mut World| StandardMaterial {
         base_color_texture: Some(world.resource_mut::<Assets<Image>>().add(paint.clone())),
         ..default()
@@ -233,31 +247,19 @@ fn paint_quarters(frame: &CapturedFrame) -> ((usize, usize), (usize, usize)) {
 /// above the camera casting shadows, so the card's shadow falls on the wall right behind it,
 /// a little lower.
 fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
-    let mut r = HeadlessRenderer::new(CaptureSettings::default())?;
-    r.app.add_plugins(CartoonHairPlugins);
-    let target = r.target();
+    let mut r = scene(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.0, 3.0))?;
     let world = r.app.world_mut();
-    world.spawn((
-        DirectionalLight {
-            illuminance: 3_000.0,
-            shadow_maps_enabled: true,
-            ..default()
-        },
-        Transform::from_xyz(0.0, 1.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        Camera {
-            clear_color: ClearColorConfig::Custom(Color::BLACK),
-            ..default()
-        },
-        bevy::core_pipeline::tonemapping::Tonemapping::Linear,
-        Msaa::Off,
-        DepthPrepass,
-        NormalPrepass,
-        RenderTarget::Image(target.into()),
-        Transform::from_xyz(0.0, 0.0, 3.0).looking_at(Vec3::ZERO, Vec3::Y),
-    ));
+    let mut sun = world.query::<&mut DirectionalLight>();
+    for mut light in sun.iter_mut(world) {
+        light.shadow_maps_enabled = true;
+        light.illuminance = 3_000.0;
+    }
+    let mut cameras = world.query_filtered::<Entity, With<Camera3d>>();
+    for camera in cameras.iter(world).collect::<Vec<_>>() {
+        world
+            .entity_mut(camera)
+            .insert((DepthPrepass, NormalPrepass));
+    }
     let wall = world
         .resource_mut::<Assets<Mesh>>()
         .add(Rectangle::new(4.0, 4.0));
@@ -273,19 +275,7 @@ fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
         MeshMaterial3d(grey),
         Transform::from_xyz(0.0, 0.0, -0.5),
     ));
-    let red = [230u8, 40, 30, 255];
-    let clear = [230u8, 40, 30, 0];
-    let paint = Image::new(
-        Extent3d {
-            width: 4,
-            height: 1,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
-        [red, red, clear, clear].concat(),
-        TextureFormat::Rgba8UnormSrgb,
-        RenderAssetUsages::default(),
-    );
+    let paint = halves([230, 40, 30, 255], [230, 40, 30, 0]);
     let paint = world.resource_mut::<Assets<Image>>().add(paint);
     let gltf = world
         .resource_mut::<Assets<StandardMaterial>>()
@@ -297,25 +287,7 @@ fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
     let card = world
         .resource_mut::<Assets<Mesh>>()
         .add(Rectangle::new(1.0, 1.0));
-    let root = world
-        .spawn((
-            Transform::default(),
-            Visibility::default(),
-            ToonHairMeshes::matching(|n| n == "hair"),
-        ))
-        .id();
-    world.spawn((
-        Name::new("hair"),
-        Mesh3d(card),
-        MeshMaterial3d(gltf),
-        Transform::default(),
-        ChildOf(root),
-    ));
-    r.warm_up(|world| {
-        let mut dressed = world.query::<&ToonHairMeshesApplied>();
-        dressed.iter(world).any(|d| !d.0.is_empty())
-    })?;
-    Ok(r.capture()?)
+    dress_and_capture(r, card, gltf, ToonHairMeshes::matching(|n| n == "hair"))
 }
 
 /// The card's red pixels and their bounds `(x0, y0, x1, y1)`, inclusive.
