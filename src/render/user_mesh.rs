@@ -417,8 +417,8 @@ pub(crate) fn apply_toon_to_user_meshes(
             if let Some(m) = gltf.filter(|_| keeps_paint && blends) {
                 warn!(
                     "ToonHairMeshes on {character}: the glTF material of mesh {e} blends with \
-                     alpha ({:?}), which the toon material does not: it is cut out at alpha 0.5 \
-                     instead (ToonHairMaterial::alpha_cutoff)",
+                     alpha ({:?}), which the toon material does not: it is cut out instead, at \
+                     alpha 0.5 unless its toon material sets ToonHairMaterial::alpha_cutoff",
                     m.alpha_mode
                 );
             }
@@ -452,10 +452,11 @@ pub(crate) fn apply_toon_to_user_meshes(
                         && given.is_some_and(|m| m.alpha_cutoff.is_none())
                     {
                         warn!(
-                            "ToonHairMeshes on {character}: the glTF material of mesh {e} is cut \
-                             out by its alpha and its toon material is opaque, so the cut-out \
-                             parts are drawn solid; set ToonHairMaterial::alpha_cutoff on that \
-                             material"
+                            "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
+                             drawn with alpha (cut out or blended) and its toon material is \
+                             opaque, so its see-through parts are drawn solid; set \
+                             ToonHairMaterial::alpha_cutoff on that material, or dress the mesh \
+                             with HairPaint::Gltf"
                         );
                     }
                     look.clone()
