@@ -16,6 +16,7 @@ mod fringe_shadow;
 mod gltf_paint;
 mod gpu;
 mod highlight;
+mod lock_ids;
 mod outline;
 mod ramps;
 mod see_through;
@@ -39,6 +40,7 @@ pub use gpu::{
     HairGpuFallback, HairGpuMeshSupport, HairGpuPasses, HairMeshBuilder, PassDispatches,
 };
 pub use highlight::{HairHighlightMaterial, HairHighlightQuads, highlight_material};
+pub use lock_ids::lock_ids_by_piece;
 pub use outline::{
     GpuImageSpaceOutline, ImageSpaceOutline, ImageSpaceOutlinePlugin, LockLines,
     MAX_OUTLINE_DILATION, OutlineSource,

@@ -82,6 +82,14 @@ pub struct ToonHairMeshes {
     /// strand direction, hatching). Default: [`StrandUvs::Mesh`], the mesh's own UVs.
     #[reflect(default)]
     pub strand_uvs: StrandUvs,
+    /// Give each separate piece of the meshes (a lock modelled as its own shell) a lock id, so
+    /// the outline's [`LockLines`](super::LockLines) draw lines where one modelled lock lies
+    /// over another, as between the crate's strands (see [`lock_ids_by_piece`](super::lock_ids_by_piece)).
+    /// Each mesh is copied with the ids in its second UVs, which replace any it has. Locks
+    /// modelled as one connected mesh are one piece and get no lines between them. Default:
+    /// `false`.
+    #[reflect(default)]
+    pub locks_by_piece: bool,
 }
 
 /// Where the toon material on a [`ToonHairMeshes`] mesh reads the strand's direction. It reads
@@ -114,6 +122,7 @@ impl ToonHairMeshes {
             mass_normals: 0.0,
             mass_shapes: Vec::new(),
             strand_uvs: StrandUvs::Mesh,
+            locks_by_piece: false,
         }
     }
 
@@ -138,6 +147,12 @@ impl ToonHairMeshes {
     /// The same, the normals turned toward `shapes` ([`ToonHairMeshes::mass_shapes`]).
     pub fn with_mass_shapes(mut self, shapes: impl IntoIterator<Item = HairMassShape>) -> Self {
         self.mass_shapes = shapes.into_iter().collect();
+        self
+    }
+
+    /// The same, each separate piece a lock of its own ([`ToonHairMeshes::locks_by_piece`]).
+    pub fn with_locks_by_piece(mut self) -> Self {
+        self.locks_by_piece = true;
         self
     }
 
@@ -329,10 +344,10 @@ pub(crate) type MeshNames = (
     Option<&'static ChildOf>,
 );
 
-/// Copies of source meshes with mass normals or strand UVs, by source mesh, amount (its bits),
-/// shapes (a hash of their bits) and UVs. Only ids: a copy no entity uses any more is freed (and its entry
+/// Copies of source meshes with mass normals, strand UVs or lock ids, by source mesh, amount (its
+/// bits), shapes (a hash of their bits), UVs and lock ids. Only ids: a copy no entity uses any more is freed (and its entry
 /// dropped at the next dressing).
-type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64, StrandUvs), AssetId<Mesh>>;
+type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64, StrandUvs, bool), AssetId<Mesh>>;
 
 /// A hash of `shapes`' bits, for [`MassedMeshes`]' keys.
 fn shapes_key(shapes: &[HairMassShape]) -> u64 {
@@ -493,13 +508,14 @@ pub(crate) fn apply_toon_to_user_meshes(
             let Ok(Mesh3d(source)) = mesh_handles.get(e) else {
                 continue;
             };
+            let locks = wanted.locks_by_piece;
             let Some(mesh_assets) = mesh_assets
                 .as_deref_mut()
-                .filter(|_| amount > 0.0 || uvs != StrandUvs::Mesh)
+                .filter(|_| amount > 0.0 || uvs != StrandUvs::Mesh || locks)
             else {
                 continue;
             };
-            let key = (source.id(), amount.to_bits(), shapes, uvs);
+            let key = (source.id(), amount.to_bits(), shapes, uvs, locks);
             if let Some(copy) = massed
                 .get(&key)
                 .and_then(|id| mesh_assets.get_strong_handle(*id))
@@ -518,6 +534,9 @@ pub(crate) fn apply_toon_to_user_meshes(
                     if uvs == StrandUvs::Height {
                         strand_uvs_from_height(&mut copy)?;
                     }
+                    if locks {
+                        super::lock_ids_by_piece(&mut copy)?;
+                    }
                     Ok(copy)
                 });
             match changed {
@@ -528,7 +547,8 @@ pub(crate) fn apply_toon_to_user_meshes(
                 }
                 Err(reason) => warn!(
                     "ToonHairMeshes on {character}: the mesh of {e} is drawn as it is, without \
-                     mass normals ({amount}) or strand UVs ({uvs:?}): {reason}"
+                     mass normals ({amount}), strand UVs ({uvs:?}) or lock ids by piece \
+                     ({locks}): {reason}"
                 ),
             }
         }

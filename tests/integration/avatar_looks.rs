@@ -40,6 +40,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "height_uvs_colour_the_avatars_tips_from_the_top_down",
         height_uvs_colour_the_avatars_tips_from_the_top_down,
     ),
+    (
+        "the_avatars_modelled_locks_get_lines_between_them",
+        the_avatars_modelled_locks_get_lines_between_them,
+    ),
 ];
 
 /// Each look: the avatar's hair mesh in the look's material, the camera with its outline; the
@@ -116,6 +120,74 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
     } else {
         Err(failures.join("; ").into())
     }
+}
+
+/// The avatar in the anime_locks look (lines between locks) from the side and the back: with each
+/// modelled piece of its hair a lock of its own (`locks_by_piece`), the lines ink more of the
+/// hair's inside in each view than without (the mesh carries no lock ids of its own, so all its
+/// locks are one and the inside takes no line), and no more than the look suite allows lines
+/// between locks; the boundary stays inked.
+fn the_avatars_modelled_locks_get_lines_between_them() -> Result<(), Failed> {
+    let look = HairPreset::look("anime_locks").ok_or("a shipped look")??;
+    let outline = look.outline.clone().ok_or("the look has no outline")?;
+    if outline.lock_lines.is_none() {
+        return Err("anime_locks draws no lines between locks".into());
+    }
+    let mut inside = Vec::new();
+    for by_piece in [false, true] {
+        let mut hair = ToonHairMeshes::matching(|n| n == "hair");
+        if by_piece {
+            hair = hair.with_locks_by_piece();
+        }
+        let (mut r, character, handle, shipped) =
+            avatar_scene((320, 240), &look, Some(outline.clone()), hair)?;
+        for (view, yaw) in [
+            ("side", std::f32::consts::FRAC_PI_2),
+            ("back", std::f32::consts::PI),
+        ] {
+            r.app
+                .world_mut()
+                .entity_mut(character)
+                .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
+            let mut captures = Vec::new();
+            for (material, outline_on) in [(mask_of(&shipped), false), (shipped.clone(), false)]
+                .into_iter()
+                .chain([(shipped.clone(), true)])
+            {
+                set_material(&mut r, &handle, &material);
+                let world = r.app.world_mut();
+                let mut cameras = world.query::<&mut ImageSpaceOutline>();
+                for mut o in cameras.iter_mut(world) {
+                    o.enabled = outline_on;
+                }
+                captures.push(r.capture()?);
+            }
+            save(
+                &captures[2],
+                &format!(
+                    "avatar_locks_{}_{view}",
+                    if by_piece { "by_piece" } else { "one" }
+                ),
+            )?;
+            let m = measure(&captures[0], &captures[1], &captures[2]);
+            inside.push((by_piece, view, m.interior_inked, m.boundary_inked));
+        }
+    }
+    eprintln!("avatar hair inked inside, on the boundary (locks by piece, view): {inside:?}");
+    // Lines one pixel wide at this size: more ink inside in each view, 1% of the inside more
+    // over both.
+    let more: f32 = (0..2).map(|v| inside[v + 2].2 - inside[v].2).sum();
+    let ok = more > 0.01
+        && (0..2).all(|v| {
+            let (one, pieces) = (inside[v], inside[v + 2]);
+            pieces.2 > one.2
+                && pieces.2 <= LOCK_LINES_INSIDE_MOST
+                && pieces.3 >= BOUNDARY_INKED_LEAST
+        });
+    if !ok {
+        return Err(format!("{inside:?}").into());
+    }
+    Ok(())
 }
 
 /// The avatar in `look`'s material (`hair` selecting its hair mesh), lit from above in front,
