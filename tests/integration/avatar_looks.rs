@@ -62,13 +62,6 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
             Some(outline),
             ToonHairMeshes::matching(|n| n == "hair"),
         )?;
-        let set_outline = |r: &mut HeadlessRenderer, on: bool| {
-            let world = r.app.world_mut();
-            let mut cameras = world.query::<&mut ImageSpaceOutline>();
-            for mut o in cameras.iter_mut(world) {
-                o.enabled = on;
-            }
-        };
         let lock_lines = look
             .outline
             .as_ref()
@@ -78,17 +71,7 @@ fn the_avatar_in_the_outlined_looks_from_three_views() -> Result<(), Failed> {
             ("side", std::f32::consts::FRAC_PI_2),
             ("back", std::f32::consts::PI),
         ] {
-            r.app
-                .world_mut()
-                .entity_mut(character)
-                .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
-            set_material(&mut r, &handle, &mask_of(&shipped));
-            set_outline(&mut r, false);
-            let mask = r.capture()?;
-            set_material(&mut r, &handle, &shipped);
-            let plain = r.capture()?;
-            set_outline(&mut r, true);
-            let inked = r.capture()?;
+            let [mask, plain, inked] = three_captures(&mut r, character, yaw, &handle, &shipped)?;
             save(&inked, &format!("avatar_{look_name}_{view}"))?;
             let m = measure(&mask, &plain, &inked);
             eprintln!(
@@ -145,23 +128,7 @@ fn the_avatars_modelled_locks_get_lines_between_them() -> Result<(), Failed> {
             ("side", std::f32::consts::FRAC_PI_2),
             ("back", std::f32::consts::PI),
         ] {
-            r.app
-                .world_mut()
-                .entity_mut(character)
-                .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
-            let mut captures = Vec::new();
-            for (material, outline_on) in [(mask_of(&shipped), false), (shipped.clone(), false)]
-                .into_iter()
-                .chain([(shipped.clone(), true)])
-            {
-                set_material(&mut r, &handle, &material);
-                let world = r.app.world_mut();
-                let mut cameras = world.query::<&mut ImageSpaceOutline>();
-                for mut o in cameras.iter_mut(world) {
-                    o.enabled = outline_on;
-                }
-                captures.push(r.capture()?);
-            }
+            let captures = three_captures(&mut r, character, yaw, &handle, &shipped)?;
             save(
                 &captures[2],
                 &format!(
@@ -188,6 +155,38 @@ fn the_avatars_modelled_locks_get_lines_between_them() -> Result<(), Failed> {
         return Err(format!("{inside:?}").into());
     }
     Ok(())
+}
+
+/// The character turned by `yaw`, captured three times as the look suite measures a look: its hair
+/// in the mask material without the outline, in the shipped material without, and with it.
+fn three_captures(
+    r: &mut HeadlessRenderer,
+    character: Entity,
+    yaw: f32,
+    handle: &Handle<ToonHairMaterial>,
+    shipped: &ToonHairMaterial,
+) -> Result<[CapturedFrame; 3], Failed> {
+    r.app
+        .world_mut()
+        .entity_mut(character)
+        .insert(Transform::from_rotation(Quat::from_rotation_y(yaw)));
+    let mut captures = Vec::new();
+    for (material, outline_on) in [
+        (mask_of(shipped), false),
+        (shipped.clone(), false),
+        (shipped.clone(), true),
+    ] {
+        set_material(r, handle, &material);
+        let world = r.app.world_mut();
+        let mut cameras = world.query::<&mut ImageSpaceOutline>();
+        for mut o in cameras.iter_mut(world) {
+            o.enabled = outline_on;
+        }
+        captures.push(r.capture()?);
+    }
+    let [mask, plain, inked] = <[CapturedFrame; 3]>::try_from(captures)
+        .map_err(|c| format!("{} captures, not 3", c.len()))?;
+    Ok([mask, plain, inked])
 }
 
 /// The avatar in `look`'s material (`hair` selecting its hair mesh), lit from above in front,
