@@ -1,9 +1,10 @@
 //! Hair modelled as a mesh on hair-bone chains (as VRM, VRoid, Blender and MMD characters bring
 //! it), moved by the hair solver: the character of `assets/chain_hair/` (authored by
 //! `tools/blender/author_chain_hair.py`) has thick bangs, side locks, a back mass and a ponytail
-//! skinned to chains of bones named `hair_*`. The chains swing, collide with the head and neck and take the wind
-//! while the character turns its head, the hair mesh wears the crate's toon look, and the bangs
-//! throw the fringe shadow on the face.
+//! skinned to chains of bones named `hair_*`. The chains swing, collide with the head and neck and
+//! take the wind while the character turns its head, the hair mesh wears the crate's toon look
+//! with an outline and lines between its modelled locks, and the bangs throw the fringe shadow on
+//! the face.
 //!
 //! With `--vrm` (VRM 1.0) or `--vrm0` (VRM 0.x) the same character is loaded from a `.vrm` file
 //! instead: its spring bones, joint parameters, colliders and collider groups come from the file
@@ -16,7 +17,7 @@ use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 use bevy_cartoon_hair::asset::{CollisionCapsule, CollisionSphere};
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMeshes};
+use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMeshes, LockLines};
 
 #[derive(Component)]
 struct Character;
@@ -77,7 +78,10 @@ fn setup(
         .spawn((
             WorldAssetRoot(scene),
             Character,
-            ToonHairMeshes::matching(|name| name == "hair").with_material(look),
+            // Each modelled lock a lock of its own, for the outline's lines between locks.
+            ToonHairMeshes::matching(|name| name == "hair")
+                .with_material(look)
+                .with_locks_by_piece(),
             // Everything but the hair cel-shaded too, the skin taking the bangs' shadow (read
             // from the camera's prepasses).
             FringeShadowMeshes::all_except(|name| name == "hair", FringeShadow::cel()),
@@ -91,6 +95,10 @@ fn setup(
         Camera3d::default(),
         DepthPrepass,
         NormalPrepass,
+        ImageSpaceOutline {
+            lock_lines: Some(LockLines::default()),
+            ..default()
+        },
         Transform::from_xyz(0.6, 1.8, 0.9).looking_at(Vec3::new(0.0, 1.62, 0.0), Vec3::Y),
     ));
     if *source != Source::Gltf {
