@@ -17,7 +17,9 @@
 //! strands drawn in the opposite order: how much a pass's overdraw depends on it),
 //! `--closed-tubes` (`HairLod::half_tubes` off), `--ribbon-pixels PX` (`HairLod::ribbon_pixels`,
 //! 0 for no ribbons), `--shadow-caster ribbons|tubes|off`
-//! (`HairShadowCaster`). The hairs'
+//! (`HairShadowCaster`), `--cards N` (N hair cards of 30 cm, double-sided and painted with
+//! strand tips in alpha, dressed by a `ToonHairMeshes` and cut out as their glTF material is,
+//! spread over the heads), `--opaque-cards` (the same cards drawn opaque). The hairs'
 //! strand width on screen and the tube resolution the level of detail chose are printed.
 //!
 //! The scene: one directional light with shadow cascades, a grey ground and a head-sized sphere
@@ -73,6 +75,8 @@ struct Args {
     ribbon_pixels: Option<f32>,
     closed_tubes: bool,
     caster: bevy_cartoon_hair::mesh::HairShadowCaster,
+    cards: u32,
+    opaque_cards: bool,
 }
 
 fn args() -> Result<Args, String> {
@@ -93,6 +97,8 @@ fn args() -> Result<Args, String> {
         ribbon_pixels: None,
         closed_tubes: false,
         caster: default(),
+        cards: 0,
+        opaque_cards: false,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -120,6 +126,15 @@ fn args() -> Result<Args, String> {
             "--whole-quads" => out.compact_quads = false,
             "--reverse-strands" => out.reverse_strands = true,
             "--closed-tubes" => out.closed_tubes = true,
+            "--opaque-cards" => out.opaque_cards = true,
+            "--cards" => {
+                out.cards = value("--cards")?
+                    .parse()
+                    .map_err(|_| "--cards is a count")?;
+                if out.cards > 10_000 {
+                    return Err("--cards is at most 10000".into());
+                }
+            }
             "--shadow-caster" => {
                 use bevy_cartoon_hair::mesh::HairShadowCaster;
                 out.caster = match value("--shadow-caster")?.as_str() {
@@ -305,6 +320,9 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             }
         }
     }
+    if hair && args.cards > 0 {
+        spawn_cards(world, heads, args.cards, args.opaque_cards);
+    }
     r.warm_up(|_| true).map_err(|e| e.to_string())?;
     // Diagnostics arrive a few frames late; let them settle.
     for _ in 0..8 {
@@ -415,6 +433,73 @@ fn shadow_primitives(world: &mut World, camera: Entity) -> (usize, usize) {
         }
     }
     (primitives, cascades)
+}
+
+/// `count` hair cards (30 cm squares, double-sided, painted with strand tips in alpha: a 32 x 32
+/// texture whose lower half is teeth) in front of and around the heads, in a glTF-like material
+/// cut out at 0.5 (or opaque), dressed by one `ToonHairMeshes` with its default material.
+fn spawn_cards(world: &mut World, heads: &[common::Head], count: u32, opaque: bool) {
+    use bevy::asset::RenderAssetUsages;
+    use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+    let mut texels = Vec::with_capacity(32 * 32 * 4);
+    for y in 0..32u8 {
+        for x in 0..32u8 {
+            let tooth = 16.0 * (1.0 - (f32::from(x % 8) - 3.5).abs() / 4.0);
+            let alpha = if f32::from(y) < 14.0 + tooth { 255 } else { 0 };
+            texels.extend([200 - 3 * y, 110 - y, 230, alpha]);
+        }
+    }
+    let texture = world.resource_mut::<Assets<Image>>().add(Image::new(
+        Extent3d {
+            width: 32,
+            height: 32,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        texels,
+        TextureFormat::Rgba8UnormSrgb,
+        RenderAssetUsages::default(),
+    ));
+    let gltf = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color_texture: Some(texture),
+            alpha_mode: if opaque {
+                AlphaMode::Opaque
+            } else {
+                AlphaMode::Mask(0.5)
+            },
+            double_sided: true,
+            cull_mode: None,
+            ..default()
+        });
+    let card = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Rectangle::new(0.3, 0.3));
+    let root = world
+        .spawn((
+            Transform::default(),
+            Visibility::default(),
+            bevy_cartoon_hair::render::ToonHairMeshes::matching(|n| n == "card"),
+        ))
+        .id();
+    let per_head = count.div_ceil(heads.len().max(1) as u32).max(1);
+    for k in 0..count {
+        let Some(head) = heads.get((k / per_head) as usize) else {
+            break;
+        };
+        // Fanned around the head, each a little in front of the one before.
+        let i = (k % per_head) as f32;
+        let angle = 0.6 * (i - 0.5 * (per_head - 1) as f32) / per_head as f32;
+        world.spawn((
+            Name::new("card"),
+            Mesh3d(card.clone()),
+            MeshMaterial3d(gltf.clone()),
+            Transform::from_translation(head.at + Vec3::new(angle, 0.05, 0.12 + 0.002 * i))
+                .with_rotation(Quat::from_rotation_z(angle)),
+            ChildOf(root),
+        ));
+    }
 }
 
 fn main() -> ExitCode {
