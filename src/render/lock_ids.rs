@@ -84,6 +84,16 @@ pub fn lock_ids_by_piece(mesh: &mut Mesh) -> Result<usize, String> {
     Ok(bounds.len())
 }
 
+/// Whether `mesh` brings second UVs of its own whose `u` reaches 1 or more: the hair's prepass
+/// reads the whole part as a lock id, so the outline's lines between locks would fall along the
+/// edges of its UV tiles.
+pub(crate) fn second_uvs_read_as_locks(mesh: &Mesh) -> bool {
+    match mesh.attribute(Mesh::ATTRIBUTE_UV_1) {
+        Some(VertexAttributeValues::Float32x2(uvs)) => uvs.iter().any(|[u, _]| *u >= 1.0),
+        _ => false,
+    }
+}
+
 /// Ids for pieces with these bounds: largest first, each the id fewest of the pieces already
 /// given one whose bounds overlap its own (grown by 1% of the whole's size) have; in turn past
 /// [`MAX_COLOURED_PIECES`].
@@ -232,6 +242,23 @@ mod tests {
         assert_eq!(uvs[0], [0.25, 0.75]);
         assert_eq!(uvs[1], [0.999, 0.5]);
         assert_eq!(uvs[2], [0.0, 0.125]);
+    }
+
+    /// Second UVs of a mesh's own are lock ids to the prepass only where their `u` reaches 1.
+    #[test]
+    fn own_second_uvs_past_one_are_found() {
+        let mut m = mesh(vec![[0.0; 3]; 3], None);
+        assert!(!second_uvs_read_as_locks(&m), "no second UVs");
+        m.insert_attribute(
+            Mesh::ATTRIBUTE_UV_1,
+            vec![[0.0, 0.0], [0.999, 1.0], [-3.0, 2.0]],
+        );
+        assert!(!second_uvs_read_as_locks(&m), "within one tile");
+        m.insert_attribute(
+            Mesh::ATTRIBUTE_UV_1,
+            vec![[0.0, 0.0], [1.0, 0.0], [0.5, 0.5]],
+        );
+        assert!(second_uvs_read_as_locks(&m), "a second tile");
     }
 
     /// A mesh without positions on the CPU, or with an index past its vertices, is an error

@@ -509,6 +509,17 @@ pub(crate) fn apply_toon_to_user_meshes(
                 continue;
             };
             let locks = wanted.locks_by_piece;
+            if !locks
+                && let Some(mesh) = mesh_assets.as_deref().and_then(|a| a.get(source))
+                && super::lock_ids::second_uvs_read_as_locks(mesh)
+            {
+                warn!(
+                    "ToonHairMeshes on {character}: mesh {e} has second UVs whose u reaches 1 \
+                     or more, which the hair's prepass reads as lock ids: the outline's lines \
+                     between locks would follow their tiles; dress it with_locks_by_piece(), or \
+                     remove its second UVs"
+                );
+            }
             let Some(mesh_assets) = mesh_assets
                 .as_deref_mut()
                 .filter(|_| amount > 0.0 || uvs != StrandUvs::Mesh || locks)
