@@ -349,6 +349,10 @@ pub(crate) type MeshNames = (
 /// dropped at the next dressing).
 type MassedMeshes = HashMap<(AssetId<Mesh>, u32, u64, StrandUvs, bool), AssetId<Mesh>>;
 
+/// The look a `ToonHairMeshes` without a material of the user's wears (the three-tone ramp, in
+/// each mesh's glTF paint), made once.
+type DefaultLook = Option<Handle<ToonHairMaterial>>;
+
 /// A hash of `shapes`' bits, for [`MassedMeshes`]' keys.
 fn shapes_key(shapes: &[HairMassShape]) -> u64 {
     use std::hash::{Hash, Hasher};
@@ -370,10 +374,6 @@ fn shapes_key(shapes: &[HairMassShape]) -> u64 {
     hasher.finish()
 }
 
-/// The default toon material made for each glTF material (in its colours and sides), and for
-/// meshes without one.
-type DefaultMaterials = HashMap<Option<AssetId<StandardMaterial>>, Handle<ToonHairMaterial>>;
-
 /// Dresses the selected meshes of every spawned [`ToonHairMeshes`] character.
 #[expect(
     clippy::too_many_arguments,
@@ -388,9 +388,9 @@ pub(crate) fn apply_toon_to_user_meshes(
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
     ramps: Res<ToonRamps>,
-    (mut materials, mut default_material, mut copies): (
+    (mut materials, mut default_look, mut copies): (
         ResMut<Assets<ToonHairMaterial>>,
-        Local<DefaultMaterials>,
+        Local<DefaultLook>,
         ResMut<LookCopies>,
     ),
     (gltf_materials, standard): (
@@ -427,9 +427,22 @@ pub(crate) fn apply_toon_to_user_meshes(
             // Its colours, sides (hair modelled as sheets) and cut-out (cards), as its glTF
             // material has them.
             let paint = gltf_id.zip(gltf).map(|(id, m)| (id, GltfPaint::of(m)));
-            let keeps_paint = wanted.material.is_none() || wanted.paint == HairPaint::Gltf;
+            // The look: the user's, or the three-tone default; worn in the mesh's glTF paint
+            // (one copy per glTF material) unless the user's is to be worn as it is.
+            let (look, in_paint) = match &wanted.material {
+                Some(look) => (look.clone(), wanted.paint == HairPaint::Gltf),
+                None => {
+                    let look = default_look.get_or_insert_with(|| {
+                        materials.add(ToonHairMaterial {
+                            ramp: ramps.three_tone.clone(),
+                            ..default()
+                        })
+                    });
+                    (look.clone(), true)
+                }
+            };
             let blends = paint.as_ref().is_some_and(|(_, p)| p.blends);
-            if let Some(m) = gltf.filter(|_| keeps_paint && blends) {
+            if let Some(m) = gltf.filter(|_| in_paint && blends) {
                 warn!(
                     "ToonHairMeshes on {character}: the glTF material of mesh {e} blends with \
                      alpha ({:?}), which the toon material does not: it is cut out instead, at \
@@ -437,9 +450,9 @@ pub(crate) fn apply_toon_to_user_meshes(
                     m.alpha_mode
                 );
             }
-            let material = match (&wanted.material, paint) {
-                (Some(look), Some((gltf_id, paint))) if wanted.paint == HairPaint::Gltf => {
-                    match copies.copy(look, gltf_id, paint, &mut materials) {
+            let material = match paint {
+                Some((gltf_id, paint)) if in_paint => {
+                    match copies.copy(&look, gltf_id, paint, &mut materials) {
                         Some(copy) => copy,
                         None => {
                             warn!(
@@ -447,15 +460,18 @@ pub(crate) fn apply_toon_to_user_meshes(
                                  assets, so mesh {e} wears it as it is, without its glTF \
                                  material's colours"
                             );
-                            look.clone()
+                            look
                         }
                     }
                 }
-                (Some(look), paint) => {
-                    let given = materials.get(look);
-                    let paint = paint
-                        .map_or_else(|| GltfPaint::of(&StandardMaterial::default()), |(_, p)| p);
-                    if paint.double_sided && given.is_some_and(|m| !m.double_sided) {
+                paint => {
+                    // A mesh the user's material is worn on as it is: say where it falls short
+                    // of the glTF material.
+                    let given = materials.get(&look);
+                    let paint = paint.map(|(_, p)| p);
+                    let gltf_double_sided = paint.as_ref().is_some_and(|p| p.double_sided);
+                    let gltf_cut = paint.as_ref().is_some_and(|p| p.alpha_cutoff.is_some());
+                    if gltf_double_sided && given.is_some_and(|m| !m.double_sided) {
                         warn!(
                             "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
                              double-sided and its toon material is not, so the mesh's back \
@@ -463,9 +479,7 @@ pub(crate) fn apply_toon_to_user_meshes(
                              ToonHairMaterial::double_sided on that material"
                         );
                     }
-                    if paint.alpha_cutoff.is_some()
-                        && given.is_some_and(|m| m.alpha_cutoff.is_none())
-                    {
+                    if gltf_cut && given.is_some_and(|m| m.alpha_cutoff.is_none()) {
                         warn!(
                             "ToonHairMeshes on {character}: the glTF material of mesh {e} is \
                              drawn with alpha (cut out or blended) and its toon material is \
@@ -474,21 +488,8 @@ pub(crate) fn apply_toon_to_user_meshes(
                              with HairPaint::Gltf"
                         );
                     }
-                    look.clone()
+                    look
                 }
-                (None, paint) => default_material
-                    .entry(gltf_id.filter(|_| gltf.is_some()))
-                    .or_insert_with(|| {
-                        let look = ToonHairMaterial {
-                            ramp: ramps.three_tone.clone(),
-                            ..default()
-                        };
-                        materials.add(match paint {
-                            Some((_, paint)) => paint.on(&look),
-                            None => look,
-                        })
-                    })
-                    .clone(),
             };
             let uvs = wanted.strand_uvs;
             let painted = materials
