@@ -16,7 +16,7 @@
 //! | [`HairGroom`] | `*.hair.xml` | [`HairGroomLoader`] |
 //! | [`HeadCollision`] | `*.collision.xml` | [`HeadCollisionLoader`] |
 //! | [`HairAnimation`] | `*.hairanim.xml` | [`HairAnimationLoader`] (keyframe grooms load as dependencies) |
-//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`], added by [`VrmLoaderPlugin`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`], whichever loader opens it) |
+//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`], added by [`VrmLoaderPlugin`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`], and its MToon shade colours [`VrmShadeColor`]s on its meshes, whichever loader opens it) |
 
 mod animation;
 mod collision;
@@ -33,6 +33,7 @@ mod source;
 mod tests;
 mod vrm;
 mod vrm_gltf;
+mod vrm_mtoon;
 #[cfg(test)]
 mod vrm_tests;
 
@@ -62,6 +63,7 @@ pub use vrm::{
     VrmShape, VrmSpring, VrmSprings, VrmVersion, parse_vrm_springs,
 };
 pub use vrm_gltf::{VrmLoader, VrmLoaderPlugin, VrmNode, VrmSpringBones};
+pub use vrm_mtoon::{MAX_VRM_MATERIALS, VrmShadeColor, parse_vrm_shade_colors};
 
 use bevy::prelude::*;
 

@@ -824,7 +824,7 @@ mod serde_map {
     pub type Map = serde_json::Map<String, serde_json::Value>;
 }
 
-fn kind(v: &Value) -> &'static str {
+pub(super) fn kind(v: &Value) -> &'static str {
     match v {
         Value::Null => "null",
         Value::Bool(_) => "a boolean",

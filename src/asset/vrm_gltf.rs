@@ -7,6 +7,10 @@
 //! can find the bones once the scene spawns. A file with broken spring-bone JSON still loads
 //! (its meshes and skeleton are fine); [`VrmSpringBones::error`] says what is wrong, and the
 //! simulation reports it.
+//!
+//! The handler also puts each MToon material's shade colour on the mesh entities that wear it
+//! ([`VrmShadeColor`]); a broken shade colour is a warning naming the file and the JSON path,
+//! and that material's meshes get none.
 
 use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};
@@ -18,6 +22,7 @@ use bevy::image::CompressedImageFormatSupport;
 use bevy::prelude::*;
 
 use super::vrm::{VrmSprings, parse_vrm_springs};
+use super::vrm_mtoon::{VrmShadeColor, parse_vrm_shade_colors};
 
 /// On each node entity of a glTF scene whose file has VRM spring bones: the node's glTF index.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Reflect)]
@@ -41,6 +46,8 @@ pub struct VrmSpringBones {
 #[derive(Clone, Default)]
 struct VrmExtensionHandler {
     found: Option<VrmSpringBones>,
+    /// Each material's MToon shade colour, by glTF material index.
+    shades: Vec<Option<Color>>,
 }
 
 impl GltfExtensionHandler for VrmExtensionHandler {
@@ -55,6 +62,11 @@ impl GltfExtensionHandler for VrmExtensionHandler {
         _settings: &GltfLoaderSettings,
     ) {
         let file = load_context.path().to_string();
+        let (shades, errors) = parse_vrm_shade_colors(&file, &gltf.document);
+        for e in errors {
+            warn!("{e}; the meshes with that material take their toon look's shade colour");
+        }
+        self.shades = shades;
         self.found = match parse_vrm_springs(&file, &gltf.document) {
             Ok(None) => None,
             Ok(Some(springs)) => Some(VrmSpringBones {
@@ -83,6 +95,23 @@ impl GltfExtensionHandler for VrmExtensionHandler {
             && let Ok(index) = u32::try_from(gltf_node.index())
         {
             entity.insert(VrmNode(index));
+        }
+    }
+
+    fn on_spawn_mesh_and_material(
+        &mut self,
+        _load_context: &mut LoadContext<'_>,
+        _primitive: &gltf::Primitive,
+        _mesh: &gltf::Mesh,
+        material: &gltf::Material,
+        entity: &mut EntityWorldMut,
+        _material_label: &str,
+    ) {
+        if let Some(shade) = material
+            .index()
+            .and_then(|i| self.shades.get(i).copied().flatten())
+        {
+            entity.insert(VrmShadeColor(shade));
         }
     }
 
@@ -125,7 +154,8 @@ impl AssetLoader for VrmLoader {
 /// Registers the handler (in `build`: the glTF loader takes the handler list when it is made).
 pub(crate) fn register_handler(app: &mut App) {
     app.register_type::<VrmNode>()
-        .register_type::<VrmSpringBones>();
+        .register_type::<VrmSpringBones>()
+        .register_type::<VrmShadeColor>();
     // Without Bevy's glTF plugin (added before this one) no glTF loads, VRM or not.
     let Some(handlers) = app.world_mut().get_resource_mut::<GltfExtensionHandlers>() else {
         return;

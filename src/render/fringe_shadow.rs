@@ -24,9 +24,11 @@ use bevy::render::render_resource::{AsBindGroup, ShaderType};
 use bevy::shader::ShaderRef;
 use bevy::world_serialization::WorldAssetRoot;
 
+use crate::asset::VrmShadeColor;
 use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
+use super::gltf_paint::shade_tint;
 use super::user_mesh::{MeshNames, meshes_passing};
 
 /// A face material that receives the fringe shadow.
@@ -53,7 +55,9 @@ pub struct FringeShadow {
     /// below it the base colour times [`FringeShadow::cel_shade`]. Default: `false`.
     pub cel: bool,
     /// The shade tone of cel shading: multiplies the base colour where the light is below the
-    /// threshold. Default: a warm rose, `srgb(0.80, 0.62, 0.64)`, as skin is drawn.
+    /// threshold. Default: a warm rose, `srgb(0.80, 0.62, 0.64)`, as skin is drawn. A
+    /// [`FringeShadowMeshes`] gives a VRM's MToon meshes their own shade instead (see
+    /// [`FringeShadowMeshes::vrm_shades`]).
     pub cel_shade: Color,
     /// The light level, as a share of [`FringeShadow::full_light_lux`], where cel shading turns
     /// from shade to lit. Default: `0.3`.
@@ -169,6 +173,16 @@ pub struct FringeShadowMeshes {
     pub shadow: FringeShadow,
     /// When set, the meshes taken are the others: those none of whose names pass `select`.
     pub except: bool,
+    /// Whether a mesh whose material is a VRM's MToon with a shade colour ([`VrmShadeColor`])
+    /// takes that colour as its [`FringeShadow::cel_shade`] (the shade over its base colour, so
+    /// the dark tone draws the MToon shade, times the texture), instead of the one `shadow`
+    /// gives every mesh. Default: `true`.
+    #[reflect(default = "yes")]
+    pub vrm_shades: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl FringeShadowMeshes {
@@ -181,6 +195,7 @@ impl FringeShadowMeshes {
             select: BonePredicate::new(test),
             shadow,
             except: false,
+            vrm_shades: true,
         }
     }
 
@@ -194,6 +209,14 @@ impl FringeShadowMeshes {
         Self {
             except: true,
             ..Self::matching(test, shadow)
+        }
+    }
+
+    /// These meshes with `shadow`'s cel shade tone, a VRM's MToon shade colours ignored.
+    pub fn without_vrm_shades(self) -> Self {
+        Self {
+            vrm_shades: false,
+            ..self
         }
     }
 }
@@ -224,7 +247,10 @@ pub(crate) fn apply_fringe_shadow(
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
-    standard: Query<&MeshMaterial3d<StandardMaterial>>,
+    (standard, shades): (
+        Query<&MeshMaterial3d<StandardMaterial>>,
+        Query<&VrmShadeColor>,
+    ),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
         ResMut<Assets<FringeShadowMaterial>>,
@@ -273,9 +299,15 @@ pub(crate) fn apply_fringe_shadow(
                     let Some(base) = standards.get(handle) else {
                         continue;
                     };
+                    let mut extension = wanted.shadow.clone();
+                    if let Some(VrmShadeColor(shade)) =
+                        shades.get(e).ok().filter(|_| wanted.vrm_shades)
+                    {
+                        extension.cel_shade = shade_tint(*shade, base.base_color, None).into();
+                    }
                     let m = extended.add(ExtendedMaterial {
                         base: base.clone(),
-                        extension: wanted.shadow.clone(),
+                        extension,
                     });
                     made.push((handle.id(), m.clone()));
                     m
@@ -379,6 +411,71 @@ mod tests {
             app.world().resource::<Assets<FringeShadowMaterial>>().len(),
             1
         );
+    }
+
+    /// A VRM's MToon mesh takes its shade over its base colour as its cel shade (so its dark
+    /// tone draws the MToon shade); a mesh of another material keeps the shadow's; with
+    /// `without_vrm_shades` both keep the shadow's.
+    #[test]
+    fn an_mtoon_mesh_takes_its_own_cel_shade() {
+        for vrm_shades in [true, false] {
+            let mut app = app();
+            let world = app.world_mut();
+            let mut standard = world.resource_mut::<Assets<StandardMaterial>>();
+            let skin = standard.add(StandardMaterial {
+                base_color: Color::linear_rgb(1.0, 0.8, 0.7),
+                ..default()
+            });
+            let cloth = standard.add(StandardMaterial::default());
+            let mut fringe = FringeShadowMeshes::all_except(|_| false, FringeShadow::cel());
+            if !vrm_shades {
+                fringe = fringe.without_vrm_shades();
+            }
+            let root = world.spawn((Transform::default(), fringe)).id();
+            let face = world
+                .spawn((
+                    Mesh3d(Handle::default()),
+                    MeshMaterial3d(skin),
+                    VrmShadeColor(Color::linear_rgb(0.8, 0.5, 0.5)),
+                    ChildOf(root),
+                ))
+                .id();
+            let coat = world
+                .spawn((
+                    Mesh3d(Handle::default()),
+                    MeshMaterial3d(cloth),
+                    ChildOf(root),
+                ))
+                .id();
+            app.update();
+            let cel = |e: Entity| {
+                let handle = app
+                    .world()
+                    .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
+                    .expect("extended")
+                    .0
+                    .clone();
+                let materials = app.world().resource::<Assets<FringeShadowMaterial>>();
+                materials
+                    .get(&handle)
+                    .unwrap()
+                    .extension
+                    .cel_shade
+                    .to_linear()
+            };
+            let rose = FringeShadow::cel().cel_shade.to_linear();
+            assert_eq!(cel(coat), rose);
+            let face = cel(face);
+            if vrm_shades {
+                let want = [0.8, 0.5 / 0.8, 0.5 / 0.7];
+                let got = [face.red, face.green, face.blue];
+                for (g, w) in got.into_iter().zip(want) {
+                    assert!((g - w).abs() < 1e-6, "{got:?}");
+                }
+            } else {
+                assert_eq!(face, rose);
+            }
+        }
     }
 
     #[test]

@@ -5,11 +5,18 @@
 //! With a material of the user's, each glTF material's meshes wear one copy of it in that
 //! material's paint; [`follow_look_edits`] keeps the copies in step when the user's material
 //! changes (a panel, a preset, code), so a look is still edited in one place.
+//!
+//! A VRM's MToon material also gives its shade colour ([`VrmShadeColor`]): the copy's
+//! [`ToonShading::shade_color`](super::ToonShading::shade_color) is set so the ramp's darkest
+//! tone draws that colour (times the texture) where the base colour would be drawn dark.
 
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
 use super::ToonHairMaterial;
+use super::ramps::{ToonRamps, three_tone, two_tone};
+use crate::asset::VrmShadeColor;
+use crate::math::finite_or;
 
 /// Where the colours of the meshes a [`ToonHairMeshes`](super::ToonHairMeshes) dresses with a
 /// material of yours come from.
@@ -25,7 +32,9 @@ pub enum HairPaint {
     /// and its sides, under the rest of your material (ramp, lighting, angel ring, tips, rim,
     /// hatching, shade colour): a look applied to painted hair, a VRM's with several hair
     /// materials. Each glTF material's meshes wear one copy of your material, kept in step
-    /// with your edits to it. A mesh without a glTF material wears yours as it is.
+    /// with your edits to it. A mesh without a glTF material wears yours as it is. A VRM's
+    /// MToon shade colour is kept too: the ramp's darkest tone draws it, tinted by your shade
+    /// colour.
     Gltf,
 }
 
@@ -40,11 +49,14 @@ pub(crate) struct GltfPaint {
     pub alpha_cutoff: Option<f32>,
     /// The glTF material blends by alpha: it is cut out instead.
     pub blends: bool,
+    /// Its MToon shade colour (a VRM's), if it has one.
+    pub shade: Option<Color>,
 }
 
 impl GltfPaint {
-    /// The paint of the glTF material `m` (as Bevy's glTF loader builds it).
-    pub fn of(m: &StandardMaterial) -> Self {
+    /// The paint of the glTF material `m` (as Bevy's glTF loader builds it), with the MToon
+    /// shade colour of the mesh wearing it.
+    pub fn of(m: &StandardMaterial, shade: Option<&VrmShadeColor>) -> Self {
         let (alpha_cutoff, blends) = match m.alpha_mode {
             AlphaMode::Opaque => (None, false),
             AlphaMode::Mask(cutoff) => (Some(cutoff), false),
@@ -56,13 +68,15 @@ impl GltfPaint {
             double_sided: m.double_sided || m.cull_mode.is_none(),
             alpha_cutoff,
             blends,
+            shade: shade.map(|s| s.0),
         }
     }
 
     /// `look` in this paint: its base colour and texture this paint's (its own texture kept
     /// where the glTF material has none), double-sided if either is, cut out at its own
-    /// cut-off or else this paint's.
-    pub fn on(&self, look: &ToonHairMaterial) -> ToonHairMaterial {
+    /// cut-off or else this paint's; with an MToon shade colour, its shade colour set so the
+    /// ramp's darkest tone (see [`darkest_tone`]) draws that colour, times the look's own.
+    pub fn on(&self, look: &ToonHairMaterial, ramps: &ToonRamps) -> ToonHairMaterial {
         let mut m = look.clone();
         m.base_color = self.base_color;
         if self.texture.is_some() {
@@ -70,8 +84,63 @@ impl GltfPaint {
         }
         m.double_sided |= self.double_sided;
         m.alpha_cutoff = look.alpha_cutoff.or(self.alpha_cutoff);
+        if let Some(shade) = self.shade {
+            let tint = shade_tint(shade, self.base_color, darkest_tone(&look.ramp, ramps));
+            let own = look.shading.shade_color.to_linear();
+            m.shading.shade_color = Color::linear_rgb(
+                own.red * tint.red,
+                own.green * tint.green,
+                own.blue * tint.blue,
+            );
+        }
         m
     }
+}
+
+/// The darkest tone of `ramp` when it is one of the crate's generated ramps (the two-tone
+/// ramp's, or the three-tone one's, which the depth, back light and specular ramps share);
+/// `None` for a ramp of the user's, whose tones are not known here.
+pub(crate) fn darkest_tone(ramp: &Handle<Image>, ramps: &ToonRamps) -> Option<f32> {
+    if *ramp == ramps.two_tone {
+        Some(two_tone(0.0))
+    } else if [
+        &ramps.three_tone,
+        &ramps.depth,
+        &ramps.back_light,
+        &ramps.specular,
+    ]
+    .contains(&ramp)
+    {
+        Some(three_tone(0.0))
+    } else {
+        None
+    }
+}
+
+/// The toon shader's shade colour that makes a tone `darkest` bright draw `shade` on a surface
+/// of `base` colour: the shader multiplies a tone by `mix(1, shade colour, w)`, `w = 2 (1 -
+/// tone)` clamped to `[0, 1]`, so the shade colour is `(shade / (base * darkest) - (1 - w)) /
+/// w`, per channel, clamped to the shader's `[0, 16]` (a base channel of 0 cannot be shaded
+/// into colour). With no known darkest tone (`None`), or one too bright to take the shade
+/// colour, the shade over the base colour: its hue and darkness relative to the base tint the
+/// darker tones.
+pub(crate) fn shade_tint(shade: Color, base: Color, darkest: Option<f32>) -> LinearRgba {
+    let (s, b) = (shade.to_linear(), base.to_linear());
+    let (d, w) = match darkest {
+        Some(d) if d > 0.0 && 2.0 * (1.0 - d) > 0.0 => (d, (2.0 * (1.0 - d)).min(1.0)),
+        _ => (1.0, 1.0),
+    };
+    let channel = |s: f32, b: f32| {
+        if b * d <= 1e-6 {
+            return 1.0;
+        }
+        finite_or((s / (b * d) - (1.0 - w)) / w, 1.0).clamp(0.0, 16.0)
+    };
+    LinearRgba::rgb(
+        channel(s.red, b.red),
+        channel(s.green, b.green),
+        channel(s.blue, b.blue),
+    )
 }
 
 /// The copies of users' materials in glTF paint: for each (look, glTF material), the copy the
@@ -91,6 +160,7 @@ impl LookCopies {
         gltf: AssetId<StandardMaterial>,
         paint: GltfPaint,
         materials: &mut Assets<ToonHairMaterial>,
+        ramps: &ToonRamps,
     ) -> Option<Handle<ToonHairMaterial>> {
         self.0.retain(|_, (copy, _)| materials.contains(*copy));
         let key = (look.id(), gltf);
@@ -101,7 +171,7 @@ impl LookCopies {
         {
             return Some(copy);
         }
-        let copy = materials.add(paint.on(materials.get(look)?));
+        let copy = materials.add(paint.on(materials.get(look)?, ramps));
         self.0.insert(key, (copy.id(), paint));
         Some(copy)
     }
@@ -112,6 +182,7 @@ pub(crate) fn follow_look_edits(
     mut events: MessageReader<AssetEvent<ToonHairMaterial>>,
     copies: Res<LookCopies>,
     mut materials: ResMut<Assets<ToonHairMaterial>>,
+    ramps: Res<ToonRamps>,
 ) {
     let edited: HashSet<AssetId<ToonHairMaterial>> = events
         .read()
@@ -128,7 +199,7 @@ pub(crate) fn follow_look_edits(
         if !edited.contains(look) {
             continue;
         }
-        let Some(remade) = materials.get(*look).map(|l| paint.on(l)) else {
+        let Some(remade) = materials.get(*look).map(|l| paint.on(l, &ramps)) else {
             continue;
         };
         if let Some(mut worn) = materials.get_mut(*copy) {
@@ -158,29 +229,38 @@ mod tests {
         app.add_plugins((MinimalPlugins, AssetPlugin::default()))
             .init_asset::<Image>();
         let texture = image(&mut app);
-        let opaque = GltfPaint::of(&StandardMaterial {
-            base_color: Color::srgb(0.2, 0.4, 0.6),
-            base_color_texture: Some(texture.clone()),
-            ..default()
-        });
+        let opaque = GltfPaint::of(
+            &StandardMaterial {
+                base_color: Color::srgb(0.2, 0.4, 0.6),
+                base_color_texture: Some(texture.clone()),
+                ..default()
+            },
+            None,
+        );
         assert_eq!(opaque.base_color, Color::srgb(0.2, 0.4, 0.6));
         assert_eq!(opaque.texture, Some(texture));
         assert_eq!((opaque.double_sided, opaque.alpha_cutoff), (false, None));
         let sides = |double_sided, cull_mode| {
-            GltfPaint::of(&StandardMaterial {
-                double_sided,
-                cull_mode,
-                ..default()
-            })
+            GltfPaint::of(
+                &StandardMaterial {
+                    double_sided,
+                    cull_mode,
+                    ..default()
+                },
+                None,
+            )
             .double_sided
         };
         assert!(sides(true, None) && sides(false, None) && sides(true, Some(Face::Back)));
         assert!(!sides(false, Some(Face::Back)));
         let cut = |alpha_mode| {
-            let p = GltfPaint::of(&StandardMaterial {
-                alpha_mode,
-                ..default()
-            });
+            let p = GltfPaint::of(
+                &StandardMaterial {
+                    alpha_mode,
+                    ..default()
+                },
+                None,
+            );
             (p.alpha_cutoff, p.blends)
         };
         assert_eq!(cut(AlphaMode::Mask(0.3)), (Some(0.3), false));
@@ -215,8 +295,10 @@ mod tests {
             double_sided: true,
             alpha_cutoff: Some(0.4),
             blends: false,
+            shade: None,
         };
-        let worn = paint.on(&look);
+        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
+        let worn = paint.on(&look, &ramps);
         let mut expected = look.clone();
         expected.base_color = Color::srgb(0.9, 0.3, 0.2);
         assert_eq!(worn.shading, expected.shading);
@@ -235,9 +317,96 @@ mod tests {
             double_sided: true,
             ..look
         };
-        let worn = plain.on(&cut_look);
+        let worn = plain.on(&cut_look, &ramps);
         assert_eq!(worn.base_color_texture, Some(own));
         assert_eq!(worn.alpha_cutoff, Some(0.8));
         assert!(worn.double_sided);
+    }
+
+    /// What the toon shader draws for a tone `tone` bright with shade colour `shade` on
+    /// `base`: `base * tone * mix(1, shade, w)`, as `toon.wesl` does (its luma is `tone` for a
+    /// grey ramp).
+    fn drawn(base: f32, tone: f32, shade: f32) -> f32 {
+        let w = (2.0 * (1.0 - tone)).clamp(0.0, 1.0);
+        base * tone * (1.0 + (shade - 1.0) * w)
+    }
+
+    /// The MToon shade colour comes out of the darkest tone of the crate's ramps as given: a
+    /// skin-pink shade on a pale base, through the three-tone ramp (0.45) and the two-tone one
+    /// (0.55, whose darkest tone takes only 0.9 of the shade colour); a base channel of 0
+    /// cannot be shaded (1, no change); a shade beyond 16x the tone is clamped; a ramp of the
+    /// user's takes the shade over the base colour.
+    #[test]
+    fn the_mtoon_shade_is_what_the_darkest_tone_draws() {
+        let base = Color::linear_rgb(0.9, 0.8, 0.7);
+        let shade = Color::linear_rgb(0.6, 0.3, 0.35);
+        for d in [three_tone(0.0), two_tone(0.0)] {
+            let tint = shade_tint(shade, base, Some(d));
+            let out = [
+                drawn(0.9, d, tint.red),
+                drawn(0.8, d, tint.green),
+                drawn(0.7, d, tint.blue),
+            ];
+            for (got, want) in out.into_iter().zip([0.6, 0.3, 0.35]) {
+                assert!((got - want).abs() < 1e-5, "tone {d}: {out:?}");
+            }
+        }
+        let tint = shade_tint(
+            Color::linear_rgb(0.5, 0.9, 0.1),
+            Color::linear_rgb(0.0, 0.05, 0.5),
+            Some(0.45),
+        );
+        assert_eq!(tint.red, 1.0);
+        assert_eq!(tint.green, 16.0);
+        assert!((tint.blue - 0.1 / (0.5 * 0.45)).abs() < 1e-6);
+        let tint = shade_tint(shade, base, None);
+        assert!((tint.red - 0.6 / 0.9).abs() < 1e-6 && (tint.green - 0.3 / 0.8).abs() < 1e-6);
+    }
+
+    /// A look in the paint of an MToon material: its shade colour is the look's times the
+    /// tint for the look's ramp (the crate's three-tone ramp here); a ramp of the user's takes
+    /// the shade over the base; without a shade colour the look's own is kept.
+    #[test]
+    fn a_look_in_mtoon_paint_takes_the_shade_colour() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Image>();
+        let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
+        let own_ramp = image(&mut app);
+        let base = Color::linear_rgb(0.8, 0.8, 0.8);
+        let shade = VrmShadeColor(Color::linear_rgb(0.3, 0.2, 0.5));
+        let paint = GltfPaint::of(
+            &StandardMaterial {
+                base_color: base,
+                ..default()
+            },
+            Some(&shade),
+        );
+        let violet = Color::linear_rgb(1.0, 0.5, 1.0);
+        let look = ToonHairMaterial {
+            shading: ToonShading {
+                shade_color: violet,
+                ..default()
+            },
+            ramp: ramps.three_tone.clone(),
+            ..default()
+        };
+        let worn = paint.on(&look, &ramps).shading.shade_color.to_linear();
+        let tint = shade_tint(shade.0, base, Some(0.45));
+        assert_eq!(
+            (worn.red, worn.green, worn.blue),
+            (tint.red, 0.5 * tint.green, tint.blue)
+        );
+        let theirs = ToonHairMaterial {
+            ramp: own_ramp,
+            ..look.clone()
+        };
+        let worn = paint.on(&theirs, &ramps).shading.shade_color.to_linear();
+        assert!((worn.red - 0.3 / 0.8).abs() < 1e-6 && (worn.blue - 0.5 / 0.8).abs() < 1e-6);
+        let unshaded = GltfPaint {
+            shade: None,
+            ..paint
+        };
+        assert_eq!(unshaded.on(&look, &ramps).shading.shade_color, violet);
     }
 }

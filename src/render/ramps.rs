@@ -39,7 +39,7 @@ pub fn three_tone(x: f32) -> f32 {
     }
 }
 
-fn two_tone(x: f32) -> f32 {
+pub(crate) fn two_tone(x: f32) -> f32 {
     if x < 0.4 { 0.55 } else { 1.0 }
 }
 

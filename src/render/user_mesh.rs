@@ -24,6 +24,7 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
+use crate::asset::VrmShadeColor;
 use crate::math::finite_or;
 use crate::mesh::HairMassShape;
 use crate::sim::{BonePredicate, CharacterSpawned};
@@ -52,9 +53,10 @@ pub struct ToonHairMeshes {
     #[reflect(ignore)]
     pub select: BonePredicate,
     /// The material. `None`: for each glTF material, a toon material in its colours (the
-    /// three-tone ramp times its base colour and base colour texture), double-sided and cut out
-    /// as it is; orange for a mesh without one. Give one for a look of your own, worn as it is,
-    /// or over each mesh's own colours with [`HairPaint::Gltf`].
+    /// three-tone ramp times its base colour and base colour texture, its darkest tone a VRM's
+    /// MToon shade colour where the material has one), double-sided and cut out as it is;
+    /// orange for a mesh without one. Give one for a look of your own, worn as it is, or over
+    /// each mesh's own colours with [`HairPaint::Gltf`].
     pub material: Option<Handle<ToonHairMaterial>>,
     /// With a [`material`](Self::material) of yours: whether every mesh wears it as it is
     /// ([`HairPaint::Material`], the default) or each keeps its glTF material's colours,
@@ -397,6 +399,7 @@ pub(crate) fn apply_toon_to_user_meshes(
         Query<&MeshMaterial3d<StandardMaterial>>,
         Option<Res<Assets<StandardMaterial>>>,
     ),
+    shades: Query<&VrmShadeColor>,
     mut mesh_assets: Option<ResMut<Assets<Mesh>>>,
     mesh_handles: Query<&Mesh3d>,
     mut massed: Local<MassedMeshes>,
@@ -426,7 +429,9 @@ pub(crate) fn apply_toon_to_user_meshes(
             let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
             // Its colours, sides (hair modelled as sheets) and cut-out (cards), as its glTF
             // material has them.
-            let paint = gltf_id.zip(gltf).map(|(id, m)| (id, GltfPaint::of(m)));
+            let paint = gltf_id
+                .zip(gltf)
+                .map(|(id, m)| (id, GltfPaint::of(m, shades.get(e).ok())));
             // The look: the user's, or the three-tone default; worn in the mesh's glTF paint
             // (one copy per glTF material) unless the user's is to be worn as it is.
             let (look, in_paint) = match &wanted.material {
@@ -452,7 +457,7 @@ pub(crate) fn apply_toon_to_user_meshes(
             }
             let material = match paint {
                 Some((gltf_id, paint)) if in_paint => {
-                    match copies.copy(&look, gltf_id, paint, &mut materials) {
+                    match copies.copy(&look, gltf_id, paint, &mut materials, &ramps) {
                         Some(copy) => copy,
                         None => {
                             warn!(

@@ -23,6 +23,7 @@ mod lighting_render;
 mod lock_render;
 mod look_suite;
 mod mass_render;
+mod mtoon_render;
 mod outline_render;
 mod render_smoke;
 mod ring_render;
@@ -88,6 +89,7 @@ fn main() {
         .chain(half_tube_render::RENDER_TESTS)
         .chain(avatar_looks::RENDER_TESTS)
         .chain(user_mesh_render::RENDER_TESTS)
+        .chain(mtoon_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(
