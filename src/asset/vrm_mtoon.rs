@@ -87,16 +87,24 @@ fn error(file: &str, path: &str, message: impl Into<String>) -> VrmError {
     }
 }
 
+fn object<'v>(
+    file: &str,
+    path: &str,
+    v: &'v Value,
+) -> Result<&'v serde_json::Map<String, Value>, VrmError> {
+    v.as_object().ok_or_else(|| {
+        error(
+            file,
+            path,
+            format!("expected an object, found {}", super::vrm::kind(v)),
+        )
+    })
+}
+
 /// VRM 1.0: `materials[i].extensions.VRMC_materials_mtoon.shadeColorFactor`, linear RGB.
 fn shade_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<Color>, VrmError> {
     let path = format!("materials[{i}].extensions.VRMC_materials_mtoon");
-    let Some(mtoon) = mtoon.as_object() else {
-        return Err(error(
-            file,
-            &path,
-            format!("expected an object, found {}", super::vrm::kind(mtoon)),
-        ));
-    };
+    let mtoon = object(file, &path, mtoon)?;
     let Some(factor) = mtoon.get("shadeColorFactor") else {
         return Ok(None);
     };
@@ -108,13 +116,7 @@ fn shade_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<Color>, VrmErr
 /// `vectorProperties._ShadeColor`, sRGB with alpha (as Unity stores a colour).
 fn shade_v0(file: &str, i: usize, properties: &Value) -> Result<Option<Color>, VrmError> {
     let path = format!("extensions.VRM.materialProperties[{i}]");
-    let Some(properties) = properties.as_object() else {
-        return Err(error(
-            file,
-            &path,
-            format!("expected an object, found {}", super::vrm::kind(properties)),
-        ));
-    };
+    let properties = object(file, &path, properties)?;
     if properties.get("shader").and_then(Value::as_str) != Some("VRM/MToon") {
         return Ok(None);
     }
