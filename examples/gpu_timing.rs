@@ -19,7 +19,9 @@
 //! 0 for no ribbons), `--shadow-caster ribbons|tubes|off`
 //! (`HairShadowCaster`), `--cards N` (N hair cards of 30 cm, double-sided and painted with
 //! strand tips in alpha, dressed by a `ToonHairMeshes` and cut out as their glTF material is,
-//! spread over the heads), `--opaque-cards` (the same cards drawn opaque). The hairs'
+//! spread over the heads), `--opaque-cards` (the same cards drawn opaque), `--outline` (the
+//! camera's `ImageSpaceOutline` with the hair, the mass outline in black) and
+//! `--outline-hair-colour` (the same in the hair's colour, `hair_tint`). The hairs'
 //! strand width on screen and the tube resolution the level of detail chose are printed.
 //!
 //! The scene: one directional light with shadow cascades, a grey ground and a head-sized sphere
@@ -77,6 +79,8 @@ struct Args {
     caster: bevy_cartoon_hair::mesh::HairShadowCaster,
     cards: u32,
     opaque_cards: bool,
+    /// The camera's image-space outline with hair (`None`: no outline), its hair tint.
+    outline: Option<Option<Color>>,
 }
 
 fn args() -> Result<Args, String> {
@@ -99,6 +103,7 @@ fn args() -> Result<Args, String> {
         caster: default(),
         cards: 0,
         opaque_cards: false,
+        outline: None,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -127,6 +132,8 @@ fn args() -> Result<Args, String> {
             "--reverse-strands" => out.reverse_strands = true,
             "--closed-tubes" => out.closed_tubes = true,
             "--opaque-cards" => out.opaque_cards = true,
+            "--outline" => out.outline = Some(None),
+            "--outline-hair-colour" => out.outline = Some(Some(Color::srgb(0.45, 0.3, 0.3))),
             "--cards" => {
                 out.cards = value("--cards")?
                     .parse()
@@ -266,6 +273,14 @@ fn measure(args: &Args, heads: &[common::Head], scene: Scene) -> Result<Figures,
             Transform::IDENTITY,
         ))
         .id();
+    if let Some(hair_tint) = args.outline.filter(|_| hair) {
+        world
+            .entity_mut(camera)
+            .insert(bevy_cartoon_hair::render::ImageSpaceOutline {
+                hair_tint,
+                ..default()
+            });
+    }
     if scene == Scene::Prepass {
         world.entity_mut(camera).insert((
             bevy::core_pipeline::prepass::DepthPrepass,

@@ -111,6 +111,18 @@ pub(super) fn outline_controls(
                     });
                 ui.end_row();
                 if c.source == OutlineSource::Mass {
+                    let mut tinted = c.hair_tint.is_some();
+                    ui.label("Outline colour");
+                    ui.checkbox(&mut tinted, "the hair's, darkened, along hair");
+                    ui.end_row();
+                    c.hair_tint = match (tinted, c.hair_tint) {
+                        (false, _) => None,
+                        (true, t) => {
+                            let mut t = t.unwrap_or(Color::srgb(0.45, 0.3, 0.3));
+                            color_row(ui, "Outline tint", &mut t);
+                            Some(t)
+                        }
+                    };
                     let mut inner = c.inner_threshold.is_some();
                     ui.label("Inner lines");
                     ui.checkbox(&mut inner, "normal creases");

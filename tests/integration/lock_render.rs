@@ -24,6 +24,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "lock_lines_in_the_hairs_colour_keep_the_outline_ink",
         lock_lines_in_the_hairs_colour_keep_the_outline_ink,
     ),
+    (
+        "the_mass_outline_in_the_hairs_colour_leaves_other_outlines_inked",
+        the_mass_outline_in_the_hairs_colour_leaves_other_outlines_inked,
+    ),
 ];
 
 /// Magenta: neither the orange hair nor the black background.
@@ -210,6 +214,131 @@ fn lock_lines_in_the_hairs_colour_keep_the_outline_ink() -> Result<(), Failed> {
         .into());
     }
     Ok(())
+}
+
+/// `ImageSpaceOutline::hair_tint`: two orange locks side by side (left) and a grey box that is
+/// not hair (right), with a magenta mass outline (dilation 1), then with the outline in the
+/// hair's colour, then the same with MSAA. Every pixel the plain outline inks magenta around
+/// the locks is then in the locks' hue (red above green above blue) and darker than the locks'
+/// own lit colour, and no pixel there is magenta; the box's outline keeps its magenta to the
+/// pixel.
+fn the_mass_outline_in_the_hairs_colour_leaves_other_outlines_inked() -> Result<(), Failed> {
+    let mut frames = Vec::new();
+    for (tint, msaa) in [
+        (None, Msaa::Off),
+        (Some(Color::srgb(0.45, 0.3, 0.3)), Msaa::Off),
+        (Some(Color::srgb(0.45, 0.3, 0.3)), Msaa::Sample4),
+    ] {
+        let mut r = scene(Vec3::new(0.3, 1.0, 1.0), Vec3::new(0.0, 0.0, 3.0))?;
+        spawn_locks(
+            &mut r,
+            vec![
+                line(Vec3::new(-0.75, 0.6, 0.0), Vec3::new(-0.75, -0.6, 0.0), 8),
+                line(Vec3::new(-0.45, 0.6, 0.0), Vec3::new(-0.45, -0.6, 0.0), 8),
+            ],
+            HairMeshSettings {
+                radius: 0.1,
+                taper: QuadraticCurve::constant(1.0),
+                mass_normals: 0.0,
+                ..default()
+            },
+        );
+        let world = r.app.world_mut();
+        let cube = world
+            .resource_mut::<Assets<Mesh>>()
+            .add(Cuboid::new(0.5, 0.8, 0.5));
+        let grey = world
+            .resource_mut::<Assets<StandardMaterial>>()
+            .add(StandardMaterial {
+                base_color: Color::srgb(0.5, 0.5, 0.5),
+                unlit: true,
+                ..default()
+            });
+        world.spawn((
+            Mesh3d(cube),
+            MeshMaterial3d(grey),
+            Transform::from_xyz(0.6, 0.0, 0.0),
+        ));
+        let camera = world
+            .query_filtered::<Entity, With<Camera3d>>()
+            .single(world)?;
+        world.entity_mut(camera).insert((
+            ImageSpaceOutline {
+                color: INK,
+                hair_tint: tint,
+                ..default()
+            },
+            msaa,
+        ));
+        let frame = r.capture()?;
+        save(
+            &frame,
+            &format!("mass_outline_hair_colour_{}", frames.len()),
+        )?;
+        frames.push(frame);
+    }
+    let magenta = |p: [u8; 4]| p[0] > 200 && p[1] < 60 && p[2] > 200;
+    let luma =
+        |p: [u8; 4]| 0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2]);
+    let orange = |p: [u8; 4]| p[0] > p[1] && p[1] > p[2];
+    let half = frames[0].width / 2;
+    // The locks' own lit colour: the brightest orange of the plain frame.
+    let mut lit = 0.0f32;
+    for y in 0..frames[0].height {
+        for x in 0..half {
+            let p = frames[0].pixel(x, y);
+            if orange(p) && !magenta(p) {
+                lit = lit.max(luma(p));
+            }
+        }
+    }
+    let mut report = Vec::new();
+    let mut wrong = Vec::new();
+    for (i, frame) in frames.iter().enumerate().skip(1) {
+        let (mut hair_line, mut in_hue, mut darker, mut still_magenta) = (0, 0, 0, 0);
+        let (mut box_line, mut box_kept) = (0, 0);
+        for y in 0..frame.height {
+            for x in 0..frame.width {
+                let (plain, tinted) = (frames[0].pixel(x, y), frame.pixel(x, y));
+                if x < half {
+                    still_magenta += usize::from(magenta(tinted));
+                    if magenta(plain) {
+                        hair_line += 1;
+                        in_hue += usize::from(orange(tinted));
+                        darker += usize::from(luma(tinted) < lit - 40.0);
+                    }
+                } else if magenta(plain) {
+                    box_line += 1;
+                    box_kept += usize::from(tinted == plain || magenta(tinted));
+                }
+            }
+        }
+        report.push(format!(
+            "frame {i}: {hair_line} line px around the locks, {in_hue} in their hue, {darker} \
+             darker than their lit {lit:.0}, {still_magenta} magenta; the box's {box_line} line \
+             px, {box_kept} magenta"
+        ));
+        // With MSAA the ink's edge pixels blend with what is under them: the hue is checked
+        // where the plain frame (no MSAA) inks, which is where the line's core lies.
+        let need = if i == 1 {
+            hair_line
+        } else {
+            hair_line * 9 / 10
+        };
+        if hair_line < 200 || in_hue < need || darker < need || (i == 1 && still_magenta > 0) {
+            wrong.push(format!("frame {i}: around the locks"));
+        }
+        let box_need = if i == 1 { box_line } else { box_line * 9 / 10 };
+        if box_line < 200 || box_kept < box_need {
+            wrong.push(format!("frame {i}: the box's outline"));
+        }
+    }
+    eprintln!("mass outline in the hair's colour: {}", report.join("; "));
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{}: {}", wrong.join(", "), report.join("; ")).into())
+    }
 }
 
 /// The ring of `sides` vertices half way along strand `strand` of the hair's mesh.

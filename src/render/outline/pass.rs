@@ -87,24 +87,30 @@ pub(super) fn prepare_outline_bind_groups(
         return;
     };
     for (entity, target, prepass, textures, ids) in &views {
-        let mut entries = DynamicBindGroupEntries::new_with_indices(((0, uniform.clone()),));
-        if ids.key.source.uses_depth() {
-            let Some(depth) = prepass.depth_only_view() else {
-                continue;
-            };
-            entries = entries.extend_with_indices(((1, depth),));
+        let depth = prepass.depth_only_view();
+        let normal = prepass.normal_view();
+        if (ids.key.source.uses_depth() && depth.is_none())
+            || (ids.key.source.uses_normals() && normal.is_none())
+        {
+            continue;
         }
-        if ids.key.source.uses_normals() {
-            let Some(normal) = prepass.normal_view() else {
-                continue;
-            };
-            entries = entries.extend_with_indices(((2, normal),));
-        }
+        // The uniform and the prepass textures the source reads.
+        let prepass_entries = || {
+            let mut entries = DynamicBindGroupEntries::new_with_indices(((0, uniform.clone()),));
+            if let Some(depth) = depth.filter(|_| ids.key.source.uses_depth()) {
+                entries = entries.extend_with_indices(((1, depth),));
+            }
+            if let Some(normal) = normal.filter(|_| ids.key.source.uses_normals()) {
+                entries = entries.extend_with_indices(((2, normal),));
+            }
+            entries
+        };
         let detect = render_device.create_bind_group(
             "image_space_outline_detect",
             &pipeline_cache.get_bind_group_layout(&ids.key.layout()),
-            &entries,
+            &prepass_entries(),
         );
+        let composite_layout = pipeline_cache.get_bind_group_layout(&ids.key.composite_layout());
         let dilate = render_device.create_bind_group(
             "image_space_outline_dilate",
             &pipeline_cache.get_bind_group_layout(&pipelines.dilate_layout),
@@ -118,12 +124,9 @@ pub(super) fn prepare_outline_bind_groups(
                 screen.id(),
                 render_device.create_bind_group(
                     "image_space_outline_composite",
-                    &pipeline_cache.get_bind_group_layout(&pipelines.composite_layout),
-                    &BindGroupEntries::with_indices((
-                        (0, uniform.clone()),
-                        (4, &textures.dilated.default_view),
-                        (5, screen),
-                    )),
+                    &composite_layout,
+                    &prepass_entries()
+                        .extend_with_indices(((4, &textures.dilated.default_view), (5, screen))),
                 ),
             )
         };

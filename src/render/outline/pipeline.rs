@@ -67,6 +67,21 @@ impl OutlinePipelineKey {
 
     /// The detection pass's bind group layout: the uniform, then the prepass textures it reads.
     pub(super) fn layout(&self) -> BindGroupLayoutDescriptor {
+        BindGroupLayoutDescriptor::new("image_space_outline_detect_layout", &self.entries())
+    }
+
+    /// The composite pass's layout: the detection's (the mass's hair mask, for the outline in
+    /// the hair's colour) and the dilated mask and the frame.
+    pub(super) fn composite_layout(&self) -> BindGroupLayoutDescriptor {
+        let float = TextureSampleType::Float { filterable: false };
+        let entries = self
+            .entries()
+            .extend_with_indices(((4, texture_2d(float)), (5, texture_2d(float))));
+        BindGroupLayoutDescriptor::new("image_space_outline_composite_layout", &entries)
+    }
+
+    /// The uniform and the prepass textures the source reads.
+    fn entries(&self) -> DynamicBindGroupLayoutEntries {
         let float = TextureSampleType::Float { filterable: false };
         let mut entries = DynamicBindGroupLayoutEntries::new_with_indices(
             ShaderStages::FRAGMENT,
@@ -86,7 +101,7 @@ impl OutlinePipelineKey {
             };
             entries = entries.extend_with_indices(((2, normal),));
         }
-        BindGroupLayoutDescriptor::new("image_space_outline_detect_layout", &entries)
+        entries
     }
 }
 
@@ -113,6 +128,7 @@ impl Specializer<RenderPipeline> for DetectSpecializer {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, SpecializerKey)]
 pub(super) struct CompositeKey {
     target_format: TextureFormat,
+    outline: OutlinePipelineKey,
 }
 
 pub(super) struct CompositeSpecializer;
@@ -125,7 +141,12 @@ impl Specializer<RenderPipeline> for CompositeSpecializer {
         key: Self::Key,
         descriptor: &mut RenderPipelineDescriptor,
     ) -> Result<Canonical<Self::Key>, BevyError> {
-        descriptor.fragment_mut()?.set_target(
+        descriptor.set_layout(0, key.outline.composite_layout());
+        let fragment = descriptor.fragment_mut()?;
+        for def in key.outline.shader_defs() {
+            fragment.shader_defs.push(def.into());
+        }
+        fragment.set_target(
             0,
             ColorTargetState {
                 format: key.target_format,
@@ -145,7 +166,6 @@ pub(super) const MASK_FORMAT: TextureFormat = TextureFormat::Rgba8Unorm;
 #[derive(Resource)]
 pub(super) struct OutlinePipelines {
     pub(super) dilate_layout: BindGroupLayoutDescriptor,
-    pub(super) composite_layout: BindGroupLayoutDescriptor,
     pub(super) dilate: CachedRenderPipelineId,
     pub(super) detect: Variants<RenderPipeline, DetectSpecializer>,
     pub(super) composite: Variants<RenderPipeline, CompositeSpecializer>,
@@ -166,17 +186,6 @@ pub(super) fn init_outline_pipelines(
             (
                 (0, uniform_buffer::<GpuImageSpaceOutline>(true)),
                 (3, texture_2d(float)),
-            ),
-        ),
-    );
-    let composite_layout = BindGroupLayoutDescriptor::new(
-        "image_space_outline_composite_layout",
-        &BindGroupLayoutEntries::with_indices(
-            ShaderStages::FRAGMENT,
-            (
-                (0, uniform_buffer::<GpuImageSpaceOutline>(true)),
-                (4, texture_2d(float)),
-                (5, texture_2d(float)),
             ),
         ),
     );
@@ -210,14 +219,9 @@ pub(super) fn init_outline_pipelines(
         ),
         composite: Variants::new(
             CompositeSpecializer,
-            pass(
-                "image_space_outline_composite",
-                "composite",
-                vec![composite_layout.clone()],
-            ),
+            pass("image_space_outline_composite", "composite", Vec::new()),
         ),
         dilate_layout,
-        composite_layout,
     });
 }
 
@@ -246,6 +250,7 @@ pub(super) fn prepare_outline_pipelines(
             &pipeline_cache,
             CompositeKey {
                 target_format: view.target_format,
+                outline: key,
             },
         )?;
         commands.entity(entity).insert(OutlinePipelineIds {
