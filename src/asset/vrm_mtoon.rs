@@ -173,6 +173,8 @@ fn channels(file: &str, path: &str, v: &Value, n: usize) -> Result<Vec<f32>, Vrm
 
 #[cfg(test)]
 mod tests {
+    use serde_json::json;
+
     use super::*;
 
     /// A document with these materials (JSON) and root extensions.
@@ -306,6 +308,130 @@ mod tests {
         assert_eq!(
             errors[0].to_string(),
             "odd.vrm: extensions.VRM.materialProperties: expected an array, found an object"
+        );
+    }
+
+    /// A random JSON value, its keys and numbers drawn mostly from what the reader looks at,
+    /// nested at most `depth` deep.
+    fn random_value(rng: &mut crate::test_support::Rng, depth: u32) -> Value {
+        const KEYS: [&str; 6] = [
+            "shadeColorFactor",
+            "shader",
+            "vectorProperties",
+            "_ShadeColor",
+            "VRMC_materials_mtoon",
+            "x",
+        ];
+        const NUMBERS: [f64; 9] = [0.0, 0.5, 1.0, -0.0, -1.0, 1.5, 1e30, -1e-30, 255.0];
+        let pick = |rng: &mut crate::test_support::Rng, n: usize| {
+            ((rng.unit() * n as f32) as usize).min(n - 1)
+        };
+        match pick(rng, if depth == 0 { 4 } else { 6 }) {
+            0 => Value::from(NUMBERS[pick(rng, NUMBERS.len())]),
+            1 => Value::from(if rng.unit() < 0.5 { "VRM/MToon" } else { "x" }),
+            2 => Value::Null,
+            3 => Value::Bool(rng.unit() < 0.5),
+            4 => Value::Array(
+                (0..pick(rng, 6))
+                    .map(|_| random_value(rng, depth - 1))
+                    .collect(),
+            ),
+            _ => Value::Object(
+                (0..pick(rng, 4))
+                    .map(|_| {
+                        (
+                            KEYS[pick(rng, KEYS.len())].to_owned(),
+                            random_value(rng, depth - 1),
+                        )
+                    })
+                    .collect(),
+            ),
+        }
+    }
+
+    /// A colour-like value: two to five numbers, mostly within `[0, 1]`, or any value.
+    fn random_colour(rng: &mut crate::test_support::Rng) -> Value {
+        if rng.unit() < 0.2 {
+            return random_value(rng, 2);
+        }
+        let n = 2 + (rng.unit() * 4.0) as usize;
+        Value::Array(
+            (0..n)
+                .map(|_| {
+                    if rng.unit() < 0.9 {
+                        Value::from(f64::from(rng.unit()))
+                    } else {
+                        random_value(rng, 0)
+                    }
+                })
+                .collect(),
+        )
+    }
+
+    /// Random materials (each with a random MToon extension or none) and random VRM 0.x
+    /// `materialProperties`, 3,000 documents: no panic, one entry per material, every shade
+    /// colour finite and within `[0, 1]`, every error naming the file and a path the reader
+    /// reads.
+    #[test]
+    fn random_materials_give_shades_in_range_or_located_errors() {
+        let mut rng = crate::test_support::Rng(0x4D54_6F6F_6E21);
+        let (mut shades_found, mut errors_found) = (0, 0);
+        for _ in 0..3_000 {
+            let count = (rng.unit() * 4.0) as usize;
+            let materials: Vec<Value> = (0..count)
+                .map(|_| {
+                    let r = rng.unit();
+                    if r < 0.4 {
+                        json!({"extensions": {"VRMC_materials_mtoon":
+                            {"shadeColorFactor": random_colour(&mut rng)}}})
+                    } else if r < 0.6 {
+                        json!({"extensions": {"VRMC_materials_mtoon": random_value(&mut rng, 3)}})
+                    } else {
+                        json!({})
+                    }
+                })
+                .collect();
+            let properties = if rng.unit() < 0.3 {
+                random_value(&mut rng, 4)
+            } else {
+                Value::Array(
+                    (0..(rng.unit() * 5.0) as usize)
+                        .map(|_| {
+                            json!({"shader": "VRM/MToon",
+                                   "vectorProperties": {"_ShadeColor": random_colour(&mut rng)}})
+                        })
+                        .collect(),
+                )
+            };
+            let d = document(
+                &Value::Array(materials).to_string(),
+                &json!({"VRM": {"materialProperties": properties}}).to_string(),
+            );
+            let (shades, errors) = parse_vrm_shade_colors("r.vrm", &d);
+            assert_eq!(shades.len(), count);
+            for shade in shades.iter().flatten() {
+                let c = shade.to_linear();
+                for x in [c.red, c.green, c.blue] {
+                    assert!(x.is_finite() && (0.0..=1.0).contains(&x), "{shade:?}");
+                }
+                shades_found += 1;
+            }
+            for e in &errors {
+                assert_eq!(e.file, "r.vrm");
+                assert!(
+                    e.path.starts_with("materials[")
+                        || e.path.starts_with("extensions.VRM.materialProperties"),
+                    "{e}"
+                );
+                assert!(!e.message.is_empty());
+            }
+            errors_found += errors.len();
+        }
+        // Both kinds of outcome were reached.
+        eprintln!("random materials: {shades_found} shade colours, {errors_found} errors");
+        assert!(
+            shades_found > 50 && errors_found > 500,
+            "{shades_found} {errors_found}"
         );
     }
 }
