@@ -23,7 +23,6 @@ mod lighting_render;
 mod lock_render;
 mod look_suite;
 mod mass_render;
-mod mtoon_render;
 mod outline_render;
 mod render_smoke;
 mod ring_render;
@@ -33,6 +32,7 @@ mod silhouette_render;
 mod toon_render;
 mod user_mesh_render;
 mod vrm_interop_render;
+mod vrm_materials_render;
 mod vrm_render;
 
 use libtest_mimic::{Arguments, Failed, Trial};
@@ -89,7 +89,7 @@ fn main() {
         .chain(half_tube_render::RENDER_TESTS)
         .chain(avatar_looks::RENDER_TESTS)
         .chain(user_mesh_render::RENDER_TESTS)
-        .chain(mtoon_render::RENDER_TESTS)
+        .chain(vrm_materials_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -1,5 +1,6 @@
-//! A VRM's MToon shade colours: read from the file onto its meshes, and drawn by the toon hair
-//! material's darkest tone and the cel-shaded body's shade tone.
+//! What a VRM file's materials say, through Bevy's glTF loader to the toon look: MToon shade
+//! colours, read onto its meshes and drawn by the toon hair material's darkest tone and the
+//! cel-shaded body's shade tone; and a glTF alpha mask on the hair, cut out.
 
 use bevy::gltf::GltfMaterialName;
 use bevy::prelude::*;
@@ -23,6 +24,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin",
         a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin,
+    ),
+    (
+        "a_vrm_files_alpha_mask_cuts_its_hair_through_the_gltf_loader",
+        a_vrm_files_alpha_mask_cuts_its_hair_through_the_gltf_loader,
     ),
 ];
 
@@ -444,4 +449,129 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
     } else {
         Err(wrong.join("; ").into())
     }
+}
+
+/// The test avatar's VRM 1.0 file three times, its hair material green (so its pixels are
+/// told apart from the skin and scalp): opaque; `alphaMode` `MASK` at `alphaCutoff` 0.3 with
+/// alpha 0.5 (kept); and the same with alpha 0.2 (cut away). Dressed by `ToonHairMeshes`' default
+/// material, read through Bevy's glTF loader: the hair's toon material takes the cut-off (none,
+/// 0.3, 0.3) and the hair shows, opaque, on the first two avatars and not at all on the third.
+fn a_vrm_files_alpha_mask_cuts_its_hair_through_the_gltf_loader() -> Result<(), Failed> {
+    let dir = std::env::temp_dir().join(format!("hair_mask_vrm_{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let avatar = std::fs::read(crate::repo().join("assets/chain_hair/chain_hair.vrm"))?;
+    let files = [
+        ("opaque.vrm", None),
+        ("kept.vrm", Some(0.5)),
+        ("cut.vrm", Some(0.2)),
+    ];
+    for (file, alpha) in files {
+        let edited = edit_glb(&avatar, |doc| {
+            let i = material(doc, "hair");
+            let hair = &mut doc["materials"][i];
+            hair["pbrMetallicRoughness"]["baseColorFactor"] =
+                json!([0.0, 0.8, 0.0, alpha.unwrap_or(1.0)]);
+            if alpha.is_some() {
+                hair["alphaMode"] = json!("MASK");
+                hair["alphaCutoff"] = json!(0.3);
+            }
+        })?;
+        std::fs::write(dir.join(file), edited)?;
+    }
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        width: 360,
+        height: 160,
+        asset_folder: Some(dir.display().to_string()),
+        ..default()
+    })?;
+    r.app.add_plugins(CartoonHairPlugins);
+    let target = r.target();
+    let world = r.app.world_mut();
+    let assets = world.resource::<AssetServer>().clone();
+    let mut roots = Vec::new();
+    for (i, (file, _)) in files.iter().enumerate() {
+        roots.push(
+            world
+                .spawn((
+                    WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(*file))),
+                    Transform::from_xyz(0.45 * (i as f32 - 1.0), 0.0, 0.0),
+                    ToonHairMeshes::matching(|n| n == "hair"),
+                ))
+                .id(),
+        );
+    }
+    world.spawn((
+        DirectionalLight::default(),
+        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        bevy::camera::RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 1.62, 0.9).looking_at(Vec3::new(0.0, 1.58, 0.0), Vec3::Y),
+    ));
+    let dressed = r.warm_up(|world| {
+        world
+            .query::<&ToonHairMeshesApplied>()
+            .iter(world)
+            .filter(|d| !d.0.is_empty())
+            .count()
+            == 3
+    });
+    std::fs::remove_dir_all(&dir).ok();
+    dressed?;
+    for _ in 0..5 {
+        r.update();
+    }
+    let frame = r.capture()?;
+    save(&frame, "vrm_alpha_mask")?;
+    let world = r.app.world_mut();
+    let mut cutoffs = Vec::new();
+    for &root in &roots {
+        let meshes = world
+            .get::<ToonHairMeshesApplied>(root)
+            .map(|d| d.0.clone())
+            .unwrap_or_default();
+        let toon = world.resource::<Assets<ToonHairMaterial>>();
+        let cut: Vec<Option<f32>> = meshes
+            .iter()
+            .filter_map(|&e| world.get::<MeshMaterial3d<ToonHairMaterial>>(e))
+            .filter_map(|m| toon.get(&m.0))
+            .map(|m| m.alpha_cutoff)
+            .collect();
+        cutoffs.push(cut);
+    }
+    // Green hair pixels in each third of the frame, and those of them not fully opaque in the
+    // frame (a kept fragment of a cut-out covers its pixel whatever its alpha).
+    let third = frame.width / 3;
+    let mut see_through = 0;
+    let green: Vec<usize> = (0..3)
+        .map(|k| {
+            let mut n = 0;
+            for y in 0..frame.height {
+                for x in k * third..(k + 1) * third {
+                    let [r, g, b, a] = frame.pixel(x, y);
+                    if u32::from(g) > 2 * u32::from(r) + 20 && g > 2 * b {
+                        n += 1;
+                        see_through += usize::from(a < 255);
+                    }
+                }
+            }
+            n
+        })
+        .collect();
+    eprintln!(
+        "hair material cut-offs per avatar {cutoffs:?}; green hair pixels {green:?}, \
+         {see_through} of them not opaque"
+    );
+    let all =
+        |cut: &[Option<f32>], want: Option<f32>| !cut.is_empty() && cut.iter().all(|c| *c == want);
+    if !all(&cutoffs[0], None) || !all(&cutoffs[1], Some(0.3)) || !all(&cutoffs[2], Some(0.3)) {
+        return Err(format!("cut-offs {cutoffs:?}, want none, 0.3, 0.3").into());
+    }
+    if green[0] < 500 || green[1] < 500 || green[2] != 0 || see_through > 0 {
+        return Err(
+            format!("green hair pixels {green:?}: want the first two, none on the third").into(),
+        );
+    }
+    Ok(())
 }
