@@ -13,6 +13,8 @@ use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{FringeShadow, FringeShadowMaterial};
 use libtest_mimic::Failed;
 
+use crate::toon_render::save;
+
 pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
     (
         "the_fringe_throws_a_toned_shadow_of_constant_width_on_the_face",
@@ -22,7 +24,19 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow",
         a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow,
     ),
+    (
+        "a_cut_out_fringe_throws_no_shadow_through_its_holes",
+        a_cut_out_fringe_throws_no_shadow_through_its_holes,
+    ),
 ];
+
+/// The fringe: a box, or a card (the box's front face) painted opaque on its left half and
+/// with alpha 0 on its right, drawn cut out at 0.5 or opaque.
+#[derive(Clone, Copy, PartialEq)]
+enum Fringe {
+    Box,
+    Card { cut: bool },
+}
 
 /// The shadow's width in the scene (metres).
 const WIDTH: f32 = 0.02;
@@ -35,6 +49,10 @@ struct Scene {
 }
 
 fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
+    scene_with(width, height, Fringe::Box)
+}
+
+fn scene_with(width: u32, height: u32, fringe: Fringe) -> Result<Scene, Failed> {
     let mut renderer = HeadlessRenderer::new(CaptureSettings {
         width,
         height,
@@ -46,15 +64,37 @@ fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
     app.add_plugins(CartoonHairPlugins);
     let world = app.world_mut();
     let ramp = world.resource::<ToonRamps>().three_tone.clone();
-    let hair = world
-        .resource_mut::<Assets<ToonHairMaterial>>()
-        .add(ToonHairMaterial::new(
-            ToonShading {
-                base_color: Color::srgb(0.2, 0.25, 0.6),
-                ..default()
+    let mut hair = ToonHairMaterial::new(
+        ToonShading {
+            base_color: Color::srgb(0.2, 0.25, 0.6),
+            ..default()
+        },
+        ramp,
+    );
+    if let Fringe::Card { cut } = fringe {
+        // White and opaque on the left half, alpha 0 on the right.
+        let paint = Image::new(
+            bevy::render::render_resource::Extent3d {
+                width: 4,
+                height: 1,
+                depth_or_array_layers: 1,
             },
-            ramp,
-        ));
+            bevy::render::render_resource::TextureDimension::D2,
+            [
+                [255, 255, 255, 255],
+                [255, 255, 255, 255],
+                [255, 255, 255, 0],
+                [255, 255, 255, 0],
+            ]
+            .concat(),
+            bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb,
+            bevy::asset::RenderAssetUsages::default(),
+        );
+        hair.base_color_texture = Some(world.resource_mut::<Assets<Image>>().add(paint));
+        hair.double_sided = true;
+        hair.alpha_cutoff = cut.then_some(0.5);
+    }
+    let hair = world.resource_mut::<Assets<ToonHairMaterial>>().add(hair);
     let face = world
         .resource_mut::<Assets<FringeShadowMaterial>>()
         .add(ExtendedMaterial {
@@ -71,12 +111,15 @@ fn scene(width: u32, height: u32) -> Result<Scene, Failed> {
     let mut meshes = world.resource_mut::<Assets<Mesh>>();
     let sphere = meshes.add(Sphere::new(0.1).mesh().uv(48, 32));
     // Narrower than the face, so a light from the side shows the shadow past its end.
-    let fringe = meshes.add(Cuboid::new(0.12, 0.05, 0.02));
+    let (fringe, z) = match fringe {
+        Fringe::Box => (meshes.add(Cuboid::new(0.12, 0.05, 0.02)), 0.1),
+        Fringe::Card { .. } => (meshes.add(Rectangle::new(0.12, 0.05)), 0.11),
+    };
     world.spawn((Mesh3d(sphere), MeshMaterial3d(face.clone())));
     world.spawn((
         Mesh3d(fringe),
         MeshMaterial3d(hair),
-        Transform::from_xyz(0.0, 0.05, 0.1),
+        Transform::from_xyz(0.0, 0.05, z),
     ));
     let light = world
         .spawn((
@@ -375,6 +418,47 @@ fn a_cel_shaded_face_takes_two_flat_tones_and_the_fringe_shadow() -> Result<(), 
             "the cel face's fringe shadow: {} px, {rows} rows, {} hair px changed",
             shadow.count(),
             shadow.hair_changed
+        )
+        .into());
+    }
+    Ok(())
+}
+
+/// A card of a fringe whose right half is cut away (its texture's alpha 0, cut at 0.5): the
+/// face takes the fringe's shadow under the left half only. Drawn opaque, the same card shades
+/// the face under both halves. Shadow pixels right of the card's middle (past 4 px, where the
+/// cut edge's own shadow ends): cut out at most a twentieth of those of the opaque card, which
+/// has at least 200; under the left half both have shadow.
+fn a_cut_out_fringe_throws_no_shadow_through_its_holes() -> Result<(), Failed> {
+    let mut sides = Vec::new();
+    for cut in [false, true] {
+        let mut s = scene_with(320, 240, Fringe::Card { cut })?;
+        let shadow = s.shadow()?;
+        save(&shadow.on, &format!("fringe_card_cut_{cut}"))?;
+        let middle = shadow.width / 2;
+        let (mut left, mut right) = (0, 0);
+        for y in 0..shadow.height {
+            for x in 0..shadow.width {
+                if shadow.changed[(y * shadow.width + x) as usize] {
+                    if x + 4 < middle {
+                        left += 1;
+                    } else if x > middle + 4 {
+                        right += 1;
+                    }
+                }
+            }
+        }
+        sides.push((left, right));
+    }
+    eprintln!(
+        "fringe card shadow pixels (left of the middle, right): opaque {:?}, cut out {:?}",
+        sides[0], sides[1]
+    );
+    let ((open_left, open_right), (cut_left, cut_right)) = (sides[0], sides[1]);
+    if open_left < 200 || open_right < 200 || cut_left < 200 || cut_right * 20 > open_right {
+        return Err(format!(
+            "shadow pixels (left, right): opaque {:?}, cut {:?}",
+            sides[0], sides[1]
         )
         .into());
     }
