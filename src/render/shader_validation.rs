@@ -326,6 +326,23 @@ fn every_toon_material_variant_composes_and_validates() {
     });
     assert_eq!(variants.len(), 2304);
     assert_eq!(checked, 2304 + 2 * 144);
+    // A cut-out's main pass under MSAA (alpha to coverage), on the hair mesh.
+    let mut compiler = ShaderCompiler::new(&bevy_modules);
+    let mut coverage = 0;
+    for key in variants
+        .iter()
+        .filter(|k| k.shader_defs().contains(&"ALPHA_MASK"))
+    {
+        let mut defs = key.shader_defs();
+        defs.extend(&vertex_defs);
+        defs.push("CUT_COVERAGE");
+        let module = compiler
+            .compile(name, source, &defs, &values)
+            .unwrap_or_else(|e| panic!("variant {key:?} with alpha to coverage: {e}"));
+        assert!(module.entry_points.iter().any(|e| e.name == "fragment"));
+        coverage += 1;
+    }
+    assert_eq!(coverage, 768);
 }
 
 #[test]

@@ -130,8 +130,11 @@ pub struct ToonHairMaterial {
     /// as a glTF material with `alphaMode` `MASK`: hair cards with painted strand tips. The
     /// cut-out parts are left out of the colour, the depth and normal prepasses (so outlines and
     /// the fringe shadow follow the cut) and the shadow maps. Clamped to `[0, 1]`; a NaN is
-    /// `0.5`. Costs a texture sample per fragment in the prepass and shadow passes, and turns
-    /// off the early depth test for this material. Default: `None` (opaque).
+    /// `0.5`. Under MSAA the colour is cut by alpha to coverage (the share of a pixel's samples
+    /// drawn follows the alpha across the cut-off, so cut edges are anti-aliased as a mesh's
+    /// edges are); the prepass and shadow maps cut whole pixels. Costs a texture sample per
+    /// fragment in the prepass and shadow passes, and turns off the early depth test for this
+    /// material. Default: `None` (opaque).
     pub alpha_cutoff: Option<f32>,
 }
 
@@ -547,9 +550,19 @@ impl Material for ToonHairMaterial {
         } else {
             Some(bevy::render::render_resource::Face::Back)
         };
+        // A cut-out's main pass under MSAA cuts by alpha to coverage: its cut edges are
+        // anti-aliased as a mesh's edges are. Its prepass and shadow passes (Bevy's prepass
+        // pipeline) still discard at the cut-off: the normal target's alpha is the hair mask.
+        let coverage = key.bind_group_data.alpha_mask
+            && descriptor.multisample.count > 1
+            && descriptor.label.as_deref() != Some("prepass_pipeline");
+        descriptor.multisample.alpha_to_coverage_enabled |= coverage;
         if let Some(fragment) = descriptor.fragment.as_mut() {
             for def in key.bind_group_data.shader_defs() {
                 fragment.shader_defs.push(def.into());
+            }
+            if coverage {
+                fragment.shader_defs.push("CUT_COVERAGE".into());
             }
         }
         Ok(())

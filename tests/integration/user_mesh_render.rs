@@ -27,6 +27,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow",
         a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow,
     ),
+    (
+        "a_cut_out_cards_cut_edge_is_anti_aliased_under_msaa",
+        a_cut_out_cards_cut_edge_is_anti_aliased_under_msaa,
+    ),
 ];
 
 /// A 1 m square sheet facing `+z` in `gltf` (its material as a glTF file gives it), dressed by
@@ -247,6 +251,11 @@ fn paint_quarters(frame: &CapturedFrame) -> ((usize, usize), (usize, usize)) {
 /// above the camera casting shadows, so the card's shadow falls on the wall right behind it,
 /// a little lower.
 fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
+    card_view_with(mask, Msaa::Off, 0.0)
+}
+
+/// [`card_view`] with the camera's `msaa` and the card turned by `tilt` radians in its plane.
+fn card_view_with(mask: Option<f32>, msaa: Msaa, tilt: f32) -> Result<CapturedFrame, Failed> {
     let mut r = scene(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.0, 3.0))?;
     let world = r.app.world_mut();
     let mut sun = world.query::<&mut DirectionalLight>();
@@ -258,7 +267,7 @@ fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
     for camera in cameras.iter(world).collect::<Vec<_>>() {
         world
             .entity_mut(camera)
-            .insert((DepthPrepass, NormalPrepass));
+            .insert((DepthPrepass, NormalPrepass, msaa));
     }
     let wall = world
         .resource_mut::<Assets<Mesh>>()
@@ -286,7 +295,7 @@ fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
         });
     let card = world
         .resource_mut::<Assets<Mesh>>()
-        .add(Rectangle::new(1.0, 1.0));
+        .add(Mesh::from(Rectangle::new(1.0, 1.0)).rotated_by(Quat::from_rotation_z(tilt)));
     dress_and_capture(r, card, gltf, ToonHairMeshes::matching(|n| n == "hair"))
 }
 
@@ -360,6 +369,63 @@ fn a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow() -> Result<(), Fa
              left quarter cut {cut_left:?} of {area}"
         )
         .into());
+    }
+    Ok(())
+}
+
+/// The cut-out card of [`card_view`] turned 0.3 rad in its plane, so its cut edge (the right
+/// edge of its red half) runs slanted across the pixels. Under MSAA (4 samples) the cut edge is
+/// anti-aliased by alpha to coverage: along it, pixels neither the card's red nor the wall's
+/// grey (within 6 of 255), at least one every second row. Without MSAA none: every pixel is
+/// the card or the wall (a stair-stepped edge). Counted in the middle half of the red half's
+/// rows, from its middle column to past the cut edge, where the card's own edges (anti-aliased
+/// by MSAA whatever the material) do not reach.
+fn a_cut_out_cards_cut_edge_is_anti_aliased_under_msaa() -> Result<(), Failed> {
+    let mut counts = Vec::new();
+    for (name, msaa) in [
+        ("cut_edge_msaa", Msaa::Sample4),
+        ("cut_edge_no_msaa", Msaa::Off),
+    ] {
+        let frame = card_view_with(Some(0.5), msaa, 0.3)?;
+        save(&frame, name)?;
+        let (red, [x0, y0, x1, y1]) = red_pixels(&frame);
+        let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
+        let middle = x0 + w / 2;
+        // The card's and the wall's own colours: the most frequent of each in the region.
+        let region: Vec<[i32; 3]> = (y0 + h / 4..y1.saturating_sub(h / 4))
+            .flat_map(|y| (middle..x1 + 5).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let [r, g, b, _] = frame.pixel(x, y).map(i32::from);
+                [r, g, b]
+            })
+            .collect();
+        let mode = |keep: &dyn Fn(&[i32; 3]) -> bool| {
+            let mut counts: Vec<([i32; 3], usize)> = Vec::new();
+            for p in region.iter().filter(|p| keep(p)) {
+                match counts.iter_mut().find(|(c, _)| c == p) {
+                    Some((_, n)) => *n += 1,
+                    None => counts.push((*p, 1)),
+                }
+            }
+            counts.into_iter().max_by_key(|(_, n)| *n).map(|(c, _)| c)
+        };
+        let card = mode(&|[r, g, b]| *r > 2 * g && *r > 2 * b).unwrap_or([255, 0, 0]);
+        let wall = mode(&|[r, g, b]| (r - g).abs() < 12 && (g - b).abs() < 12).unwrap_or([0; 3]);
+        let near = |p: &[i32; 3], c: [i32; 3]| (0..3).all(|k| (p[k] - c[k]).abs() <= 6);
+        let rows = (y0 + h / 4..y1.saturating_sub(h / 4)).count();
+        let blends = region
+            .iter()
+            .filter(|p| !near(p, card) && !near(p, wall))
+            .count();
+        counts.push((red, rows, blends));
+    }
+    eprintln!(
+        "cut edge (card pixels, rows, blended pixels): MSAA {:?}, none {:?}",
+        counts[0], counts[1]
+    );
+    let ((red_msaa, rows, blended), (red_off, _, hard)) = (counts[0], counts[1]);
+    if red_msaa < 1_000 || red_off < 1_000 || blended * 2 < rows || hard > 0 {
+        return Err(format!("MSAA {:?}, none {:?}", counts[0], counts[1]).into());
     }
     Ok(())
 }
