@@ -253,6 +253,25 @@ fn color_row(ui: &mut egui::Ui, label: &str, color: &mut Color) {
     ui.end_row();
 }
 
+/// A checkbox row that switches a colour on (`default` when it was off) or off, and the
+/// colour's button row while it is on: an optional tint.
+fn optional_color_rows(
+    ui: &mut egui::Ui,
+    (label, check, color_label): (&str, &str, &str),
+    color: &mut Option<Color>,
+    default: Color,
+) {
+    let mut on = color.is_some();
+    ui.label(label);
+    ui.checkbox(&mut on, check);
+    ui.end_row();
+    *color = on.then(|| {
+        let mut c = color.unwrap_or(default);
+        color_row(ui, color_label, &mut c);
+        c
+    });
+}
+
 /// A labelled drag value row in a grid; `true` when changed.
 fn drag_row(ui: &mut egui::Ui, label: &str, value: &mut f32, speed: f64) -> bool {
     ui.label(label);

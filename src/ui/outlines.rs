@@ -5,7 +5,7 @@
 use bevy::prelude::*;
 use bevy_egui::egui;
 
-use super::{color_row, curve_row, drag_row, slider_row};
+use super::{curve_row, drag_row, optional_color_rows, slider_row};
 use crate::mesh::highlights::SpecularQuads;
 use crate::render::{ImageSpaceOutline, OutlineSource};
 use crate::silhouette::SilhouetteSettings;
@@ -111,18 +111,16 @@ pub(super) fn outline_controls(
                     });
                 ui.end_row();
                 if c.source == OutlineSource::Mass {
-                    let mut tinted = c.hair_tint.is_some();
-                    ui.label("Outline colour");
-                    ui.checkbox(&mut tinted, "the hair's, darkened, along hair");
-                    ui.end_row();
-                    c.hair_tint = match (tinted, c.hair_tint) {
-                        (false, _) => None,
-                        (true, t) => {
-                            let mut t = t.unwrap_or(Color::srgb(0.45, 0.3, 0.3));
-                            color_row(ui, "Outline tint", &mut t);
-                            Some(t)
-                        }
-                    };
+                    optional_color_rows(
+                        ui,
+                        (
+                            "Outline colour",
+                            "the hair's, darkened, along hair",
+                            "Outline tint",
+                        ),
+                        &mut c.hair_tint,
+                        Color::srgb(0.45, 0.3, 0.3),
+                    );
                     let mut inner = c.inner_threshold.is_some();
                     ui.label("Inner lines");
                     ui.checkbox(&mut inner, "normal creases");
@@ -149,18 +147,12 @@ pub(super) fn outline_controls(
                             l.width_px = w.round() as u32;
                             slider_row(ui, "Fade from (m)", &mut l.fade.x, 0.0..=20.0);
                             slider_row(ui, "Fade to (m)", &mut l.fade.y, 0.0..=40.0);
-                            let mut tinted = l.hair_tint.is_some();
-                            ui.label("Lock line colour");
-                            ui.checkbox(&mut tinted, "the hair's, darkened");
-                            ui.end_row();
-                            l.hair_tint = match (tinted, l.hair_tint) {
-                                (false, _) => None,
-                                (true, t) => {
-                                    let mut t = t.unwrap_or(Color::srgb(0.5, 0.35, 0.35));
-                                    color_row(ui, "Lock line tint", &mut t);
-                                    Some(t)
-                                }
-                            };
+                            optional_color_rows(
+                                ui,
+                                ("Lock line colour", "the hair's, darkened", "Lock line tint"),
+                                &mut l.hair_tint,
+                                Color::srgb(0.5, 0.35, 0.35),
+                            );
                             Some(l)
                         }
                     };

@@ -214,6 +214,53 @@ fn an_mtoon_shade_colour_is_what_the_dark_side_draws() -> Result<(), Failed> {
     }
 }
 
+/// Three avatars, the scenes of `files` in `dir`, side by side 0.45 m apart (left to right),
+/// each root given what `dress` inserts; a sun from `sun` toward their heads and a camera on
+/// their heads (360x160). Runs until `ready`, removes `dir`, and runs five frames more.
+fn three_avatars(
+    dir: &std::path::Path,
+    files: [&'static str; 3],
+    dress: impl Fn(&mut EntityWorldMut),
+    sun: Vec3,
+    ready: impl FnMut(&mut World) -> bool,
+) -> Result<(HeadlessRenderer, Vec<Entity>), Failed> {
+    let mut r = HeadlessRenderer::new(CaptureSettings {
+        width: 360,
+        height: 160,
+        asset_folder: Some(dir.display().to_string()),
+        ..default()
+    })?;
+    r.app.add_plugins(CartoonHairPlugins);
+    let target = r.target();
+    let world = r.app.world_mut();
+    let assets = world.resource::<AssetServer>().clone();
+    let mut roots = Vec::new();
+    for (i, file) in files.into_iter().enumerate() {
+        let mut avatar = world.spawn((
+            WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(file))),
+            Transform::from_xyz(0.45 * (i as f32 - 1.0), 0.0, 0.0),
+        ));
+        dress(&mut avatar);
+        roots.push(avatar.id());
+    }
+    world.spawn((
+        DirectionalLight::default(),
+        Transform::from_translation(sun).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
+    ));
+    world.spawn((
+        Camera3d::default(),
+        bevy::camera::RenderTarget::Image(target.into()),
+        Transform::from_xyz(0.0, 1.62, 0.9).looking_at(Vec3::new(0.0, 1.58, 0.0), Vec3::Y),
+    ));
+    let loaded = r.warm_up(ready);
+    std::fs::remove_dir_all(dir).ok();
+    loaded?;
+    for _ in 0..5 {
+        r.update();
+    }
+    Ok((r, roots))
+}
+
 /// The JSON chunk of binary glTF `glb`, edited by `edit`, written back (padded with spaces, the
 /// lengths fixed); the binary chunk as it is.
 fn edit_glb(glb: &[u8], edit: impl FnOnce(&mut Value)) -> Result<Vec<u8>, Failed> {
@@ -311,54 +358,25 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
     std::fs::write(dir.join("mtoon.vrm"), v1)?;
     std::fs::write(dir.join("mtoon_vrm0.vrm"), v0)?;
 
-    let mut r = HeadlessRenderer::new(CaptureSettings {
-        width: 360,
-        height: 160,
-        asset_folder: Some(dir.display().to_string()),
-        ..default()
-    })?;
-    r.app.add_plugins(CartoonHairPlugins);
-    let target = r.target();
-    let world = r.app.world_mut();
-    let assets = world.resource::<AssetServer>().clone();
     // The file as it is (no MToon), then the VRM 1.0 and 0.x files with MToon, left to right.
-    let mut roots = Vec::new();
-    for (i, file) in ["plain.vrm", "mtoon.vrm", "mtoon_vrm0.vrm"]
-        .into_iter()
-        .enumerate()
-    {
-        roots.push(
+    let (mut r, roots) = three_avatars(
+        &dir,
+        ["plain.vrm", "mtoon.vrm", "mtoon_vrm0.vrm"],
+        |avatar| {
+            avatar.insert((
+                ToonHairMeshes::matching(|n| n == "hair"),
+                FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
+            ));
+        },
+        Vec3::new(3.0, 2.0, 1.5),
+        |world| {
             world
-                .spawn((
-                    WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(file))),
-                    Transform::from_xyz(0.45 * (i as f32 - 1.0), 0.0, 0.0),
-                    ToonHairMeshes::matching(|n| n == "hair"),
-                    FringeShadowMeshes::all_except(|n| n == "hair", FringeShadow::cel()),
-                ))
-                .id(),
-        );
-    }
-    world.spawn((
-        DirectionalLight::default(),
-        Transform::from_xyz(3.0, 2.0, 1.5).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::Image(target.into()),
-        Transform::from_xyz(0.0, 1.62, 0.9).looking_at(Vec3::new(0.0, 1.58, 0.0), Vec3::Y),
-    ));
-    let loaded = r.warm_up(|world| {
-        world
-            .query::<&FringeShadowMeshesApplied>()
-            .iter(world)
-            .count()
-            == 3
-    });
-    std::fs::remove_dir_all(&dir).ok();
-    loaded?;
-    for _ in 0..5 {
-        r.update();
-    }
+                .query::<&FringeShadowMeshesApplied>()
+                .iter(world)
+                .count()
+                == 3
+        },
+    )?;
     save(&r.capture()?, "mtoon_avatars")?;
 
     let world = r.app.world_mut();
@@ -478,50 +496,22 @@ fn a_vrm_files_alpha_mask_cuts_its_hair_through_the_gltf_loader() -> Result<(), 
         })?;
         std::fs::write(dir.join(file), edited)?;
     }
-    let mut r = HeadlessRenderer::new(CaptureSettings {
-        width: 360,
-        height: 160,
-        asset_folder: Some(dir.display().to_string()),
-        ..default()
-    })?;
-    r.app.add_plugins(CartoonHairPlugins);
-    let target = r.target();
-    let world = r.app.world_mut();
-    let assets = world.resource::<AssetServer>().clone();
-    let mut roots = Vec::new();
-    for (i, (file, _)) in files.iter().enumerate() {
-        roots.push(
+    let (mut r, roots) = three_avatars(
+        &dir,
+        files.map(|(file, _)| file),
+        |avatar| {
+            avatar.insert(ToonHairMeshes::matching(|n| n == "hair"));
+        },
+        Vec3::new(1.0, 3.0, 2.0),
+        |world| {
             world
-                .spawn((
-                    WorldAssetRoot(assets.load(GltfAssetLabel::Scene(0).from_asset(*file))),
-                    Transform::from_xyz(0.45 * (i as f32 - 1.0), 0.0, 0.0),
-                    ToonHairMeshes::matching(|n| n == "hair"),
-                ))
-                .id(),
-        );
-    }
-    world.spawn((
-        DirectionalLight::default(),
-        Transform::from_xyz(1.0, 3.0, 2.0).looking_at(Vec3::new(0.0, 1.5, 0.0), Vec3::Y),
-    ));
-    world.spawn((
-        Camera3d::default(),
-        bevy::camera::RenderTarget::Image(target.into()),
-        Transform::from_xyz(0.0, 1.62, 0.9).looking_at(Vec3::new(0.0, 1.58, 0.0), Vec3::Y),
-    ));
-    let dressed = r.warm_up(|world| {
-        world
-            .query::<&ToonHairMeshesApplied>()
-            .iter(world)
-            .filter(|d| !d.0.is_empty())
-            .count()
-            == 3
-    });
-    std::fs::remove_dir_all(&dir).ok();
-    dressed?;
-    for _ in 0..5 {
-        r.update();
-    }
+                .query::<&ToonHairMeshesApplied>()
+                .iter(world)
+                .filter(|d| !d.0.is_empty())
+                .count()
+                == 3
+        },
+    )?;
     let frame = r.capture()?;
     save(&frame, "vrm_alpha_mask")?;
     let world = r.app.world_mut();
