@@ -552,10 +552,14 @@ impl Material for ToonHairMaterial {
         };
         // A cut-out's main pass under MSAA cuts by alpha to coverage: its cut edges are
         // anti-aliased as a mesh's edges are. Its prepass and shadow passes (Bevy's prepass
-        // pipeline) still discard at the cut-off: the normal target's alpha is the hair mask.
-        let coverage = key.bind_group_data.alpha_mask
-            && descriptor.multisample.count > 1
-            && descriptor.label.as_deref() != Some("prepass_pipeline");
+        // pipeline, which tells its shaders so with `PREPASS_PIPELINE`) still discard at the
+        // cut-off: the normal target's alpha is the hair mask.
+        let prepass = descriptor
+            .vertex
+            .shader_defs
+            .contains(&"PREPASS_PIPELINE".into());
+        let coverage =
+            key.bind_group_data.alpha_mask && descriptor.multisample.count > 1 && !prepass;
         descriptor.multisample.alpha_to_coverage_enabled |= coverage;
         if let Some(fragment) = descriptor.fragment.as_mut() {
             for def in key.bind_group_data.shader_defs() {

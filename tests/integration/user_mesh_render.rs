@@ -251,11 +251,17 @@ fn paint_quarters(frame: &CapturedFrame) -> ((usize, usize), (usize, usize)) {
 /// above the camera casting shadows, so the card's shadow falls on the wall right behind it,
 /// a little lower.
 fn card_view(mask: Option<f32>) -> Result<CapturedFrame, Failed> {
-    card_view_with(mask, Msaa::Off, 0.0)
+    card_view_with(mask, Msaa::Off, 0.0, None)
 }
 
-/// [`card_view`] with the camera's `msaa` and the card turned by `tilt` radians in its plane.
-fn card_view_with(mask: Option<f32>, msaa: Msaa, tilt: f32) -> Result<CapturedFrame, Failed> {
+/// [`card_view`] with the camera's `msaa`, the card turned by `tilt` radians in its plane, and
+/// a mass outline in `ink` if given.
+fn card_view_with(
+    mask: Option<f32>,
+    msaa: Msaa,
+    tilt: f32,
+    ink: Option<Color>,
+) -> Result<CapturedFrame, Failed> {
     let mut r = scene(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, 0.0, 3.0))?;
     let world = r.app.world_mut();
     let mut sun = world.query::<&mut DirectionalLight>();
@@ -268,6 +274,11 @@ fn card_view_with(mask: Option<f32>, msaa: Msaa, tilt: f32) -> Result<CapturedFr
         world
             .entity_mut(camera)
             .insert((DepthPrepass, NormalPrepass, msaa));
+        if let Some(color) = ink {
+            world
+                .entity_mut(camera)
+                .insert(ImageSpaceOutline { color, ..default() });
+        }
     }
     let wall = world
         .resource_mut::<Assets<Mesh>>()
@@ -379,14 +390,15 @@ fn a_cut_out_card_leaves_holes_in_its_colour_depth_and_shadow() -> Result<(), Fa
 /// grey (within 6 of 255), at least one every second row. Without MSAA none: every pixel is
 /// the card or the wall (a stair-stepped edge). Counted in the middle half of the red half's
 /// rows, from its middle column to past the cut edge, where the card's own edges (anti-aliased
-/// by MSAA whatever the material) do not reach.
+/// by MSAA whatever the material) do not reach. Outlined under MSAA, the card has its mass
+/// outline (read from the prepass, which must still draw it).
 fn a_cut_out_cards_cut_edge_is_anti_aliased_under_msaa() -> Result<(), Failed> {
     let mut counts = Vec::new();
     for (name, msaa) in [
         ("cut_edge_msaa", Msaa::Sample4),
         ("cut_edge_no_msaa", Msaa::Off),
     ] {
-        let frame = card_view_with(Some(0.5), msaa, 0.3)?;
+        let frame = card_view_with(Some(0.5), msaa, 0.3, None)?;
         save(&frame, name)?;
         let (red, [x0, y0, x1, y1]) = red_pixels(&frame);
         let (w, h) = (x1.saturating_sub(x0), y1.saturating_sub(y0));
@@ -426,6 +438,21 @@ fn a_cut_out_cards_cut_edge_is_anti_aliased_under_msaa() -> Result<(), Failed> {
     let ((red_msaa, rows, blended), (red_off, _, hard)) = (counts[0], counts[1]);
     if red_msaa < 1_000 || red_off < 1_000 || blended * 2 < rows || hard > 0 {
         return Err(format!("MSAA {:?}, none {:?}", counts[0], counts[1]).into());
+    }
+    // The prepass still draws the card (it cuts at the cut-off, never by coverage, which would
+    // take the hair mask in its alpha for coverage and draw nothing): its mass outline, read
+    // from the prepass, is there under MSAA.
+    let frame = card_view_with(
+        Some(0.5),
+        Msaa::Sample4,
+        0.3,
+        Some(Color::srgb(1.0, 0.0, 1.0)),
+    )?;
+    save(&frame, "cut_edge_msaa_outlined")?;
+    let ink = frame.count(|[r, g, b, _]| r > 200 && g < 60 && b > 200);
+    eprintln!("cut edge under MSAA, outlined: {ink} ink pixels");
+    if ink < 200 {
+        return Err(format!("{ink} ink pixels around the card: its prepass is not drawn").into());
     }
     Ok(())
 }
