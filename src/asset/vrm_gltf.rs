@@ -8,9 +8,9 @@
 //! (its meshes and skeleton are fine); [`VrmSpringBones::error`] says what is wrong, and the
 //! simulation reports it.
 //!
-//! The handler also puts each MToon material's shade colour on the mesh entities that wear it
-//! ([`VrmShadeColor`]); a broken shade colour is a warning naming the file and the JSON path,
-//! and that material's meshes get none.
+//! The handler also puts each MToon material's shade colour and shading band on the mesh
+//! entities that wear it ([`VrmShadeColor`], [`VrmShading`]); a broken value is a warning naming
+//! the file and the JSON path, and that material's meshes get none of that kind.
 
 use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};
@@ -23,6 +23,7 @@ use bevy::prelude::*;
 
 use super::vrm::{VrmSprings, parse_vrm_springs};
 use super::vrm_mtoon::{VrmShadeColor, parse_vrm_shade_colors};
+use super::vrm_mtoon_shading::{VrmShading, parse_vrm_shading};
 
 /// On each node entity of a glTF scene whose file has VRM spring bones: the node's glTF index.
 #[derive(Component, Clone, Copy, Debug, PartialEq, Eq, Reflect)]
@@ -48,6 +49,8 @@ struct VrmExtensionHandler {
     found: Option<VrmSpringBones>,
     /// Each material's MToon shade colour, by glTF material index.
     shades: Vec<Option<Color>>,
+    /// Each material's MToon shading band, by glTF material index.
+    bands: Vec<Option<VrmShading>>,
 }
 
 impl GltfExtensionHandler for VrmExtensionHandler {
@@ -63,10 +66,16 @@ impl GltfExtensionHandler for VrmExtensionHandler {
     ) {
         let file = load_context.path().to_string();
         let (shades, errors) = parse_vrm_shade_colors(&file, &gltf.document);
-        for e in errors {
+        for e in &errors {
             warn!("{e}; the meshes with that material take their toon look's shade colour");
         }
         self.shades = shades;
+        let (bands, band_errors) = parse_vrm_shading(&file, &gltf.document);
+        // Both readers report a broken `materialProperties` list: said once.
+        for e in band_errors.iter().filter(|e| !errors.contains(e)) {
+            warn!("{e}; the meshes with that material take their toon look's shade threshold");
+        }
+        self.bands = bands;
         self.found = match parse_vrm_springs(&file, &gltf.document) {
             Ok(None) => None,
             Ok(Some(springs)) => Some(VrmSpringBones {
@@ -107,11 +116,14 @@ impl GltfExtensionHandler for VrmExtensionHandler {
         entity: &mut EntityWorldMut,
         _material_label: &str,
     ) {
-        if let Some(shade) = material
-            .index()
-            .and_then(|i| self.shades.get(i).copied().flatten())
-        {
+        let Some(i) = material.index() else {
+            return;
+        };
+        if let Some(shade) = self.shades.get(i).copied().flatten() {
             entity.insert(VrmShadeColor(shade));
+        }
+        if let Some(band) = self.bands.get(i).copied().flatten() {
+            entity.insert(band);
         }
     }
 
@@ -155,7 +167,8 @@ impl AssetLoader for VrmLoader {
 pub(crate) fn register_handler(app: &mut App) {
     app.register_type::<VrmNode>()
         .register_type::<VrmSpringBones>()
-        .register_type::<VrmShadeColor>();
+        .register_type::<VrmShadeColor>()
+        .register_type::<VrmShading>();
     // Without Bevy's glTF plugin (added before this one) no glTF loads, VRM or not.
     let Some(handlers) = app.world_mut().get_resource_mut::<GltfExtensionHandlers>() else {
         return;

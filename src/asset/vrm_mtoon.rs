@@ -36,10 +36,35 @@ pub fn parse_vrm_shade_colors(
     document: &gltf::Document,
 ) -> (Vec<Option<Color>>, Vec<VrmError>) {
     let mut errors = Vec::new();
+    let v0 = v0_material_properties(file, document, &mut errors);
+    let shades = document
+        .materials()
+        .enumerate()
+        .map(|(i, m)| {
+            let found = match m.extension_value("VRMC_materials_mtoon") {
+                Some(v1) => shade_v1(file, i, v1),
+                None => v0.get(i).map_or(Ok(None), |p| shade_v0(file, i, p)),
+            };
+            found.unwrap_or_else(|e| {
+                errors.push(e);
+                None
+            })
+        })
+        .collect();
+    (shades, errors)
+}
+
+/// VRM 0.x's `extensions.VRM.materialProperties` of `document` (empty when absent); too many
+/// entries, or not an array, is an error in `errors` and nothing is read from them.
+pub(super) fn v0_material_properties<'d>(
+    file: &str,
+    document: &'d gltf::Document,
+    errors: &mut Vec<VrmError>,
+) -> &'d [Value] {
     let v0 = document
         .extension_value("VRM")
         .and_then(|vrm| vrm.get("materialProperties"));
-    let v0 = match v0 {
+    match v0 {
         None => &[][..],
         Some(Value::Array(a)) if a.len() <= MAX_VRM_MATERIALS => a.as_slice(),
         Some(Value::Array(a)) => {
@@ -61,25 +86,10 @@ pub fn parse_vrm_shade_colors(
             ));
             &[][..]
         }
-    };
-    let shades = document
-        .materials()
-        .enumerate()
-        .map(|(i, m)| {
-            let found = match m.extension_value("VRMC_materials_mtoon") {
-                Some(v1) => shade_v1(file, i, v1),
-                None => v0.get(i).map_or(Ok(None), |p| shade_v0(file, i, p)),
-            };
-            found.unwrap_or_else(|e| {
-                errors.push(e);
-                None
-            })
-        })
-        .collect();
-    (shades, errors)
+    }
 }
 
-fn error(file: &str, path: &str, message: impl Into<String>) -> VrmError {
+pub(super) fn error(file: &str, path: &str, message: impl Into<String>) -> VrmError {
     VrmError {
         file: file.to_owned(),
         path: path.to_owned(),
@@ -87,7 +97,7 @@ fn error(file: &str, path: &str, message: impl Into<String>) -> VrmError {
     }
 }
 
-fn object<'v>(
+pub(super) fn object<'v>(
     file: &str,
     path: &str,
     v: &'v Value,

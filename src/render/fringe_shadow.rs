@@ -24,7 +24,7 @@ use bevy::render::render_resource::{AsBindGroup, ShaderType};
 use bevy::shader::ShaderRef;
 use bevy::world_serialization::WorldAssetRoot;
 
-use crate::asset::VrmShadeColor;
+use crate::asset::{VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
@@ -60,8 +60,13 @@ pub struct FringeShadow {
     /// [`FringeShadowMeshes::vrm_shades`]).
     pub cel_shade: Color,
     /// The light level, as a share of [`FringeShadow::full_light_lux`], where cel shading turns
-    /// from shade to lit. Default: `0.3`.
+    /// from shade to lit (the middle of the turn). Default: `0.3`. A [`FringeShadowMeshes`]
+    /// gives a VRM's MToon meshes their own (see [`FringeShadowMeshes::vrm_shades`]).
     pub cel_threshold: f32,
+    /// Half the width of the turn from shade to lit, in the same share of full light: a smooth
+    /// step from `cel_threshold - cel_softness` to `cel_threshold + cel_softness`. Small is a
+    /// crisp line, large a gradient. Clamped to `[0.001, 1]`. Default: `0.015`.
+    pub cel_softness: f32,
     /// The illuminance (lux) that counts as fully lit, as
     /// [`ToonShading::full_light_lux`](super::ToonShading::full_light_lux). Default: `10000`.
     pub full_light_lux: f32,
@@ -76,6 +81,7 @@ impl Default for FringeShadow {
             cel: false,
             cel_shade: Color::srgb(0.80, 0.62, 0.64),
             cel_threshold: 0.3,
+            cel_softness: 0.015,
             full_light_lux: 10_000.0,
         }
     }
@@ -117,7 +123,12 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
                 finite_or(self.cel_threshold, 0.3).clamp(0.0, 1.0),
                 finite_or(self.full_light_lux, 10_000.0).max(1e-3),
             ),
-            cel_shade: self.cel_shade.to_linear().to_vec4(),
+            cel_shade: self
+                .cel_shade
+                .to_linear()
+                .to_vec4()
+                .truncate()
+                .extend(finite_or(self.cel_softness, 0.015).clamp(0.001, 1.0)),
         }
     }
 }
@@ -175,7 +186,9 @@ pub struct FringeShadowMeshes {
     pub except: bool,
     /// Whether a mesh whose material is a VRM's MToon with a shade colour ([`VrmShadeColor`])
     /// takes that colour as its [`FringeShadow::cel_shade`] (the shade over its base colour, so
-    /// the dark tone draws the MToon shade, times the texture), instead of the one `shadow`
+    /// the dark tone draws the MToon shade, times the texture), and one with a shading band
+    /// ([`VrmShading`]) takes it as its [`FringeShadow::cel_threshold`] and
+    /// [`FringeShadow::cel_softness`] (see [`mtoon_cel_band`]), instead of the ones `shadow`
     /// gives every mesh. Default: `true`.
     #[reflect(default = "yes")]
     pub vrm_shades: bool,
@@ -236,6 +249,20 @@ type CharacterState = (
 );
 
 /// Extends the selected meshes' materials of every spawned [`FringeShadowMeshes`] character.
+/// Cel shading's threshold and softness ([`FringeShadow::cel_threshold`],
+/// [`FringeShadow::cel_softness`]) for an MToon shading band: the middle and half the width of
+/// [`VrmShading::lit_band`]. Cel shading measures the light that reaches the surface, which is
+/// never below 0 (a surface turned away from every light receives none), so the part of the
+/// band below 0 cannot be told apart: the band starts at 0 there (MToon 1.0's defaults, `N.L`
+/// from -0.1 to 0.1, become 0 to 0.1; what VRoid exports, 0 to 0.1, is kept).
+pub fn mtoon_cel_band(shading: &VrmShading) -> (f32, f32) {
+    let (lo, hi) = shading.lit_band();
+    let lo = finite_or(lo, 0.0).clamp(0.0, 1.0);
+    let hi = finite_or(hi, 0.0).clamp(lo, 1.0);
+    let half = ((hi - lo) * 0.5).max(0.001);
+    (lo + (hi - lo) * 0.5, half)
+}
+
 #[expect(
     clippy::too_many_arguments,
     reason = "a Bevy system: its parameters are its queries"
@@ -249,7 +276,7 @@ pub(crate) fn apply_fringe_shadow(
     names: Query<&Name>,
     (standard, shades): (
         Query<&MeshMaterial3d<StandardMaterial>>,
-        Query<&VrmShadeColor>,
+        Query<(Option<&VrmShadeColor>, Option<&VrmShading>)>,
     ),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
@@ -300,10 +327,16 @@ pub(crate) fn apply_fringe_shadow(
                         continue;
                     };
                     let mut extension = wanted.shadow.clone();
-                    if let Some(VrmShadeColor(shade)) =
-                        shades.get(e).ok().filter(|_| wanted.vrm_shades)
-                    {
+                    let (shade, band) = shades
+                        .get(e)
+                        .ok()
+                        .filter(|_| wanted.vrm_shades)
+                        .unwrap_or_default();
+                    if let Some(VrmShadeColor(shade)) = shade {
                         extension.cel_shade = shade_tint(*shade, base.base_color, None).into();
+                    }
+                    if let Some(band) = band {
+                        (extension.cel_threshold, extension.cel_softness) = mtoon_cel_band(band);
                     }
                     let m = extended.add(ExtendedMaterial {
                         base: base.clone(),
@@ -474,6 +507,71 @@ mod tests {
                 }
             } else {
                 assert_eq!(face, rose);
+            }
+        }
+    }
+
+    /// An MToon mesh with a shading band takes its middle and half width as its cel threshold
+    /// and softness (shift -0.5, toony 0.9: `N.L` 0.4 to 0.6); one without keeps the shadow's;
+    /// with `without_vrm_shades` both keep it. The band's part below 0 is cut off: MToon 1.0's
+    /// defaults (-0.1 to 0.1) become 0 to 0.1, a band wholly below 0 is the lowest light.
+    #[test]
+    fn an_mtoon_mesh_takes_its_own_shading_band() {
+        let near =
+            |a: (f32, f32), b: (f32, f32)| (a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-6;
+        let band = |shift, toony| mtoon_cel_band(&VrmShading { shift, toony });
+        assert!(near(band(-0.5, 0.9), (0.5, 0.1)), "{:?}", band(-0.5, 0.9));
+        assert!(near(band(0.0, 0.9), (0.05, 0.05)));
+        assert!(near(band(0.9, 0.5), (0.0, 0.001)));
+        assert!(near(band(-0.3, 1.0), (0.3, 0.001)));
+        assert!(near(band(-1.0, 0.0), (0.5, 0.5)));
+        for vrm_shades in [true, false] {
+            let mut app = app();
+            let world = app.world_mut();
+            let mut standard = world.resource_mut::<Assets<StandardMaterial>>();
+            let skin = standard.add(StandardMaterial::default());
+            let cloth = standard.add(StandardMaterial::default());
+            let mut fringe = FringeShadowMeshes::all_except(|_| false, FringeShadow::cel());
+            if !vrm_shades {
+                fringe = fringe.without_vrm_shades();
+            }
+            let root = world.spawn((Transform::default(), fringe)).id();
+            let face = world
+                .spawn((
+                    Mesh3d(Handle::default()),
+                    MeshMaterial3d(skin),
+                    VrmShading {
+                        shift: -0.5,
+                        toony: 0.9,
+                    },
+                    ChildOf(root),
+                ))
+                .id();
+            let coat = world
+                .spawn((
+                    Mesh3d(Handle::default()),
+                    MeshMaterial3d(cloth),
+                    ChildOf(root),
+                ))
+                .id();
+            app.update();
+            let turn = |e: Entity| {
+                let handle = app
+                    .world()
+                    .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
+                    .expect("extended")
+                    .0
+                    .clone();
+                let materials = app.world().resource::<Assets<FringeShadowMaterial>>();
+                let shadow = &materials.get(&handle).unwrap().extension;
+                (shadow.cel_threshold, shadow.cel_softness)
+            };
+            let plain = FringeShadow::cel();
+            assert_eq!(turn(coat), (plain.cel_threshold, plain.cel_softness));
+            if vrm_shades {
+                assert!(near(turn(face), (0.5, 0.1)), "{:?}", turn(face));
+            } else {
+                assert_eq!(turn(face), (plain.cel_threshold, plain.cel_softness));
             }
         }
     }

@@ -30,7 +30,7 @@ mod user_mesh;
 
 pub use fringe_shadow::{
     FringeShadow, FringeShadowMaterial, FringeShadowMeshes, FringeShadowMeshesApplied,
-    FringeShadowUniform,
+    FringeShadowUniform, mtoon_cel_band,
 };
 pub use gltf_paint::HairPaint;
 #[doc(hidden)]

@@ -23,6 +23,7 @@ mod lighting_render;
 mod lock_render;
 mod look_suite;
 mod mass_render;
+mod mtoon_shading_render;
 mod outline_render;
 mod render_smoke;
 mod ring_render;
@@ -90,6 +91,7 @@ fn main() {
         .chain(avatar_looks::RENDER_TESTS)
         .chain(user_mesh_render::RENDER_TESTS)
         .chain(vrm_materials_render::RENDER_TESTS)
+        .chain(mtoon_shading_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

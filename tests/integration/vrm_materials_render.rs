@@ -5,11 +5,11 @@
 use bevy::gltf::GltfMaterialName;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
-use bevy_cartoon_hair::asset::VrmShadeColor;
+use bevy_cartoon_hair::asset::{VrmShadeColor, VrmShading};
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{
-    FringeShadowMaterial, FringeShadowMeshesApplied, ToonHairMeshesApplied,
+    FringeShadowMaterial, FringeShadowMeshesApplied, ToonHairMeshesApplied, mtoon_cel_band,
 };
 use libtest_mimic::Failed;
 use serde_json::{Value, json};
@@ -302,8 +302,10 @@ fn material(doc: &Value, name: &str) -> usize {
 /// `ToonHairMeshes` on its hair and cel-shading `FringeShadowMeshes` on the rest: its hair
 /// meshes carry the hair's shade colour, its skin meshes the skin's, the other meshes none;
 /// the hair's toon material draws the shade colour in the ramp's darkest tone (base colour x
-/// 0.45 x its shade colour) and the skin's cel shade draws it (base colour x cel shade). The
-/// file as it is, beside them, has none. (The picture, `mtoon_avatars.png`: the three heads.)
+/// 0.45 x its shade colour) and the skin's cel shade draws it (base colour x cel shade). Every
+/// MToon mesh carries its shading band (the skin's own factors, in VRM 0.x converted; the
+/// others' defaults), and the cel-shaded ones turn where it says. The file as it is, beside
+/// them, has none. (The picture, `mtoon_avatars.png`: the three heads.)
 fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Failed> {
     let dir = std::env::temp_dir().join(format!("hair_mtoon_vrm_{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
@@ -325,6 +327,11 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
             doc["materials"][i]["extensions"] = json!({"VRMC_materials_mtoon": {
                 "specVersion": "1.0", "shadeColorFactor": linear(shade)}});
         }
+        // The skin's shading band; the hair's factors left at the specification's defaults.
+        let skin = material(doc, "skin");
+        let mtoon = &mut doc["materials"][skin]["extensions"]["VRMC_materials_mtoon"];
+        mtoon["shadingShiftFactor"] = json!(-0.3);
+        mtoon["shadingToonyFactor"] = json!(0.8);
         if let Some(used) = doc["extensionsUsed"].as_array_mut() {
             used.push(json!("VRMC_materials_mtoon"));
         }
@@ -344,7 +351,8 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
                 "hair" => json!({"name": name, "shader": "VRM/MToon",
                     "vectorProperties": {"_Color": [1, 1, 1, 1], "_ShadeColor": srgb(hair_shade)}}),
                 "skin" => json!({"name": name, "shader": "VRM/MToon",
-                    "vectorProperties": {"_ShadeColor": srgb(skin_shade)}}),
+                    "vectorProperties": {"_ShadeColor": srgb(skin_shade)},
+                    "floatProperties": {"_ShadeShift": -0.2, "_ShadeToony": 0.7}}),
                 "eyes" => json!({"name": name, "shader": "VRM/UnlitTexture",
                     "vectorProperties": {"_ShadeColor": [0, 0, 0, 1]}}),
                 "headband" => json!({"name": name, "shader": "VRM/MToon",
@@ -385,6 +393,7 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
         Entity,
         &GltfMaterialName,
         Option<&VrmShadeColor>,
+        Option<&VrmShading>,
         Option<&MeshMaterial3d<ToonHairMaterial>>,
         Option<&MeshMaterial3d<FringeShadowMaterial>>,
     )>();
@@ -392,7 +401,7 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
     let toon = world.resource::<Assets<ToonHairMaterial>>();
     let fringe = world.resource::<Assets<FringeShadowMaterial>>();
     let mut wrong = Vec::new();
-    for (e, name, shade, hair, body) in meshes.iter(world) {
+    for (e, name, shade, band, hair, body) in meshes.iter(world) {
         let root = roots
             .iter()
             .position(|&root| {
@@ -418,6 +427,36 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
             (Some(s), Some(w)) if close(s.0, w) => {}
             (None, None) => {}
             _ => wrong.push(format!("{root} {}: shade {shade:?}, want {want:?}", name.0)),
+        }
+        // Every MToon material has a shading band, the file's or the default, whatever its
+        // shade colour (the headband's is broken, its band is not).
+        let want_band = match (root, name.0.as_str()) {
+            (1, "skin") => Some(VrmShading {
+                shift: -0.3,
+                toony: 0.8,
+            }),
+            (1, "hair") => Some(VrmShading::default()),
+            (2, "skin") => Some(VrmShading::from_v0(-0.2, 0.7)),
+            (2, "eyes") => None,
+            (2, _) => Some(VrmShading::from_v0(0.0, 0.9)),
+            _ => None,
+        };
+        if band != want_band.as_ref() {
+            wrong.push(format!(
+                "{root} {}: band {band:?}, want {want_band:?}",
+                name.0
+            ));
+        }
+        // The cel-shaded MToon meshes turn where their band says.
+        if let (Some(m), Some(band)) = (body.and_then(|m| fringe.get(&m.0)), band) {
+            let turn = (m.extension.cel_threshold, m.extension.cel_softness);
+            if turn != mtoon_cel_band(band) {
+                wrong.push(format!(
+                    "{root} {}: turns at {turn:?}, want {:?}",
+                    name.0,
+                    mtoon_cel_band(band)
+                ));
+            }
         }
         // What each material draws where it is darkest, against the file's shade colour.
         let drawn = match (hair, body) {
@@ -446,18 +485,24 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
                 name.0
             ));
         }
-        found.push((root, name.0.clone(), shade.is_some(), drawn.is_some()));
+        found.push((
+            root,
+            name.0.clone(),
+            shade.is_some(),
+            band.is_some(),
+            drawn.is_some(),
+        ));
     }
     found.sort();
-    eprintln!("meshes (avatar, material, shade colour, dressed): {found:?}");
+    eprintln!("meshes (avatar, material, shade colour, band, dressed): {found:?}");
     for root in 1..3 {
         for name in ["hair", "skin"] {
             if !found
                 .iter()
-                .any(|(r, n, s, d)| *r == root && n == name && *s && *d)
+                .any(|(r, n, s, b, d)| *r == root && n == name && *s && *b && *d)
             {
                 wrong.push(format!(
-                    "avatar {root}: no dressed {name} mesh with a shade colour"
+                    "avatar {root}: no dressed {name} mesh with a shade colour and band"
                 ));
             }
         }

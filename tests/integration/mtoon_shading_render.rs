@@ -1,0 +1,228 @@
+//! Where a VRM's MToon mesh turns from shade to lit: its shading band (`VrmShading`, MToon's
+//! shading shift and toony factors) drawn by the cel-shaded body's turn, against what the
+//! renderer's own light model predicts pixel by pixel.
+
+use bevy::prelude::*;
+use bevy_cartoon_hair::asset::{VrmShadeColor, VrmShading};
+use bevy_cartoon_hair::headless::CapturedFrame;
+use bevy_cartoon_hair::prelude::*;
+use bevy_cartoon_hair::render::{FringeShadowMeshesApplied, mtoon_cel_band};
+use libtest_mimic::Failed;
+
+use crate::toon_render::{BACKGROUND, save, scene};
+
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
+    "an_mtoon_shading_band_places_the_cel_terminator",
+    an_mtoon_shading_band_places_the_cel_terminator,
+)];
+
+/// The sphere's radius, the camera's distance from its centre, the sun's illuminance.
+const RADIUS: f32 = 0.45;
+const EYE: f32 = 1.6;
+const SUN_LUX: f32 = 5_000.0;
+/// The skin's base colour and MToon shade (linear grey levels).
+const BASE: f32 = 0.8;
+const SHADE: f32 = 0.2;
+
+/// A skin sphere at the origin, cel shaded by `FringeShadowMeshes` (full light = the sun's
+/// illuminance), its mesh carrying an MToon shade colour and `band`; lit by a sun along -X (so
+/// `N.L` is the normal's x), seen from +Z, no ambient light.
+fn sphere(band: Option<VrmShading>) -> Result<CapturedFrame, Failed> {
+    let mut r = scene(Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, EYE))?;
+    let world = r.app.world_mut();
+    world.insert_resource(GlobalAmbientLight {
+        brightness: 0.0,
+        ..default()
+    });
+    let ball = world
+        .resource_mut::<Assets<Mesh>>()
+        .add(Sphere::new(RADIUS).mesh().uv(128, 64));
+    let skin = world
+        .resource_mut::<Assets<StandardMaterial>>()
+        .add(StandardMaterial {
+            base_color: Color::linear_rgb(BASE, BASE, BASE),
+            ..default()
+        });
+    let root = world
+        .spawn((
+            Transform::default(),
+            Visibility::default(),
+            FringeShadowMeshes::all_except(
+                |_| false,
+                FringeShadow {
+                    full_light_lux: SUN_LUX,
+                    ..FringeShadow::cel()
+                },
+            ),
+        ))
+        .id();
+    let mesh = world
+        .spawn((
+            Name::new("skin"),
+            Mesh3d(ball),
+            MeshMaterial3d(skin),
+            VrmShadeColor(Color::linear_rgb(SHADE, SHADE, SHADE)),
+            ChildOf(root),
+        ))
+        .id();
+    if let Some(band) = band {
+        world.entity_mut(mesh).insert(band);
+    }
+    r.warm_up(|world| {
+        world
+            .query::<&FringeShadowMeshesApplied>()
+            .iter(world)
+            .count()
+            == 1
+    })?;
+    Ok(r.capture()?)
+}
+
+fn schlick(f90: f32, cos: f32) -> f32 {
+    1.0 + (f90 - 1.0) * (1.0 - cos).powi(5)
+}
+
+/// The light cel shading measures at pixel `(x, y)` of the 256x256 frame, as a share of full
+/// light: a ray from the camera (vertical field of view 45 degrees) onto the sphere, and
+/// Bevy's diffuse light on a white surface of roughness 1 there (Burley's, `N.L` times two
+/// Schlick terms), under the sun of full light. `None` off the sphere.
+fn intensity(x: u32, y: u32, size: u32) -> Option<f32> {
+    let t = (std::f32::consts::FRAC_PI_4 * 0.5).tan();
+    let half = size as f32 * 0.5;
+    let ndc = Vec2::new((x as f32 + 0.5) / half - 1.0, 1.0 - (y as f32 + 0.5) / half);
+    let d = Vec3::new(ndc.x * t, ndc.y * t, -1.0).normalize();
+    let o = Vec3::new(0.0, 0.0, EYE);
+    // |o + s d|^2 = R^2, the nearer root.
+    let b = o.dot(d);
+    let disc = b * b - (o.length_squared() - RADIUS * RADIUS);
+    if disc < 0.0 {
+        return None;
+    }
+    let s = -b - disc.sqrt();
+    let n = (o + s * d) / RADIUS;
+    let (l, v) = (Vec3::X, -d);
+    let h = (l + v).normalize();
+    let n_l = n.dot(l).clamp(0.0, 1.0);
+    let n_v = n.dot(v).max(1e-4);
+    let f90 = 0.5 + 2.0 * h.dot(l).powi(2);
+    Some(schlick(f90, n_l) * schlick(f90, n_v) * n_l)
+}
+
+fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn linear(byte: u8) -> f32 {
+    Color::srgb_u8(byte, byte, byte).to_linear().red
+}
+
+/// Over the rows 60 to 196 (every fourth), in each row the column where the drawn colour is
+/// halfway from shade to lit, and where the prediction (a smooth step from `threshold -
+/// softness` to `threshold + softness` over [`intensity`]) is: the mean and largest gap in
+/// pixels, and the largest gap between drawn and predicted share of lit over the sphere's
+/// pixels. Rows without a crossing in both are skipped; the count of rows compared is returned.
+fn compare(frame: &CapturedFrame, threshold: f32, softness: f32) -> (f32, f32, f32, usize) {
+    let (mut sum, mut most, mut share, mut rows) = (0.0f32, 0.0f32, 0.0f32, 0);
+    for y in (60..=196).step_by(4) {
+        let (mut drawn_at, mut predicted_at) = (None, None);
+        let (mut last_drawn, mut last_predicted) = (None::<f32>, None::<f32>);
+        for x in 0..frame.width {
+            let p = frame.pixel(x, y);
+            let Some(light) = intensity(x, y, frame.width) else {
+                continue;
+            };
+            if p == BACKGROUND {
+                continue;
+            }
+            // A pixel on the rim is part background; judge the sphere's inside.
+            if intensity(x.saturating_sub(2), y, frame.width).is_none()
+                || intensity(x + 2, y, frame.width).is_none()
+            {
+                continue;
+            }
+            let drawn = ((linear(p[1]) - SHADE) / (BASE - SHADE)).clamp(0.0, 1.0);
+            let predicted = smoothstep(threshold - softness, threshold + softness, light);
+            share = share.max((drawn - predicted).abs());
+            // The first crossing of one half, left to right (shade on the left), interpolated.
+            if drawn_at.is_none()
+                && let Some(before) = last_drawn.filter(|&b| b < 0.5 && drawn >= 0.5)
+            {
+                drawn_at = Some(x as f32 - 1.0 + (0.5 - before) / (drawn - before));
+            }
+            if predicted_at.is_none()
+                && let Some(before) = last_predicted.filter(|&b| b < 0.5 && predicted >= 0.5)
+            {
+                predicted_at = Some(x as f32 - 1.0 + (0.5 - before) / (predicted - before));
+            }
+            last_drawn = Some(drawn);
+            last_predicted = Some(predicted);
+        }
+        if let (Some(a), Some(b)) = (drawn_at, predicted_at) {
+            let gap = (a - b).abs();
+            sum += gap;
+            most = most.max(gap);
+            rows += 1;
+        }
+    }
+    (sum / rows.max(1) as f32, most, share, rows)
+}
+
+/// A skin sphere lit from the side, its mesh an MToon one: with a shading band (shift -0.5,
+/// toony 0.9: `N.L` 0.4 to 0.6; and VRM 0.x's defaults: 0 to 0.1) the cel terminator lies
+/// where the renderer's light model puts that band's middle, within half a pixel on every row
+/// compared, and the turn is as soft as the band says (the drawn share of lit within 0.05 of the
+/// prediction on every pixel inside the sphere); without a band it lies at the shadow's own
+/// threshold (0.3), 10 and more pixels from where the first band would put it.
+fn an_mtoon_shading_band_places_the_cel_terminator() -> Result<(), Failed> {
+    let plain = FringeShadow::cel();
+    let wide = VrmShading {
+        shift: -0.5,
+        toony: 0.9,
+    };
+    let vroid = VrmShading::from_v0(0.0, 0.9);
+    let mut wrong = Vec::new();
+    let mut report = Vec::new();
+    for (name, band) in [
+        ("mtoon_band_wide", Some(wide)),
+        ("mtoon_band_vrm0_default", Some(vroid)),
+        ("mtoon_band_none", None),
+    ] {
+        let frame = sphere(band)?;
+        save(&frame, name)?;
+        let (threshold, softness) = band.map_or((plain.cel_threshold, plain.cel_softness), |b| {
+            mtoon_cel_band(&b)
+        });
+        let (mean, most, share, rows) = compare(&frame, threshold, softness);
+        // Where the wide band would put the terminator, for the unbanded sphere.
+        let (wide_t, wide_s) = mtoon_cel_band(&wide);
+        let (other_mean, ..) = compare(&frame, wide_t, wide_s);
+        report.push(format!(
+            "{name}: threshold {threshold:.3} softness {softness:.3}: {rows} rows, terminator \
+             {mean:.2} px from the prediction on average, {most:.2} at most; lit share within \
+             {share:.3}; {other_mean:.1} px from the wide band's"
+        ));
+        if rows < 25 {
+            wrong.push(format!("{name}: only {rows} rows compared"));
+        }
+        if most > 0.5 || share > 0.05 {
+            wrong.push(format!(
+                "{name}: terminator {most:.2} px from the prediction, lit share {share:.3} off"
+            ));
+        }
+        if band.is_none() && other_mean < 10.0 {
+            wrong.push(format!(
+                "{name}: the unbanded terminator is only {other_mean:.1} px from the wide band's"
+            ));
+        }
+    }
+    eprintln!(
+        "MToon shading bands on a cel-shaded sphere:\n{}",
+        report.join("\n")
+    );
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(wrong.join("; ").into())
+    }
+}
