@@ -182,13 +182,13 @@ fn channels(file: &str, path: &str, v: &Value, n: usize) -> Result<Vec<f32>, Vrm
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use serde_json::json;
 
     use super::*;
 
     /// A document with these materials (JSON) and root extensions.
-    fn document(materials: &str, extensions: &str) -> gltf::Document {
+    pub(in crate::asset) fn document(materials: &str, extensions: &str) -> gltf::Document {
         let json = format!(
             r#"{{"asset":{{"version":"2.0"}},"materials":{materials},"extensions":{extensions}}}"#
         );

@@ -162,16 +162,7 @@ mod tests {
     use serde_json::json;
 
     use super::*;
-
-    /// A document with these materials (JSON) and root extensions.
-    fn document(materials: &str, extensions: &str) -> gltf::Document {
-        let json = format!(
-            r#"{{"asset":{{"version":"2.0"}},"materials":{materials},"extensions":{extensions}}}"#
-        );
-        gltf::Gltf::from_slice(json.as_bytes())
-            .expect("test document")
-            .document
-    }
+    use crate::asset::vrm_mtoon::tests::document;
 
     fn near(a: (f32, f32), b: (f32, f32)) -> bool {
         (a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-6

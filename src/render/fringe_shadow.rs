@@ -263,6 +263,9 @@ pub fn mtoon_cel_band(shading: &VrmShading) -> (f32, f32) {
     (lo + (hi - lo) * 0.5, half)
 }
 
+/// What a VRM's MToon material put on a mesh: its shade colour and shading band, if any.
+type MtoonParts = (Option<&'static VrmShadeColor>, Option<&'static VrmShading>);
+
 #[expect(
     clippy::too_many_arguments,
     reason = "a Bevy system: its parameters are its queries"
@@ -276,7 +279,7 @@ pub(crate) fn apply_fringe_shadow(
     names: Query<&Name>,
     (standard, shades): (
         Query<&MeshMaterial3d<StandardMaterial>>,
-        Query<(Option<&VrmShadeColor>, Option<&VrmShading>)>,
+        Query<MtoonParts>,
     ),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
@@ -446,59 +449,70 @@ mod tests {
         );
     }
 
+    /// A character of two meshes under `FringeShadowMeshes` (cel, with or without VRM
+    /// shades): a face wearing a skin material of `skin` base colour and carrying `vrm` (what
+    /// the VRM handler puts on an MToon mesh), and a coat of another material; after one update,
+    /// the fringe shadows the face's and the coat's materials were extended with.
+    fn face_and_coat(
+        vrm_shades: bool,
+        skin: Color,
+        vrm: impl Bundle,
+    ) -> (FringeShadow, FringeShadow) {
+        let mut app = app();
+        let world = app.world_mut();
+        let mut standard = world.resource_mut::<Assets<StandardMaterial>>();
+        let skin = standard.add(StandardMaterial {
+            base_color: skin,
+            ..default()
+        });
+        let cloth = standard.add(StandardMaterial::default());
+        let mut fringe = FringeShadowMeshes::all_except(|_| false, FringeShadow::cel());
+        if !vrm_shades {
+            fringe = fringe.without_vrm_shades();
+        }
+        let root = world.spawn((Transform::default(), fringe)).id();
+        let face = world
+            .spawn((
+                Mesh3d(Handle::default()),
+                MeshMaterial3d(skin),
+                vrm,
+                ChildOf(root),
+            ))
+            .id();
+        let coat = world
+            .spawn((
+                Mesh3d(Handle::default()),
+                MeshMaterial3d(cloth),
+                ChildOf(root),
+            ))
+            .id();
+        app.update();
+        let extension = |e: Entity| {
+            let handle = &app
+                .world()
+                .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
+                .expect("extended")
+                .0;
+            let materials = app.world().resource::<Assets<FringeShadowMaterial>>();
+            materials.get(handle).unwrap().extension.clone()
+        };
+        (extension(face), extension(coat))
+    }
+
     /// A VRM's MToon mesh takes its shade over its base colour as its cel shade (so its dark
     /// tone draws the MToon shade); a mesh of another material keeps the shadow's; with
     /// `without_vrm_shades` both keep the shadow's.
     #[test]
     fn an_mtoon_mesh_takes_its_own_cel_shade() {
+        let rose = FringeShadow::cel().cel_shade.to_linear();
         for vrm_shades in [true, false] {
-            let mut app = app();
-            let world = app.world_mut();
-            let mut standard = world.resource_mut::<Assets<StandardMaterial>>();
-            let skin = standard.add(StandardMaterial {
-                base_color: Color::linear_rgb(1.0, 0.8, 0.7),
-                ..default()
-            });
-            let cloth = standard.add(StandardMaterial::default());
-            let mut fringe = FringeShadowMeshes::all_except(|_| false, FringeShadow::cel());
-            if !vrm_shades {
-                fringe = fringe.without_vrm_shades();
-            }
-            let root = world.spawn((Transform::default(), fringe)).id();
-            let face = world
-                .spawn((
-                    Mesh3d(Handle::default()),
-                    MeshMaterial3d(skin),
-                    VrmShadeColor(Color::linear_rgb(0.8, 0.5, 0.5)),
-                    ChildOf(root),
-                ))
-                .id();
-            let coat = world
-                .spawn((
-                    Mesh3d(Handle::default()),
-                    MeshMaterial3d(cloth),
-                    ChildOf(root),
-                ))
-                .id();
-            app.update();
-            let cel = |e: Entity| {
-                let handle = app
-                    .world()
-                    .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
-                    .expect("extended")
-                    .0
-                    .clone();
-                let materials = app.world().resource::<Assets<FringeShadowMaterial>>();
-                materials
-                    .get(&handle)
-                    .unwrap()
-                    .extension
-                    .cel_shade
-                    .to_linear()
-            };
-            let rose = FringeShadow::cel().cel_shade.to_linear();
-            assert_eq!(cel(coat), rose);
-            let face = cel(face);
+            let (face, coat) = face_and_coat(
+                vrm_shades,
+                Color::linear_rgb(1.0, 0.8, 0.7),
+                VrmShadeColor(Color::linear_rgb(0.8, 0.5, 0.5)),
+            );
+            assert_eq!(coat.cel_shade.to_linear(), rose);
+            let face = face.cel_shade.to_linear();
             if vrm_shades {
                 let want = [0.8, 0.5 / 0.8, 0.5 / 0.7];
                 let got = [face.red, face.green, face.blue];
@@ -525,53 +539,20 @@ mod tests {
         assert!(near(band(0.9, 0.5), (0.0, 0.001)));
         assert!(near(band(-0.3, 1.0), (0.3, 0.001)));
         assert!(near(band(-1.0, 0.0), (0.5, 0.5)));
+        let plain = FringeShadow::cel();
+        let plain = (plain.cel_threshold, plain.cel_softness);
         for vrm_shades in [true, false] {
-            let mut app = app();
-            let world = app.world_mut();
-            let mut standard = world.resource_mut::<Assets<StandardMaterial>>();
-            let skin = standard.add(StandardMaterial::default());
-            let cloth = standard.add(StandardMaterial::default());
-            let mut fringe = FringeShadowMeshes::all_except(|_| false, FringeShadow::cel());
-            if !vrm_shades {
-                fringe = fringe.without_vrm_shades();
-            }
-            let root = world.spawn((Transform::default(), fringe)).id();
-            let face = world
-                .spawn((
-                    Mesh3d(Handle::default()),
-                    MeshMaterial3d(skin),
-                    VrmShading {
-                        shift: -0.5,
-                        toony: 0.9,
-                    },
-                    ChildOf(root),
-                ))
-                .id();
-            let coat = world
-                .spawn((
-                    Mesh3d(Handle::default()),
-                    MeshMaterial3d(cloth),
-                    ChildOf(root),
-                ))
-                .id();
-            app.update();
-            let turn = |e: Entity| {
-                let handle = app
-                    .world()
-                    .get::<MeshMaterial3d<FringeShadowMaterial>>(e)
-                    .expect("extended")
-                    .0
-                    .clone();
-                let materials = app.world().resource::<Assets<FringeShadowMaterial>>();
-                let shadow = &materials.get(&handle).unwrap().extension;
-                (shadow.cel_threshold, shadow.cel_softness)
+            let wide = VrmShading {
+                shift: -0.5,
+                toony: 0.9,
             };
-            let plain = FringeShadow::cel();
-            assert_eq!(turn(coat), (plain.cel_threshold, plain.cel_softness));
+            let (face, coat) = face_and_coat(vrm_shades, Color::WHITE, wide);
+            let turn = |s: &FringeShadow| (s.cel_threshold, s.cel_softness);
+            assert_eq!(turn(&coat), plain);
             if vrm_shades {
-                assert!(near(turn(face), (0.5, 0.1)), "{:?}", turn(face));
+                assert!(near(turn(&face), (0.5, 0.1)), "{:?}", turn(&face));
             } else {
-                assert_eq!(turn(face), (plain.cel_threshold, plain.cel_softness));
+                assert_eq!(turn(&face), plain);
             }
         }
     }
