@@ -277,10 +277,7 @@ pub(crate) fn apply_fringe_shadow(
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
-    (standard, shades): (
-        Query<&MeshMaterial3d<StandardMaterial>>,
-        Query<MtoonParts>,
-    ),
+    (standard, shades): (Query<&MeshMaterial3d<StandardMaterial>>, Query<MtoonParts>),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
         ResMut<Assets<FringeShadowMaterial>>,
@@ -582,6 +579,7 @@ mod tests {
         let mut app = app();
         app.init_asset::<crate::render::ToonHairMaterial>()
             .init_resource::<super::super::gltf_paint::LookCopies>()
+            .init_resource::<super::super::gltf_paint::BandRamps>()
             .insert_resource(crate::render::ToonRamps {
                 two_tone: Handle::default(),
                 three_tone: Handle::default(),

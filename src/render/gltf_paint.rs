@@ -8,14 +8,16 @@
 //!
 //! A VRM's MToon material also gives its shade colour ([`VrmShadeColor`]): the copy's
 //! [`ToonShading::shade_color`](super::ToonShading::shade_color) is set so the ramp's darkest
-//! tone draws that colour (times the texture) where the base colour would be drawn dark.
+//! tone draws that colour (times the texture) where the base colour would be drawn dark. The
+//! default look also takes its shading band ([`VrmShading`]): a two-tone ramp that turns where
+//! the band says ([`BandRamps`]).
 
 use bevy::platform::collections::{HashMap, HashSet};
 use bevy::prelude::*;
 
 use super::ToonHairMaterial;
-use super::ramps::{ToonRamps, three_tone, two_tone};
-use crate::asset::VrmShadeColor;
+use super::ramps::{BAND_DARKEST, ToonRamps, band_ramp, three_tone, two_tone};
+use crate::asset::{VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 
 /// Where the colours of the meshes a [`ToonHairMeshes`](super::ToonHairMeshes) dresses with a
@@ -51,6 +53,9 @@ pub(crate) struct GltfPaint {
     pub blends: bool,
     /// Its MToon shade colour (a VRM's), if it has one.
     pub shade: Option<Color>,
+    /// The ramp of its MToon shading band (see [`BandRamps`]), when the look worn is the
+    /// default one: it replaces the look's ramp.
+    pub band_ramp: Option<Handle<Image>>,
 }
 
 impl GltfPaint {
@@ -69,13 +74,15 @@ impl GltfPaint {
             alpha_cutoff,
             blends,
             shade: shade.map(|s| s.0),
+            band_ramp: None,
         }
     }
 
     /// `look` in this paint: its base colour and texture this paint's (its own texture kept
     /// where the glTF material has none), double-sided if either is, cut out at its own
-    /// cut-off or else this paint's; with an MToon shade colour, its shade colour set so the
-    /// ramp's darkest tone (see [`darkest_tone`]) draws that colour, times the look's own.
+    /// cut-off or else this paint's; with a band ramp, that ramp instead of the look's; with an
+    /// MToon shade colour, its shade colour set so the ramp's darkest tone (see
+    /// [`darkest_tone`]) draws that colour, times the look's own.
     pub fn on(&self, look: &ToonHairMaterial, ramps: &ToonRamps) -> ToonHairMaterial {
         let mut m = look.clone();
         m.base_color = self.base_color;
@@ -84,8 +91,13 @@ impl GltfPaint {
         }
         m.double_sided |= self.double_sided;
         m.alpha_cutoff = look.alpha_cutoff.or(self.alpha_cutoff);
+        let mut darkest = darkest_tone(&look.ramp, ramps);
+        if let Some(ramp) = &self.band_ramp {
+            m.ramp = ramp.clone();
+            darkest = Some(BAND_DARKEST);
+        }
         if let Some(shade) = self.shade {
-            let tint = shade_tint(shade, self.base_color, darkest_tone(&look.ramp, ramps));
+            let tint = shade_tint(shade, self.base_color, darkest);
             let own = look.shading.shade_color.to_linear();
             m.shading.shade_color = Color::linear_rgb(
                 own.red * tint.red,
@@ -141,6 +153,24 @@ pub(crate) fn shade_tint(shade: Color, base: Color, darkest: Option<f32>) -> Lin
         channel(s.green, b.green),
         channel(s.blue, b.blue),
     )
+}
+
+/// The ramps made for MToon shading bands ([`band_ramp`]), one per band, for the default look
+/// of hair whose glTF material is MToon: its terminator where the band puts it, measured as the
+/// toon material measures light (as [`mtoon_cel_band`](super::mtoon_cel_band) places the
+/// body's).
+#[derive(Resource, Default)]
+pub(crate) struct BandRamps(HashMap<[u32; 2], Handle<Image>>);
+
+impl BandRamps {
+    /// The ramp of `band`: the one made before, else a new one in `images`.
+    pub fn of(&mut self, band: &VrmShading, images: &mut Assets<Image>) -> Handle<Image> {
+        let (threshold, softness) = super::mtoon_cel_band(band);
+        self.0
+            .entry([threshold.to_bits(), softness.to_bits()])
+            .or_insert_with(|| images.add(band_ramp(threshold, softness)))
+            .clone()
+    }
 }
 
 /// The copies of users' materials in glTF paint: for each (look, glTF material), the copy the
@@ -296,6 +326,7 @@ mod tests {
             alpha_cutoff: Some(0.4),
             blends: false,
             shade: None,
+            band_ramp: None,
         };
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         let worn = paint.on(&look, &ramps);
@@ -408,5 +439,67 @@ mod tests {
             ..paint
         };
         assert_eq!(unshaded.on(&look, &ramps).shading.shade_color, violet);
+    }
+
+    /// An MToon band's ramp (made once per band): dark (half the lit tone) below the band, lit above it, the smooth step's middle at its middle; worn by the default look in
+    /// place of its ramp, with the shade colour worked out for that ramp's dark tone.
+    #[test]
+    fn an_mtoon_bands_ramp_replaces_the_looks_and_keeps_the_shade_exact() {
+        let mut images = Assets::<Image>::default();
+        let ramps = ToonRamps::generate(&mut images);
+        let mut bands = BandRamps::default();
+        let band = VrmShading {
+            shift: -0.5,
+            toony: 0.9,
+        };
+        let ramp = bands.of(&band, &mut images);
+        assert_eq!(bands.of(&band, &mut images), ramp);
+        assert_eq!(bands.0.len(), 1);
+        // N.L 0.4 to 0.6: texel x covers (x + 0.5) / 256 of the light.
+        let image = images.get(&ramp).unwrap();
+        let texel = |light: f32| {
+            let x = ((light * 256.0) as usize).min(255);
+            image.data.as_ref().unwrap()[4 * x]
+        };
+        let dark = (BAND_DARKEST * 255.0).round() as u8;
+        assert_eq!((texel(0.1), texel(0.39)), (dark, dark));
+        assert_eq!((texel(0.61), texel(0.95)), (255, 255));
+        let middle = (255.0 + f32::from(dark)) / 2.0;
+        assert!(
+            (f32::from(texel(0.5)) - middle).abs() <= 2.0,
+            "{}",
+            texel(0.5)
+        );
+        let look = ToonHairMaterial {
+            ramp: ramps.three_tone.clone(),
+            ..default()
+        };
+        let (base, shade) = (
+            Color::linear_rgb(0.8, 0.6, 0.5),
+            Color::linear_rgb(0.3, 0.2, 0.4),
+        );
+        let paint = GltfPaint {
+            base_color: base,
+            shade: Some(shade),
+            band_ramp: Some(ramp.clone()),
+            ..GltfPaint::of(&StandardMaterial::default(), None)
+        };
+        let worn = paint.on(&look, &ramps);
+        assert_eq!(worn.ramp, ramp);
+        assert_eq!(
+            worn.shading.shade_color.to_linear(),
+            shade_tint(shade, base, Some(BAND_DARKEST))
+        );
+        // Without the band ramp, the look's own ramp and its darkest tone.
+        let plain = GltfPaint {
+            band_ramp: None,
+            ..paint
+        };
+        let worn = plain.on(&look, &ramps);
+        assert_eq!(worn.ramp, ramps.three_tone);
+        assert_eq!(
+            worn.shading.shade_color.to_linear(),
+            shade_tint(shade, base, Some(three_tone(0.0)))
+        );
     }
 }

@@ -165,6 +165,7 @@ impl Plugin for ToonHairMaterialPlugin {
             .insert_resource(highlight)
             .init_resource::<HatchingMapSettings>()
             .init_resource::<gltf_paint::LookCopies>()
+            .init_resource::<gltf_paint::BandRamps>()
             .init_resource::<TonalArtMapCache>()
             .add_systems(
                 PostUpdate,

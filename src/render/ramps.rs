@@ -81,6 +81,52 @@ pub fn ramp_image(f: impl Fn(f32, f32) -> (f32, f32)) -> Image {
     image
 }
 
+/// The darkest tone of a ramp made by [`band_ramp`]: the brightest at which the toon shader's
+/// shade colour takes its full weight (`w = 2 (1 - tone)`), so an MToon shade colour is drawn
+/// exactly however dark it is against the base colour.
+pub(crate) const BAND_DARKEST: f32 = 0.5;
+
+/// Texels across a ramp made by [`band_ramp`].
+const BAND_RAMP_WIDTH: u32 = 256;
+
+/// A two-tone ramp (one row) that turns from [`BAND_DARKEST`] to lit as the light crosses
+/// `threshold - softness` to `threshold + softness`, by the smooth step cel shading turns with,
+/// sampled linearly so a soft turn is a gradient: an MToon material's shading band for its hair
+/// (see [`mtoon_cel_band`](super::mtoon_cel_band)).
+pub(crate) fn band_ramp(threshold: f32, softness: f32) -> Image {
+    let soft = softness.max(0.001);
+    let data = (0..BAND_RAMP_WIDTH)
+        .flat_map(|col| {
+            let x = (col as f32 + 0.5) / BAND_RAMP_WIDTH as f32;
+            let t = ((x - (threshold - soft)) / (2.0 * soft)).clamp(0.0, 1.0);
+            let tone = BAND_DARKEST + (1.0 - BAND_DARKEST) * t * t * (3.0 - 2.0 * t);
+            let s = (tone * 255.0).round() as u8;
+            [s, s, s, 255]
+        })
+        .collect();
+    let mut image = Image::new(
+        Extent3d {
+            width: BAND_RAMP_WIDTH,
+            height: 1,
+            depth_or_array_layers: 1,
+        },
+        TextureDimension::D2,
+        data,
+        TextureFormat::Rgba8Unorm,
+        RenderAssetUsages::RENDER_WORLD,
+    );
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        label: Some("toon ramp of an MToon band".into()),
+        address_mode_u: ImageAddressMode::ClampToEdge,
+        address_mode_v: ImageAddressMode::ClampToEdge,
+        mag_filter: ImageFilterMode::Linear,
+        min_filter: ImageFilterMode::Linear,
+        mipmap_filter: ImageFilterMode::Nearest,
+        ..default()
+    });
+    image
+}
+
 impl ToonRamps {
     /// Generates the ramps into `images`.
     pub fn generate(images: &mut Assets<Image>) -> Self {

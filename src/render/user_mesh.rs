@@ -24,12 +24,12 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
-use crate::asset::VrmShadeColor;
+use crate::asset::{VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::mesh::HairMassShape;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
-use super::gltf_paint::{GltfPaint, HairPaint, LookCopies};
+use super::gltf_paint::{BandRamps, GltfPaint, HairPaint, LookCopies};
 use super::{ToonHairMaterial, ToonRamps};
 
 /// Put on a character (a glTF or VRM scene root): its descendant meshes whose entity name, parent
@@ -54,7 +54,9 @@ pub struct ToonHairMeshes {
     pub select: BonePredicate,
     /// The material. `None`: for each glTF material, a toon material in its colours (the
     /// three-tone ramp times its base colour and base colour texture, its darkest tone a VRM's
-    /// MToon shade colour where the material has one), double-sided and cut out as it is;
+    /// MToon shade colour where the material has one; a VRM's MToon material with a shading
+    /// band, [`VrmShading`], turns from shade to lit in two tones where the band says, as
+    /// MToon does), double-sided and cut out as it is;
     /// orange for a mesh without one. Give one for a look of your own, worn as it is, or over
     /// each mesh's own colours with [`HairPaint::Gltf`].
     pub material: Option<Handle<ToonHairMaterial>>,
@@ -399,7 +401,11 @@ pub(crate) fn apply_toon_to_user_meshes(
         Query<&MeshMaterial3d<StandardMaterial>>,
         Option<Res<Assets<StandardMaterial>>>,
     ),
-    shades: Query<&VrmShadeColor>,
+    (shades, mut band_ramps, mut images): (
+        Query<(Option<&VrmShadeColor>, Option<&VrmShading>)>,
+        ResMut<BandRamps>,
+        Option<ResMut<Assets<Image>>>,
+    ),
     mut mesh_assets: Option<ResMut<Assets<Mesh>>>,
     mesh_handles: Query<&Mesh3d>,
     mut massed: Local<MassedMeshes>,
@@ -428,10 +434,17 @@ pub(crate) fn apply_toon_to_user_meshes(
             let gltf_id = gltf_materials.get(e).ok().map(|m| m.0.id());
             let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
             // Its colours, sides (hair modelled as sheets) and cut-out (cards), as its glTF
-            // material has them.
-            let paint = gltf_id
-                .zip(gltf)
-                .map(|(id, m)| (id, GltfPaint::of(m, shades.get(e).ok())));
+            // material has them; the default look turns where an MToon material's band says.
+            let (shade, band) = shades.get(e).unwrap_or_default();
+            let paint = gltf_id.zip(gltf).map(|(id, m)| {
+                let mut paint = GltfPaint::of(m, shade);
+                if let (Some(band), Some(images), None) =
+                    (band, images.as_deref_mut(), &wanted.material)
+                {
+                    paint.band_ramp = Some(band_ramps.of(band, images));
+                }
+                (id, paint)
+            });
             // The look: the user's, or the three-tone default; worn in the mesh's glTF paint
             // (one copy per glTF material) unless the user's is to be worn as it is.
             let (look, in_paint) = match &wanted.material {
@@ -668,6 +681,7 @@ mod tests {
             .init_asset::<ToonHairMaterial>()
             .init_asset::<StandardMaterial>()
             .init_resource::<LookCopies>()
+            .init_resource::<BandRamps>()
             .add_systems(
                 Update,
                 (

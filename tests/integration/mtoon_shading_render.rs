@@ -1,35 +1,48 @@
 //! Where a VRM's MToon mesh turns from shade to lit: its shading band (`VrmShading`, MToon's
-//! shading shift and toony factors) drawn by the cel-shaded body's turn, against what the
-//! renderer's own light model predicts pixel by pixel.
+//! shading shift and toony factors) drawn by the cel-shaded body's turn and by the hair's default
+//! toon look, against what the renderer's own light model predicts pixel by pixel.
 
 use bevy::prelude::*;
 use bevy_cartoon_hair::asset::{VrmShadeColor, VrmShading};
 use bevy_cartoon_hair::headless::CapturedFrame;
 use bevy_cartoon_hair::prelude::*;
-use bevy_cartoon_hair::render::{FringeShadowMeshesApplied, mtoon_cel_band};
+use bevy_cartoon_hair::render::{FringeShadowMeshesApplied, ToonHairMeshesApplied, mtoon_cel_band};
 use libtest_mimic::Failed;
 
 use crate::toon_render::{BACKGROUND, save, scene};
 
-pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[(
-    "an_mtoon_shading_band_places_the_cel_terminator",
-    an_mtoon_shading_band_places_the_cel_terminator,
-)];
+pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
+    (
+        "an_mtoon_shading_band_places_the_cel_terminator",
+        an_mtoon_shading_band_places_the_cel_terminator,
+    ),
+    (
+        "an_mtoon_shading_band_places_the_hairs_terminator",
+        an_mtoon_shading_band_places_the_hairs_terminator,
+    ),
+];
 
-/// The sphere's radius, the camera's distance from its centre, the sun's illuminance.
+/// The sphere's radius, the camera's distance from its centre.
 const RADIUS: f32 = 0.45;
 const EYE: f32 = 1.6;
-const SUN_LUX: f32 = 5_000.0;
-/// The skin's base colour and MToon shade (linear grey levels).
+/// The sun's illuminance: full light for the cel shading and the toon look alike.
+const SUN_LUX: f32 = 10_000.0;
+/// The base colour (linear grey level); the skin's MToon shade, and the hair's (the band ramp's
+/// dark tone, half the lit one, times the base colour, so the hair's shade tint is neutral and
+/// its colour the ramp times the base).
 const BASE: f32 = 0.8;
 const SHADE: f32 = 0.2;
+const HAIR_SHADE: f32 = 0.5 * BASE;
 
-/// A skin sphere at the origin, cel shaded by `FringeShadowMeshes` (full light = the sun's
-/// illuminance), its mesh carrying an MToon shade colour and `band`; lit by a sun along -X (so
-/// `N.L` is the normal's x), seen from +Z, no ambient light.
-fn sphere(band: Option<VrmShading>) -> Result<CapturedFrame, Failed> {
+/// A sphere at the origin, its mesh carrying an MToon shade colour and `band`: skin cel shaded
+/// by `FringeShadowMeshes`, or (`hair`) hair in `ToonHairMeshes`' default look; lit by a sun of
+/// full light along -X (so `N.L` is the normal's x), seen from +Z, no ambient light.
+fn sphere(band: Option<VrmShading>, hair: bool) -> Result<CapturedFrame, Failed> {
     let mut r = scene(Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, EYE))?;
     let world = r.app.world_mut();
+    for mut sun in world.query::<&mut DirectionalLight>().iter_mut(world) {
+        sun.illuminance = SUN_LUX;
+    }
     world.insert_resource(GlobalAmbientLight {
         brightness: 0.0,
         ..default()
@@ -44,24 +57,31 @@ fn sphere(band: Option<VrmShading>) -> Result<CapturedFrame, Failed> {
             ..default()
         });
     let root = world
-        .spawn((
-            Transform::default(),
-            Visibility::default(),
-            FringeShadowMeshes::all_except(
+        .spawn((Transform::default(), Visibility::default()))
+        .id();
+    let shade = if hair {
+        world
+            .entity_mut(root)
+            .insert(ToonHairMeshes::matching(|_| true));
+        HAIR_SHADE
+    } else {
+        world
+            .entity_mut(root)
+            .insert(FringeShadowMeshes::all_except(
                 |_| false,
                 FringeShadow {
                     full_light_lux: SUN_LUX,
                     ..FringeShadow::cel()
                 },
-            ),
-        ))
-        .id();
+            ));
+        SHADE
+    };
     let mesh = world
         .spawn((
             Name::new("skin"),
             Mesh3d(ball),
             MeshMaterial3d(skin),
-            VrmShadeColor(Color::linear_rgb(SHADE, SHADE, SHADE)),
+            VrmShadeColor(Color::linear_rgb(shade, shade, shade)),
             ChildOf(root),
         ))
         .id();
@@ -69,11 +89,12 @@ fn sphere(band: Option<VrmShading>) -> Result<CapturedFrame, Failed> {
         world.entity_mut(mesh).insert(band);
     }
     r.warm_up(|world| {
-        world
+        let hair = world.query::<&ToonHairMeshesApplied>().iter(world).count();
+        let skin = world
             .query::<&FringeShadowMeshesApplied>()
             .iter(world)
-            .count()
-            == 1
+            .count();
+        hair + skin == 1
     })?;
     Ok(r.capture()?)
 }
@@ -122,7 +143,11 @@ fn linear(byte: u8) -> f32 {
 /// softness` to `threshold + softness` over [`intensity`]) is: the mean and largest gap in
 /// pixels, and the largest gap between drawn and predicted share of lit over the sphere's
 /// pixels. Rows without a crossing in both are skipped; the count of rows compared is returned.
-fn compare(frame: &CapturedFrame, threshold: f32, softness: f32) -> (f32, f32, f32, usize) {
+fn compare(
+    frame: &CapturedFrame,
+    (threshold, softness): (f32, f32),
+    shade: f32,
+) -> (f32, f32, f32, usize) {
     let (mut sum, mut most, mut share, mut rows) = (0.0f32, 0.0f32, 0.0f32, 0);
     for y in (60..=196).step_by(4) {
         let (mut drawn_at, mut predicted_at) = (None, None);
@@ -141,7 +166,7 @@ fn compare(frame: &CapturedFrame, threshold: f32, softness: f32) -> (f32, f32, f
             {
                 continue;
             }
-            let drawn = ((linear(p[1]) - SHADE) / (BASE - SHADE)).clamp(0.0, 1.0);
+            let drawn = ((linear(p[1]) - shade) / (BASE - shade)).clamp(0.0, 1.0);
             let predicted = smoothstep(threshold - softness, threshold + softness, light);
             share = share.max((drawn - predicted).abs());
             // The first crossing of one half, left to right (shade on the left), interpolated.
@@ -168,44 +193,48 @@ fn compare(frame: &CapturedFrame, threshold: f32, softness: f32) -> (f32, f32, f
     (sum / rows.max(1) as f32, most, share, rows)
 }
 
-/// A skin sphere lit from the side, its mesh an MToon one: with a shading band (shift -0.5,
-/// toony 0.9: `N.L` 0.4 to 0.6; and VRM 0.x's defaults: 0 to 0.1) the cel terminator lies
-/// where the renderer's light model puts that band's middle, within half a pixel on every row
-/// compared, and the turn is as soft as the band says (the drawn share of lit within 0.05 of the
-/// prediction on every pixel inside the sphere); without a band it lies at the shadow's own
-/// threshold (0.3), 10 and more pixels from where the first band would put it.
-fn an_mtoon_shading_band_places_the_cel_terminator() -> Result<(), Failed> {
-    let plain = FringeShadow::cel();
+/// A sphere lit from the side, its mesh an MToon one (`hair`: in the hair's default look, else
+/// cel-shaded skin): with a shading band (shift -0.5, toony 0.9: `N.L` 0.4 to 0.6; and VRM 0.x's
+/// defaults: 0 to 0.1) the terminator lies where the renderer's light model puts that band's
+/// middle, within half a pixel on every row compared, and the turn is as soft as the band says
+/// (the drawn share of lit within `share_within` of the prediction on every pixel inside the
+/// sphere); without a band it lies at the look's own turn (`plain`), 10 and more pixels from
+/// where the first band would put it.
+fn terminators(hair: bool, plain: (f32, f32), share_within: f32) -> Result<(), Failed> {
     let wide = VrmShading {
         shift: -0.5,
         toony: 0.9,
     };
     let vroid = VrmShading::from_v0(0.0, 0.9);
+    let what = if hair { "hair" } else { "cel" };
+    let shade = if hair { HAIR_SHADE } else { SHADE };
     let mut wrong = Vec::new();
     let mut report = Vec::new();
     for (name, band) in [
-        ("mtoon_band_wide", Some(wide)),
-        ("mtoon_band_vrm0_default", Some(vroid)),
-        ("mtoon_band_none", None),
+        ("wide", Some(wide)),
+        ("vrm0_default", Some(vroid)),
+        ("none", None),
     ] {
-        let frame = sphere(band)?;
-        save(&frame, name)?;
-        let (threshold, softness) = band.map_or((plain.cel_threshold, plain.cel_softness), |b| {
-            mtoon_cel_band(&b)
-        });
-        let (mean, most, share, rows) = compare(&frame, threshold, softness);
+        let name = format!("mtoon_{what}_band_{name}");
+        let frame = sphere(band, hair)?;
+        save(&frame, &name)?;
+        let turn = band.map_or(plain, |b| mtoon_cel_band(&b));
+        let (mean, most, share, rows) = compare(&frame, turn, shade);
         // Where the wide band would put the terminator, for the unbanded sphere.
-        let (wide_t, wide_s) = mtoon_cel_band(&wide);
-        let (other_mean, ..) = compare(&frame, wide_t, wide_s);
+        let (other_mean, ..) = compare(&frame, mtoon_cel_band(&wide), shade);
         report.push(format!(
-            "{name}: threshold {threshold:.3} softness {softness:.3}: {rows} rows, terminator \
-             {mean:.2} px from the prediction on average, {most:.2} at most; lit share within \
-             {share:.3}; {other_mean:.1} px from the wide band's"
+            "{name}: threshold {:.3} softness {:.3}: {rows} rows, terminator {mean:.2} px from \
+             the prediction on average, {most:.2} at most; lit share within {share:.3}; \
+             {other_mean:.1} px from the wide band's",
+            turn.0, turn.1
         ));
         if rows < 25 {
             wrong.push(format!("{name}: only {rows} rows compared"));
         }
-        if most > 0.5 || share > 0.05 {
+        // The three-tone ramp's middle tone is neither shade nor lit: where the hair wears it,
+        // only how far its terminator lies from the band's is judged.
+        let two_tones = band.is_some() || !hair;
+        if two_tones && (most > 0.5 || share > share_within) {
             wrong.push(format!(
                 "{name}: terminator {most:.2} px from the prediction, lit share {share:.3} off"
             ));
@@ -216,13 +245,25 @@ fn an_mtoon_shading_band_places_the_cel_terminator() -> Result<(), Failed> {
             ));
         }
     }
-    eprintln!(
-        "MToon shading bands on a cel-shaded sphere:\n{}",
-        report.join("\n")
-    );
+    eprintln!("MToon shading bands, {what}:\n{}", report.join("\n"));
     if wrong.is_empty() {
         Ok(())
     } else {
         Err(wrong.join("; ").into())
     }
+}
+
+/// Cel-shaded skin ([`terminators`]): without a band, the `FringeShadow`'s threshold 0.3.
+fn an_mtoon_shading_band_places_the_cel_terminator() -> Result<(), Failed> {
+    let plain = FringeShadow::cel();
+    terminators(false, (plain.cel_threshold, plain.cel_softness), 0.05)
+}
+
+/// Hair in `ToonHairMeshes`' default look ([`terminators`]): with a band it wears the band's
+/// ramp; without one the three-tone ramp, whose first turn (from its darkest tone to the
+/// middle one) is at 0.15 of full light, drawn where the nearest texel of the 64 changes: at
+/// 10/64 (its middle tone is neither shade nor lit, so there only the distance from the wide
+/// band's terminator is judged).
+fn an_mtoon_shading_band_places_the_hairs_terminator() -> Result<(), Failed> {
+    terminators(true, (10.0 / 64.0, 0.001), 0.05)
 }

@@ -302,7 +302,8 @@ fn material(doc: &Value, name: &str) -> usize {
 /// `ToonHairMeshes` on its hair and cel-shading `FringeShadowMeshes` on the rest: its hair
 /// meshes carry the hair's shade colour, its skin meshes the skin's, the other meshes none;
 /// the hair's toon material draws the shade colour in the ramp's darkest tone (base colour x
-/// 0.45 x its shade colour) and the skin's cel shade draws it (base colour x cel shade). Every
+/// that tone x its shade colour; the tone is its band ramp's, 0.5, as every MToon hair here has
+/// a band) and the skin's cel shade draws it (base colour x cel shade). Every
 /// MToon mesh carries its shading band (the skin's own factors, in VRM 0.x converted; the
 /// others' defaults), and the cel-shaded ones turn where it says. The file as it is, beside
 /// them, has none. (The picture, `mtoon_avatars.png`: the three heads.)
@@ -399,6 +400,7 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
     )>();
     let world: &World = world;
     let toon = world.resource::<Assets<ToonHairMaterial>>();
+    let three_tone = world.resource::<ToonRamps>().three_tone.clone();
     let fringe = world.resource::<Assets<FringeShadowMaterial>>();
     let mut wrong = Vec::new();
     for (e, name, shade, band, hair, body) in meshes.iter(world) {
@@ -461,11 +463,21 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
         // What each material draws where it is darkest, against the file's shade colour.
         let drawn = match (hair, body) {
             (Some(m), _) => toon.get(&m.0).map(|m| {
+                // A band gives the hair a two-tone ramp of its own (dark tone 0.5), else the
+                // three-tone ramp (0.45).
+                let three = m.ramp == three_tone;
+                if three == band.is_some() {
+                    wrong.push(format!(
+                        "{root} {}: band {band:?}, three-tone {three}",
+                        name.0
+                    ));
+                }
+                let d = if three { 0.45 } else { 0.5 };
                 let (b, s) = (m.base_color.to_linear(), m.shading.shade_color.to_linear());
                 Color::linear_rgb(
-                    0.45 * b.red * s.red,
-                    0.45 * b.green * s.green,
-                    0.45 * b.blue * s.blue,
+                    d * b.red * s.red,
+                    d * b.green * s.green,
+                    d * b.blue * s.blue,
                 )
             }),
             (_, Some(m)) => fringe.get(&m.0).map(|m| {
