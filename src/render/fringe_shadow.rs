@@ -28,7 +28,7 @@ use crate::asset::{VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
-use super::gltf_paint::shade_tint;
+use super::gltf_paint::{MtoonParts, shade_tint};
 use super::user_mesh::{MeshNames, meshes_passing};
 
 /// A face material that receives the fringe shadow.
@@ -262,9 +262,6 @@ pub fn mtoon_cel_band(shading: &VrmShading) -> (f32, f32) {
     let half = ((hi - lo) * 0.5).max(0.001);
     (lo + (hi - lo) * 0.5, half)
 }
-
-/// What a VRM's MToon material put on a mesh: its shade colour and shading band, if any.
-type MtoonParts = (Option<&'static VrmShadeColor>, Option<&'static VrmShading>);
 
 #[expect(
     clippy::too_many_arguments,

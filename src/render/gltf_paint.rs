@@ -155,6 +155,9 @@ pub(crate) fn shade_tint(shade: Color, base: Color, darkest: Option<f32>) -> Lin
     )
 }
 
+/// What a VRM's MToon material put on a mesh: its shade colour and shading band, if any.
+pub(crate) type MtoonParts = (Option<&'static VrmShadeColor>, Option<&'static VrmShading>);
+
 /// The ramps made for MToon shading bands ([`band_ramp`]), one per band, for the default look
 /// of hair whose glTF material is MToon: its terminator where the band puts it, measured as the
 /// toon material measures light (as [`mtoon_cel_band`](super::mtoon_cel_band) places the
@@ -441,8 +444,9 @@ mod tests {
         assert_eq!(unshaded.on(&look, &ramps).shading.shade_color, violet);
     }
 
-    /// An MToon band's ramp (made once per band): dark (half the lit tone) below the band, lit above it, the smooth step's middle at its middle; worn by the default look in
-    /// place of its ramp, with the shade colour worked out for that ramp's dark tone.
+    /// An MToon band's ramp (made once per band): dark (half the lit tone) below the band, lit
+    /// above it, the smooth step's middle at its middle; worn by the default look in place of
+    /// its ramp, with the shade colour worked out for that ramp's dark tone.
     #[test]
     fn an_mtoon_bands_ramp_replaces_the_looks_and_keeps_the_shade_exact() {
         let mut images = Assets::<Image>::default();

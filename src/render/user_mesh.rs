@@ -24,12 +24,11 @@ use bevy::platform::collections::HashMap;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
 
-use crate::asset::{VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::mesh::HairMassShape;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
-use super::gltf_paint::{BandRamps, GltfPaint, HairPaint, LookCopies};
+use super::gltf_paint::{BandRamps, GltfPaint, HairPaint, LookCopies, MtoonParts};
 use super::{ToonHairMaterial, ToonRamps};
 
 /// Put on a character (a glTF or VRM scene root): its descendant meshes whose entity name, parent
@@ -55,9 +54,9 @@ pub struct ToonHairMeshes {
     /// The material. `None`: for each glTF material, a toon material in its colours (the
     /// three-tone ramp times its base colour and base colour texture, its darkest tone a VRM's
     /// MToon shade colour where the material has one; a VRM's MToon material with a shading
-    /// band, [`VrmShading`], turns from shade to lit in two tones where the band says, as
-    /// MToon does), double-sided and cut out as it is;
-    /// orange for a mesh without one. Give one for a look of your own, worn as it is, or over
+    /// band, [`VrmShading`](crate::asset::VrmShading), turns from shade to lit in two tones
+    /// where the band says, as MToon does), double-sided and cut out as it is; orange for a
+    /// mesh without one. Give one for a look of your own, worn as it is, or over
     /// each mesh's own colours with [`HairPaint::Gltf`].
     pub material: Option<Handle<ToonHairMaterial>>,
     /// With a [`material`](Self::material) of yours: whether every mesh wears it as it is
@@ -402,7 +401,7 @@ pub(crate) fn apply_toon_to_user_meshes(
         Option<Res<Assets<StandardMaterial>>>,
     ),
     (shades, mut band_ramps, mut images): (
-        Query<(Option<&VrmShadeColor>, Option<&VrmShading>)>,
+        Query<MtoonParts>,
         ResMut<BandRamps>,
         Option<ResMut<Assets<Image>>>,
     ),
