@@ -66,6 +66,7 @@ pub struct FringeShadow {
     /// Half the width of the turn from shade to lit, in the same share of full light: a smooth
     /// step from `cel_threshold - cel_softness` to `cel_threshold + cel_softness`. Small is a
     /// crisp line, large a gradient. Clamped to `[0.001, 1]`. Default: `0.015`.
+    #[reflect(default = "default_cel_softness")]
     pub cel_softness: f32,
     /// The illuminance (lux) that counts as fully lit, as
     /// [`ToonShading::full_light_lux`](super::ToonShading::full_light_lux). Default: `10000`.
@@ -81,7 +82,7 @@ impl Default for FringeShadow {
             cel: false,
             cel_shade: Color::srgb(0.80, 0.62, 0.64),
             cel_threshold: 0.3,
-            cel_softness: 0.015,
+            cel_softness: default_cel_softness(),
             full_light_lux: 10_000.0,
         }
     }
@@ -196,6 +197,10 @@ pub struct FringeShadowMeshes {
 
 fn yes() -> bool {
     true
+}
+
+fn default_cel_softness() -> f32 {
+    0.015
 }
 
 impl FringeShadowMeshes {
