@@ -58,10 +58,28 @@ pub fn ramp_image(f: impl Fn(f32, f32) -> (f32, f32)) -> Image {
             data.extend_from_slice(&[s, s, s, a]);
         }
     }
+    ramp_texture(
+        RAMP_WIDTH,
+        RAMP_HEIGHT,
+        data,
+        ImageFilterMode::Nearest,
+        "toon ramp",
+    )
+}
+
+/// An RGBA8 ramp texture of `width` x `height` texels, clamped at its edges, sampled with
+/// `filter` (no mipmaps).
+fn ramp_texture(
+    width: u32,
+    height: u32,
+    data: Vec<u8>,
+    filter: ImageFilterMode,
+    label: &'static str,
+) -> Image {
     let mut image = Image::new(
         Extent3d {
-            width: RAMP_WIDTH,
-            height: RAMP_HEIGHT,
+            width,
+            height,
             depth_or_array_layers: 1,
         },
         TextureDimension::D2,
@@ -70,11 +88,11 @@ pub fn ramp_image(f: impl Fn(f32, f32) -> (f32, f32)) -> Image {
         RenderAssetUsages::RENDER_WORLD,
     );
     image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
-        label: Some("toon ramp".into()),
+        label: Some(label.into()),
         address_mode_u: ImageAddressMode::ClampToEdge,
         address_mode_v: ImageAddressMode::ClampToEdge,
-        mag_filter: ImageFilterMode::Nearest,
-        min_filter: ImageFilterMode::Nearest,
+        mag_filter: filter,
+        min_filter: filter,
         mipmap_filter: ImageFilterMode::Nearest,
         ..default()
     });
@@ -104,27 +122,13 @@ pub(crate) fn band_ramp(threshold: f32, softness: f32) -> Image {
             [s, s, s, 255]
         })
         .collect();
-    let mut image = Image::new(
-        Extent3d {
-            width: BAND_RAMP_WIDTH,
-            height: 1,
-            depth_or_array_layers: 1,
-        },
-        TextureDimension::D2,
+    ramp_texture(
+        BAND_RAMP_WIDTH,
+        1,
         data,
-        TextureFormat::Rgba8Unorm,
-        RenderAssetUsages::RENDER_WORLD,
-    );
-    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
-        label: Some("toon ramp of an MToon band".into()),
-        address_mode_u: ImageAddressMode::ClampToEdge,
-        address_mode_v: ImageAddressMode::ClampToEdge,
-        mag_filter: ImageFilterMode::Linear,
-        min_filter: ImageFilterMode::Linear,
-        mipmap_filter: ImageFilterMode::Nearest,
-        ..default()
-    });
-    image
+        ImageFilterMode::Linear,
+        "toon ramp of an MToon band",
+    )
 }
 
 impl ToonRamps {
