@@ -16,7 +16,7 @@
 //! | [`HairGroom`] | `*.hair.xml` | [`HairGroomLoader`] |
 //! | [`HeadCollision`] | `*.collision.xml` | [`HeadCollisionLoader`] |
 //! | [`HairAnimation`] | `*.hairanim.xml` | [`HairAnimationLoader`] (keyframe grooms load as dependencies) |
-//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`], added by [`VrmLoaderPlugin`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`], and its MToon shade colours and shading bands [`VrmShadeColor`]s and [`VrmShading`]s on its meshes, whichever loader opens it) |
+//! | Bevy's `Gltf` | `*.vrm` | [`VrmLoader`], added by [`VrmLoaderPlugin`] (Bevy's glTF loader; any glTF's VRM spring bones become [`VrmSpringBones`], and its MToon shade colours, shading bands and rim lights [`VrmShadeColor`]s, [`VrmShading`]s and [`VrmRim`]s on its meshes, whichever loader opens it) |
 
 mod animation;
 mod collision;
@@ -34,6 +34,7 @@ mod tests;
 mod vrm;
 mod vrm_gltf;
 mod vrm_mtoon;
+mod vrm_mtoon_rim;
 mod vrm_mtoon_shading;
 #[cfg(test)]
 mod vrm_tests;
@@ -65,6 +66,7 @@ pub use vrm::{
 };
 pub use vrm_gltf::{VrmLoader, VrmLoaderPlugin, VrmNode, VrmSpringBones};
 pub use vrm_mtoon::{MAX_VRM_MATERIALS, VrmShadeColor, parse_vrm_shade_colors};
+pub use vrm_mtoon_rim::{MAX_RIM_POWER, VrmRim, parse_vrm_rims};
 pub use vrm_mtoon_shading::{VrmShading, parse_vrm_shading};
 
 use bevy::prelude::*;

@@ -8,8 +8,8 @@
 //! (its meshes and skeleton are fine); [`VrmSpringBones::error`] says what is wrong, and the
 //! simulation reports it.
 //!
-//! The handler also puts each MToon material's shade colour and shading band on the mesh
-//! entities that wear it ([`VrmShadeColor`], [`VrmShading`]); a broken value is a warning naming
+//! The handler also puts each MToon material's shade colour, shading band and rim light on the
+//! mesh entities that wear it ([`VrmShadeColor`], [`VrmShading`], [`VrmRim`]); a broken value is a warning naming
 //! the file and the JSON path, and that material's meshes get none of that kind.
 
 use bevy::asset::io::Reader;
@@ -23,6 +23,7 @@ use bevy::prelude::*;
 
 use super::vrm::{VrmSprings, parse_vrm_springs};
 use super::vrm_mtoon::{VrmShadeColor, parse_vrm_shade_colors};
+use super::vrm_mtoon_rim::{VrmRim, parse_vrm_rims};
 use super::vrm_mtoon_shading::{VrmShading, parse_vrm_shading};
 
 /// On each node entity of a glTF scene whose file has VRM spring bones: the node's glTF index.
@@ -51,6 +52,8 @@ struct VrmExtensionHandler {
     shades: Vec<Option<Color>>,
     /// Each material's MToon shading band, by glTF material index.
     bands: Vec<Option<VrmShading>>,
+    /// Each material's MToon rim light, by glTF material index.
+    rims: Vec<Option<VrmRim>>,
 }
 
 impl GltfExtensionHandler for VrmExtensionHandler {
@@ -71,11 +74,19 @@ impl GltfExtensionHandler for VrmExtensionHandler {
         }
         self.shades = shades;
         let (bands, band_errors) = parse_vrm_shading(&file, &gltf.document);
-        // Both readers report a broken `materialProperties` list: said once.
+        // Every reader reports a broken `materialProperties` list: said once.
         for e in band_errors.iter().filter(|e| !errors.contains(e)) {
             warn!("{e}; the meshes with that material take their toon look's shade threshold");
         }
+        let (rims, rim_errors) = parse_vrm_rims(&file, &gltf.document);
+        for e in rim_errors
+            .iter()
+            .filter(|e| !errors.contains(e) && !band_errors.contains(e))
+        {
+            warn!("{e}; the meshes with that material are drawn without a rim light");
+        }
         self.bands = bands;
+        self.rims = rims;
         self.found = match parse_vrm_springs(&file, &gltf.document) {
             Ok(None) => None,
             Ok(Some(springs)) => Some(VrmSpringBones {
@@ -125,6 +136,9 @@ impl GltfExtensionHandler for VrmExtensionHandler {
         if let Some(band) = self.bands.get(i).copied().flatten() {
             entity.insert(band);
         }
+        if let Some(rim) = self.rims.get(i).copied().flatten() {
+            entity.insert(rim);
+        }
     }
 
     fn on_scene_completed(
@@ -168,7 +182,8 @@ pub(crate) fn register_handler(app: &mut App) {
     app.register_type::<VrmNode>()
         .register_type::<VrmSpringBones>()
         .register_type::<VrmShadeColor>()
-        .register_type::<VrmShading>();
+        .register_type::<VrmShading>()
+        .register_type::<VrmRim>();
     // Without Bevy's glTF plugin (added before this one) no glTF loads, VRM or not.
     let Some(handlers) = app.world_mut().get_resource_mut::<GltfExtensionHandlers>() else {
         return;

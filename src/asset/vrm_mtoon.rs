@@ -146,7 +146,7 @@ fn shade_v0(file: &str, i: usize, properties: &Value) -> Result<Option<Color>, V
 }
 
 /// `n` numbers in `[0, 1]`.
-fn channels(file: &str, path: &str, v: &Value, n: usize) -> Result<Vec<f32>, VrmError> {
+pub(super) fn channels(file: &str, path: &str, v: &Value, n: usize) -> Result<Vec<f32>, VrmError> {
     let Some(a) = v.as_array().filter(|a| a.len() == n) else {
         return Err(error(
             file,

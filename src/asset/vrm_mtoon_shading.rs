@@ -97,8 +97,8 @@ fn shading_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<VrmShading>,
     let path = format!("materials[{i}].extensions.VRMC_materials_mtoon");
     let mtoon = object(file, &path, mtoon)?;
     let defaults = VrmShading::default();
-    let shift = factor(file, &path, mtoon, "shadingShiftFactor", -1.0)?;
-    let toony = factor(file, &path, mtoon, "shadingToonyFactor", 0.0)?;
+    let shift = factor(file, &path, mtoon, "shadingShiftFactor", (-1.0, 1.0))?;
+    let toony = factor(file, &path, mtoon, "shadingToonyFactor", (0.0, 1.0))?;
     Ok(Some(VrmShading {
         shift: shift.unwrap_or(defaults.shift),
         toony: toony.unwrap_or(defaults.toony),
@@ -119,8 +119,8 @@ fn shading_v0(file: &str, i: usize, properties: &Value) -> Result<Option<VrmShad
             let path = format!("{path}.floatProperties");
             let floats = object(file, &path, floats)?;
             (
-                factor(file, &path, floats, "_ShadeShift", -1.0)?,
-                factor(file, &path, floats, "_ShadeToony", 0.0)?,
+                factor(file, &path, floats, "_ShadeShift", (-1.0, 1.0))?,
+                factor(file, &path, floats, "_ShadeToony", (0.0, 1.0))?,
             )
         }
     };
@@ -130,24 +130,24 @@ fn shading_v0(file: &str, i: usize, properties: &Value) -> Result<Option<VrmShad
     )))
 }
 
-/// `object[key]`: absent, or a number in `[low, 1]`.
-fn factor(
+/// `object[key]`: absent, or a number in `[low, high]`.
+pub(super) fn factor(
     file: &str,
     path: &str,
     object: &serde_json::Map<String, Value>,
     key: &str,
-    low: f32,
+    (low, high): (f32, f32),
 ) -> Result<Option<f32>, VrmError> {
     let Some(v) = object.get(key) else {
         return Ok(None);
     };
     let path = format!("{path}.{key}");
     match v.as_f64().map(|x| x as f32) {
-        Some(x) if (low..=1.0).contains(&x) => Ok(Some(x)),
+        Some(x) if (low..=high).contains(&x) => Ok(Some(x)),
         Some(x) => Err(error(
             file,
             &path,
-            format!("{x} is outside [{low}, 1]; fix the material in the VRM exporter"),
+            format!("{x} is outside [{low}, {high}]; fix the material in the VRM exporter"),
         )),
         None => Err(error(
             file,

@@ -24,7 +24,7 @@ use bevy::render::render_resource::{AsBindGroup, ShaderType};
 use bevy::shader::ShaderRef;
 use bevy::world_serialization::WorldAssetRoot;
 
-use crate::asset::{VrmShadeColor, VrmShading};
+use crate::asset::{VrmRim, VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
@@ -52,7 +52,10 @@ pub struct FringeShadow {
     /// (every light, its colour and shadows) is measured as the hair's toon material measures
     /// it ([`ToonLighting::Scene`](super::ToonLighting::Scene)); above
     /// [`FringeShadow::cel_threshold`] the surface shows its base colour in the light's hue,
-    /// below it the base colour times [`FringeShadow::cel_shade`]. Default: `false`.
+    /// below it the base colour times [`FringeShadow::cel_shade`]. Where almost no light
+    /// reaches (turned away from every light, in a shadow, no ambient light) the hue is the
+    /// first directional light's: the surface draws its shade tone there, as MToon draws its
+    /// shade colour, not black (black only with no directional light). Default: `false`.
     pub cel: bool,
     /// The shade tone of cel shading: multiplies the base colour where the light is below the
     /// threshold. Default: a warm rose, `srgb(0.80, 0.62, 0.64)`, as skin is drawn. A
@@ -71,6 +74,14 @@ pub struct FringeShadow {
     /// The illuminance (lux) that counts as fully lit, as
     /// [`ToonShading::full_light_lux`](super::ToonShading::full_light_lux). Default: `10000`.
     pub full_light_lux: f32,
+    /// A rim light along the silhouette of a cel-shaded surface: MToon's parametric rim
+    /// ([`VrmRim`]), its colour times [`VrmRim::strength`] added where the surface turns away
+    /// from the viewer, times what cel shading draws a white surface in there (the light's hue,
+    /// and the shade tone in shade) as far as [`VrmRim::lighting_mix`] says. Drawn with
+    /// [`FringeShadow::cel`] only. A [`FringeShadowMeshes`] gives a VRM's MToon meshes their own
+    /// (see [`FringeShadowMeshes::vrm_shades`]). Default: `None`.
+    #[reflect(default)]
+    pub rim: Option<VrmRim>,
 }
 
 impl Default for FringeShadow {
@@ -84,6 +95,7 @@ impl Default for FringeShadow {
             cel_threshold: 0.3,
             cel_softness: default_cel_softness(),
             full_light_lux: 10_000.0,
+            rim: None,
         }
     }
 }
@@ -104,6 +116,8 @@ pub struct FringeShadowUniform {
     tone: Vec4,
     params: Vec4,
     cel_shade: Vec4,
+    rim: Vec4,
+    rim_shape: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> for FringeShadow {
@@ -130,8 +144,34 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
                 .to_vec4()
                 .truncate()
                 .extend(finite_or(self.cel_softness, 0.015).clamp(0.001, 1.0)),
+            rim: rim_uniform(self.rim.as_ref()).0,
+            rim_shape: rim_uniform(self.rim.as_ref()).1,
         }
     }
+}
+
+/// A rim's two uniform lanes: its colour (linear, non-negative) and lighting mix, then its
+/// Fresnel power (at least `1e-5`) and lift; all zero without a rim (the shader skips it).
+fn rim_uniform(rim: Option<&VrmRim>) -> (Vec4, Vec4) {
+    let Some(rim) = rim else {
+        return (Vec4::ZERO, Vec4::ZERO);
+    };
+    let c = rim.color.to_linear();
+    let channel = |x: f32| finite_or(x, 0.0).max(0.0);
+    (
+        Vec4::new(
+            channel(c.red),
+            channel(c.green),
+            channel(c.blue),
+            finite_or(rim.lighting_mix, 1.0).clamp(0.0, 1.0),
+        ),
+        Vec4::new(
+            finite_or(rim.fresnel_power, 5.0).clamp(1e-5, crate::asset::MAX_RIM_POWER),
+            finite_or(rim.lift, 0.0).clamp(-1.0, 1.0),
+            0.0,
+            0.0,
+        ),
+    )
 }
 
 impl MaterialExtension for FringeShadow {
@@ -189,8 +229,9 @@ pub struct FringeShadowMeshes {
     /// takes that colour as its [`FringeShadow::cel_shade`] (the shade over its base colour, so
     /// the dark tone draws the MToon shade, times the texture), and one with a shading band
     /// ([`VrmShading`]) takes it as its [`FringeShadow::cel_threshold`] and
-    /// [`FringeShadow::cel_softness`] (see [`mtoon_cel_band`]), instead of the ones `shadow`
-    /// gives every mesh. Default: `true`.
+    /// [`FringeShadow::cel_softness`] (see [`mtoon_cel_band`]), and one with a rim light
+    /// ([`VrmRim`]) takes it as its [`FringeShadow::rim`], instead of the ones `shadow` gives
+    /// every mesh. Default: `true`.
     #[reflect(default = "yes")]
     pub vrm_shades: bool,
 }
@@ -279,7 +320,11 @@ pub(crate) fn apply_fringe_shadow(
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
-    (standard, shades): (Query<&MeshMaterial3d<StandardMaterial>>, Query<MtoonParts>),
+    (standard, shades, rims): (
+        Query<&MeshMaterial3d<StandardMaterial>>,
+        Query<MtoonParts>,
+        Query<&VrmRim>,
+    ),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
         ResMut<Assets<FringeShadowMaterial>>,
@@ -339,6 +384,9 @@ pub(crate) fn apply_fringe_shadow(
                     }
                     if let Some(band) = band {
                         (extension.cel_threshold, extension.cel_softness) = mtoon_cel_band(band);
+                    }
+                    if let Some(rim) = rims.get(e).ok().filter(|_| wanted.vrm_shades) {
+                        extension.rim = Some(*rim);
                     }
                     let m = extended.add(ExtendedMaterial {
                         base: base.clone(),
@@ -554,6 +602,46 @@ mod tests {
                 assert_eq!(turn(&face), plain);
             }
         }
+    }
+
+    /// An MToon mesh with a rim light takes it as its cel rim; one without keeps the shadow's
+    /// (none); with `without_vrm_shades` both keep it. The uniform carries the rim's colour and
+    /// mix, power and lift, clamped to what the shader can draw (a power of 0 becomes 1e-5, a
+    /// NaN colour channel none), and is all zero without a rim.
+    #[test]
+    fn an_mtoon_mesh_takes_its_own_rim_light() {
+        let rim = VrmRim {
+            color: Color::linear_rgb(0.5, 0.25, 0.0),
+            fresnel_power: 3.0,
+            lift: 0.1,
+            lighting_mix: 0.5,
+        };
+        for vrm_shades in [true, false] {
+            let (face, coat) = face_and_coat(vrm_shades, Color::WHITE, rim);
+            assert_eq!(coat.rim, None);
+            assert_eq!(face.rim, vrm_shades.then_some(rim));
+        }
+        assert_eq!(rim_uniform(None), (Vec4::ZERO, Vec4::ZERO));
+        assert_eq!(
+            rim_uniform(Some(&rim)),
+            (
+                Vec4::new(0.5, 0.25, 0.0, 0.5),
+                Vec4::new(3.0, 0.1, 0.0, 0.0)
+            )
+        );
+        let broken = VrmRim {
+            color: Color::linear_rgb(f32::NAN, -1.0, 2.0),
+            fresnel_power: 0.0,
+            lift: 5.0,
+            lighting_mix: f32::INFINITY,
+        };
+        assert_eq!(
+            rim_uniform(Some(&broken)),
+            (
+                Vec4::new(0.0, 0.0, 2.0, 1.0),
+                Vec4::new(1e-5, 1.0, 0.0, 0.0)
+            )
+        );
     }
 
     #[test]

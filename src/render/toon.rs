@@ -38,8 +38,10 @@ pub enum ToonLighting {
     /// colour and intensity, ambient and environment light, and the shadows they cast), measured
     /// on a white, rough surface: its brightness indexes the ramp's x axis (full at
     /// [`ToonShading::full_light_lux`]) and its hue tints the hair. Hair in a game scene then
-    /// matches the characters next to it. Hair always receives shadows here
-    /// (`NotShadowReceiver` is not read).
+    /// matches the characters next to it. Where almost no light reaches (turned away from
+    /// every light, in a shadow, no ambient light) the hair takes the first directional light's
+    /// hue: it draws its darkest tone there, not black (black only with no directional light).
+    /// Hair always receives shadows here (`NotShadowReceiver` is not read).
     #[default]
     Scene,
 }

@@ -23,6 +23,7 @@ mod lighting_render;
 mod lock_render;
 mod look_suite;
 mod mass_render;
+mod mtoon_rim_render;
 mod mtoon_shading_render;
 mod outline_render;
 mod render_smoke;
@@ -92,6 +93,7 @@ fn main() {
         .chain(user_mesh_render::RENDER_TESTS)
         .chain(vrm_materials_render::RENDER_TESTS)
         .chain(mtoon_shading_render::RENDER_TESTS)
+        .chain(mtoon_rim_render::RENDER_TESTS)
     {
         let test = *test;
         trials.push(

@@ -20,6 +20,10 @@ pub const RENDER_TESTS: &[(&str, crate::TestFn)] = &[
         "an_mtoon_shading_band_places_the_hairs_terminator",
         an_mtoon_shading_band_places_the_hairs_terminator,
     ),
+    (
+        "where_no_light_reaches_the_shade_is_drawn_not_black",
+        where_no_light_reaches_the_shade_is_drawn_not_black,
+    ),
 ];
 
 /// The sphere's radius, the camera's distance from its centre.
@@ -38,6 +42,21 @@ const HAIR_SHADE: f32 = 0.5 * BASE;
 /// by `FringeShadowMeshes`, or (`hair`) hair in `ToonHairMeshes`' default look; lit by a sun of
 /// full light along -X (so `N.L` is the normal's x), seen from +Z, no ambient light.
 fn sphere(band: Option<VrmShading>, hair: bool) -> Result<CapturedFrame, Failed> {
+    let shade = if hair { HAIR_SHADE } else { SHADE };
+    lit_sphere(BASE, hair, |mesh| {
+        mesh.insert(VrmShadeColor(Color::linear_rgb(shade, shade, shade)));
+        if let Some(band) = band {
+            mesh.insert(band);
+        }
+    })
+}
+
+/// The sphere of [`sphere`] in a grey `base` colour, its mesh given what `dress` inserts.
+pub(crate) fn lit_sphere(
+    base: f32,
+    hair: bool,
+    dress: impl FnOnce(&mut EntityWorldMut),
+) -> Result<CapturedFrame, Failed> {
     let mut r = scene(Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 0.0, EYE))?;
     let world = r.app.world_mut();
     for mut sun in world.query::<&mut DirectionalLight>().iter_mut(world) {
@@ -53,17 +72,16 @@ fn sphere(band: Option<VrmShading>, hair: bool) -> Result<CapturedFrame, Failed>
     let skin = world
         .resource_mut::<Assets<StandardMaterial>>()
         .add(StandardMaterial {
-            base_color: Color::linear_rgb(BASE, BASE, BASE),
+            base_color: Color::linear_rgb(base, base, base),
             ..default()
         });
     let root = world
         .spawn((Transform::default(), Visibility::default()))
         .id();
-    let shade = if hair {
+    if hair {
         world
             .entity_mut(root)
             .insert(ToonHairMeshes::matching(|_| true));
-        HAIR_SHADE
     } else {
         world
             .entity_mut(root)
@@ -74,20 +92,14 @@ fn sphere(band: Option<VrmShading>, hair: bool) -> Result<CapturedFrame, Failed>
                     ..FringeShadow::cel()
                 },
             ));
-        SHADE
-    };
-    let mesh = world
-        .spawn((
-            Name::new("skin"),
-            Mesh3d(ball),
-            MeshMaterial3d(skin),
-            VrmShadeColor(Color::linear_rgb(shade, shade, shade)),
-            ChildOf(root),
-        ))
-        .id();
-    if let Some(band) = band {
-        world.entity_mut(mesh).insert(band);
     }
+    let mut mesh = world.spawn((
+        Name::new("skin"),
+        Mesh3d(ball),
+        MeshMaterial3d(skin),
+        ChildOf(root),
+    ));
+    dress(&mut mesh);
     r.warm_up(|world| {
         let hair = world.query::<&ToonHairMeshesApplied>().iter(world).count();
         let skin = world
@@ -103,11 +115,10 @@ fn schlick(f90: f32, cos: f32) -> f32 {
     1.0 + (f90 - 1.0) * (1.0 - cos).powi(5)
 }
 
-/// The light cel shading measures at pixel `(x, y)` of the 256x256 frame, as a share of full
-/// light: a ray from the camera (vertical field of view 45 degrees) onto the sphere, and
-/// Bevy's diffuse light on a white surface of roughness 1 there (Burley's, `N.L` times two
-/// Schlick terms), under the sun of full light. `None` off the sphere.
-fn intensity(x: u32, y: u32, size: u32) -> Option<f32> {
+/// Where the camera's ray through pixel `(x, y)` of a `size` x `size` frame (vertical field of
+/// view 45 degrees) meets the sphere: the unit normal there and the unit direction to the
+/// camera. `None` off the sphere.
+pub(crate) fn normal_and_view(x: u32, y: u32, size: u32) -> Option<(Vec3, Vec3)> {
     let t = (std::f32::consts::FRAC_PI_4 * 0.5).tan();
     let half = size as f32 * 0.5;
     let ndc = Vec2::new((x as f32 + 0.5) / half - 1.0, 1.0 - (y as f32 + 0.5) / half);
@@ -120,8 +131,16 @@ fn intensity(x: u32, y: u32, size: u32) -> Option<f32> {
         return None;
     }
     let s = -b - disc.sqrt();
-    let n = (o + s * d) / RADIUS;
-    let (l, v) = (Vec3::X, -d);
+    Some(((o + s * d) / RADIUS, -d))
+}
+
+/// The light cel shading measures at pixel `(x, y)` of the 256x256 frame, as a share of full
+/// light: Bevy's diffuse light on a white surface of roughness 1 where the camera's ray meets
+/// the sphere ([`normal_and_view`]; Burley's, `N.L` times two Schlick terms), under the sun of
+/// full light. `None` off the sphere.
+pub(crate) fn intensity(x: u32, y: u32, size: u32) -> Option<f32> {
+    let (n, v) = normal_and_view(x, y, size)?;
+    let l = Vec3::X;
     let h = (l + v).normalize();
     let n_l = n.dot(l).clamp(0.0, 1.0);
     let n_v = n.dot(v).max(1e-4);
@@ -129,12 +148,12 @@ fn intensity(x: u32, y: u32, size: u32) -> Option<f32> {
     Some(schlick(f90, n_l) * schlick(f90, n_v) * n_l)
 }
 
-fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
+pub(crate) fn smoothstep(a: f32, b: f32, x: f32) -> f32 {
     let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
 
-fn linear(byte: u8) -> f32 {
+pub(crate) fn linear(byte: u8) -> f32 {
     Color::srgb_u8(byte, byte, byte).to_linear().red
 }
 
@@ -266,4 +285,57 @@ fn an_mtoon_shading_band_places_the_cel_terminator() -> Result<(), Failed> {
 /// band's terminator is judged).
 fn an_mtoon_shading_band_places_the_hairs_terminator() -> Result<(), Failed> {
     terminators(true, (10.0 / 64.0, 0.001), 0.05)
+}
+
+/// The sphere's far side, turned away from the sun with no ambient light, receives no light at
+/// all: cel-shaded skin draws its MToon shade there (base colour times cel shade: the shade
+/// colour, 0.2), and hair in the default look with a band its band ramp's dark tone times its
+/// shade (0.4), both in the sun's hue (white), as MToon draws its shade colour times the light's
+/// colour; not black. Every pixel with `N.L < -0.1`, away from the outline, within 0.01 (linear)
+/// of it.
+fn where_no_light_reaches_the_shade_is_drawn_not_black() -> Result<(), Failed> {
+    let wide = VrmShading {
+        shift: -0.5,
+        toony: 0.9,
+    };
+    let mut wrong = Vec::new();
+    let mut report = Vec::new();
+    for (name, band, hair, shade) in [
+        ("skin", None, false, SHADE),
+        ("hair", Some(wide), true, HAIR_SHADE),
+    ] {
+        let frame = sphere(band, hair)?;
+        let (mut most, mut count) = (0.0f32, 0usize);
+        for y in 0..frame.height {
+            for x in 0..frame.width {
+                let far = |x: u32| normal_and_view(x, y, frame.width).map(|(n, _)| n.x < -0.1);
+                if far(x) != Some(true)
+                    || far(x.saturating_sub(2)) != Some(true)
+                    || far(x + 2) != Some(true)
+                    || normal_and_view(x, y.saturating_sub(2), frame.width).is_none()
+                    || normal_and_view(x, y + 2, frame.width).is_none()
+                {
+                    continue;
+                }
+                for &channel in &frame.pixel(x, y)[..3] {
+                    most = most.max((linear(channel) - shade).abs());
+                }
+                count += 1;
+            }
+        }
+        report.push(format!(
+            "{name}: {count} pixels with no light, within {most:.4} of the shade {shade}"
+        ));
+        if count < 5_000 || most > 0.01 {
+            wrong.push(format!(
+                "{name}: {count} pixels, {most:.4} from the shade {shade}"
+            ));
+        }
+    }
+    eprintln!("Where no light reaches:\n{}", report.join("\n"));
+    if wrong.is_empty() {
+        Ok(())
+    } else {
+        Err(wrong.join("; ").into())
+    }
 }

@@ -5,7 +5,7 @@
 use bevy::gltf::GltfMaterialName;
 use bevy::prelude::*;
 use bevy::world_serialization::WorldAssetRoot;
-use bevy_cartoon_hair::asset::{VrmShadeColor, VrmShading};
+use bevy_cartoon_hair::asset::{VrmRim, VrmShadeColor, VrmShading};
 use bevy_cartoon_hair::headless::{CaptureSettings, CapturedFrame, HeadlessRenderer};
 use bevy_cartoon_hair::prelude::*;
 use bevy_cartoon_hair::render::{
@@ -305,7 +305,9 @@ fn material(doc: &Value, name: &str) -> usize {
 /// that tone x its shade colour; the tone is its band ramp's, 0.5, as every MToon hair here has
 /// a band) and the skin's cel shade draws it (base colour x cel shade). Every
 /// MToon mesh carries its shading band (the skin's own factors, in VRM 0.x converted; the
-/// others' defaults), and the cel-shaded ones turn where it says. The file as it is, beside
+/// others' defaults), and the cel-shaded ones turn where it says; the skins carry their rim
+/// lights (VRM 1.0's factors, VRM 0.x's sRGB colour with the 0.x defaults; the headband's
+/// broken rim colour gives none) and their cel shading draws them. The file as it is, beside
 /// them, has none. (The picture, `mtoon_avatars.png`: the three heads.)
 fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Failed> {
     let dir = std::env::temp_dir().join(format!("hair_mtoon_vrm_{}", std::process::id()));
@@ -314,6 +316,7 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
     // Linear (VRM 1.0) and sRGB (VRM 0.x) shades: the same colours.
     let hair_shade = Color::srgb(0.25, 0.05, 0.3);
     let skin_shade = Color::srgb(0.7, 0.35, 0.3);
+    let rim_colour = Color::srgb(0.6, 0.4, 0.2);
     let linear = |c: Color| {
         let c = c.to_linear();
         json!([c.red, c.green, c.blue])
@@ -333,6 +336,10 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
         let mtoon = &mut doc["materials"][skin]["extensions"]["VRMC_materials_mtoon"];
         mtoon["shadingShiftFactor"] = json!(-0.3);
         mtoon["shadingToonyFactor"] = json!(0.8);
+        mtoon["parametricRimColorFactor"] = linear(rim_colour);
+        mtoon["parametricRimFresnelPowerFactor"] = json!(3.0);
+        mtoon["parametricRimLiftFactor"] = json!(0.05);
+        mtoon["rimLightingMixFactor"] = json!(0.5);
         if let Some(used) = doc["extensionsUsed"].as_array_mut() {
             used.push(json!("VRMC_materials_mtoon"));
         }
@@ -352,12 +359,14 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
                 "hair" => json!({"name": name, "shader": "VRM/MToon",
                     "vectorProperties": {"_Color": [1, 1, 1, 1], "_ShadeColor": srgb(hair_shade)}}),
                 "skin" => json!({"name": name, "shader": "VRM/MToon",
-                    "vectorProperties": {"_ShadeColor": srgb(skin_shade)},
-                    "floatProperties": {"_ShadeShift": -0.2, "_ShadeToony": 0.7}}),
+                    "vectorProperties": {"_ShadeColor": srgb(skin_shade),
+                        "_RimColor": srgb(rim_colour)},
+                    "floatProperties": {"_ShadeShift": -0.2, "_ShadeToony": 0.7,
+                        "_RimFresnelPower": 2.0, "_RimLift": 0.1}}),
                 "eyes" => json!({"name": name, "shader": "VRM/UnlitTexture",
                     "vectorProperties": {"_ShadeColor": [0, 0, 0, 1]}}),
                 "headband" => json!({"name": name, "shader": "VRM/MToon",
-                    "vectorProperties": {"_ShadeColor": [2, 0, 0, 1]}}),
+                    "vectorProperties": {"_ShadeColor": [2, 0, 0, 1], "_RimColor": [1, 1, 1]}}),
                 _ => json!({"name": name, "shader": "VRM/MToon", "vectorProperties": {}}),
             })
             .collect();
@@ -397,13 +406,14 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
         Option<&VrmShading>,
         Option<&MeshMaterial3d<ToonHairMaterial>>,
         Option<&MeshMaterial3d<FringeShadowMaterial>>,
+        Option<&VrmRim>,
     )>();
     let world: &World = world;
     let toon = world.resource::<Assets<ToonHairMaterial>>();
     let three_tone = world.resource::<ToonRamps>().three_tone.clone();
     let fringe = world.resource::<Assets<FringeShadowMaterial>>();
     let mut wrong = Vec::new();
-    for (e, name, shade, band, hair, body) in meshes.iter(world) {
+    for (e, name, shade, band, hair, body, rim) in meshes.iter(world) {
         let root = roots
             .iter()
             .position(|&root| {
@@ -447,6 +457,44 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
             wrong.push(format!(
                 "{root} {}: band {band:?}, want {want_band:?}",
                 name.0
+            ));
+        }
+        // The skins' rim lights: VRM 1.0's factors as written, VRM 0.x's colour from sRGB and
+        // its lighting mix at the 0.x default (0); the headband's broken `_RimColor` gives none,
+        // and a material without a rim colour none. The cel-shaded body draws the mesh's rim.
+        let rim_linear = rim_colour.to_linear();
+        let want_rim = match (root, name.0.as_str()) {
+            (1, "skin") => Some(VrmRim {
+                color: Color::linear_rgb(rim_linear.red, rim_linear.green, rim_linear.blue),
+                fresnel_power: 3.0,
+                lift: 0.05,
+                lighting_mix: 0.5,
+            }),
+            (2, "skin") => Some(VrmRim {
+                color: rim_colour,
+                fresnel_power: 2.0,
+                lift: 0.1,
+                lighting_mix: 0.0,
+            }),
+            _ => None,
+        };
+        let rim_close = match (rim, &want_rim) {
+            (Some(a), Some(b)) => {
+                close(a.color, b.color)
+                    && (a.fresnel_power, a.lift, a.lighting_mix)
+                        == (b.fresnel_power, b.lift, b.lighting_mix)
+            }
+            (a, b) => a.is_none() && b.is_none(),
+        };
+        if !rim_close {
+            wrong.push(format!("{root} {}: rim {rim:?}, want {want_rim:?}", name.0));
+        }
+        if let Some(m) = body.and_then(|m| fringe.get(&m.0))
+            && m.extension.rim.as_ref() != rim
+        {
+            wrong.push(format!(
+                "{root} {}: the cel shading draws the rim {:?}, the mesh has {rim:?}",
+                name.0, m.extension.rim
             ));
         }
         // The cel-shaded MToon meshes turn where their band says.
