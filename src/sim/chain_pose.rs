@@ -74,6 +74,22 @@ pub(crate) struct Below(Parallel<Vec<(Affine3A, Entity)>>, Vec<(Affine3A, Entity
 pub(crate) struct ChainJoint {
     pub(crate) hair: Entity,
     pub(crate) slot: u32,
+    /// The joint's next slot's entity when its children were last looked at, and whether one
+    /// of them is not that entity (so is propagated from the joint): looked at again only when
+    /// its children or that entity change, since reading every joint's children each frame
+    /// costs a visit to memory far from the rest. `None`: not looked at yet.
+    pub(crate) others: Option<(Option<Entity>, bool)>,
+}
+
+impl ChainJoint {
+    /// The joint in `slot` of `hair`'s poses.
+    pub(crate) fn new(hair: Entity, slot: u32) -> Self {
+        Self {
+            hair,
+            slot,
+            others: None,
+        }
+    }
 }
 
 /// A collider shape near a hair: the shape, whether it keeps particles inside, and where a
@@ -151,10 +167,10 @@ pub(crate) fn pose_bone_chains(
         Query<
             (
                 Entity,
-                &ChainJoint,
+                &mut ChainJoint,
                 &mut Transform,
                 &mut GlobalTransform,
-                Option<&Children>,
+                Option<Ref<Children>>,
             ),
             Without<BoneChainHair>,
         >,
@@ -213,7 +229,7 @@ pub(crate) fn pose_bone_chains(
     let hairs = &hairs;
     nodes.p2().par_iter_mut().for_each_init(
         || (below.0.borrow_local_mut(), None),
-        |(below, last), (joint, of, mut local, mut global, children)| {
+        |(below, last), (joint, mut of, mut local, mut global, children)| {
             // A hair's joints mostly come one after another: its poses are looked up once.
             let poses: &[Pose] = match *last {
                 Some((hair, poses)) if hair == of.hair => poses,
@@ -236,9 +252,22 @@ pub(crate) fn pose_bone_chains(
             *global = GlobalTransform::from(world);
             // A chain's next joint is posed with it; anything else below is propagated.
             let next = poses.get(slot + 1).map(|p| p.0);
-            for &c in children.map_or(&[][..], |c| &c[..]) {
-                if Some(c) != next {
-                    below.push((world, c));
+            let Some(children) = children else {
+                return;
+            };
+            let others = match of.others {
+                Some((seen, others)) if seen == next && !children.is_changed() => others,
+                _ => {
+                    let others = children.iter().any(|c| Some(c) != next);
+                    of.bypass_change_detection().others = Some((next, others));
+                    others
+                }
+            };
+            if others {
+                for c in children.iter() {
+                    if Some(c) != next {
+                        below.push((world, c));
+                    }
                 }
             }
         },

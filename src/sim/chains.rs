@@ -395,10 +395,9 @@ pub(crate) fn build_bone_chains(
             let hair = hair.id();
             hairs.push(hair);
             for (slot, &joint) in joints.iter().enumerate() {
-                commands.entity(joint).insert(ChainJoint {
-                    hair,
-                    slot: slot as u32,
-                });
+                commands
+                    .entity(joint)
+                    .insert(ChainJoint::new(hair, slot as u32));
             }
             for &joint in &taken {
                 commands.entity(joint).remove::<TransformTreeChanged>();

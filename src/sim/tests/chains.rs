@@ -577,7 +577,8 @@ fn a_teleported_character_carries_its_chains_without_a_whip() {
 }
 
 /// Bevy's transform propagation skips the joints a chain hair poses. What hangs below a posed
-/// joint (a clip on a tip, a ribbon with its own child) still follows it every frame, a joint
+/// joint (a clip on a tip, a ribbon with its own child, a clip put on later) still follows it
+/// every frame, a joint
 /// with more than a leaf below it stays with Bevy (and so do the joints above it), every
 /// joint's world transform is its parent's times its local one, and once the hair goes the
 /// joints are Bevy's again. On a unit rig, a rig of scale 0.01 and a stretched one.
@@ -637,10 +638,20 @@ fn hanging_below_posed_joints(rig: Transform, unit: f32) {
     };
     let rest = on_head(&app);
     let (mut worst, mut swing) = (0.0f32, 0.0f32);
+    // A clip put on a posed joint mid-way (whose only child was the chain's next joint) follows
+    // it from its first frame.
+    let mut late = None;
     for f in 0..90 {
+        if f == 45 {
+            late = Some(app.world_mut().spawn((offset, ChildOf(joints[1]))).id());
+        }
         app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(f as f32 / 60.0);
         app.update();
-        for &e in joints.iter().chain([&clip, &ribbon, &ribbon_end]) {
+        for &e in joints
+            .iter()
+            .chain([&clip, &ribbon, &ribbon_end])
+            .chain(&late)
+        {
             worst = worst.max(off(&app, e));
         }
         // The swing on the head: the chains are posed, not carried rigidly.
