@@ -28,7 +28,7 @@ use crate::asset::{VrmRim, VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 use crate::sim::{BonePredicate, CharacterSpawned};
 
-use super::gltf_paint::{MtoonParts, shade_tint};
+use super::gltf_paint::{MtoonParts, rim_uniform, shade_tint};
 use super::user_mesh::{MeshNames, meshes_passing};
 
 /// A face material that receives the fringe shadow.
@@ -148,30 +148,6 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
             rim_shape: rim_uniform(self.rim.as_ref()).1,
         }
     }
-}
-
-/// A rim's two uniform lanes: its colour (linear, non-negative) and lighting mix, then its
-/// Fresnel power (at least `1e-5`) and lift; all zero without a rim (the shader skips it).
-fn rim_uniform(rim: Option<&VrmRim>) -> (Vec4, Vec4) {
-    let Some(rim) = rim else {
-        return (Vec4::ZERO, Vec4::ZERO);
-    };
-    let c = rim.color.to_linear();
-    let channel = |x: f32| finite_or(x, 0.0).max(0.0);
-    (
-        Vec4::new(
-            channel(c.red),
-            channel(c.green),
-            channel(c.blue),
-            finite_or(rim.lighting_mix, 1.0).clamp(0.0, 1.0),
-        ),
-        Vec4::new(
-            finite_or(rim.fresnel_power, 5.0).clamp(1e-5, crate::asset::MAX_RIM_POWER),
-            finite_or(rim.lift, 0.0).clamp(-1.0, 1.0),
-            0.0,
-            0.0,
-        ),
-    )
 }
 
 impl MaterialExtension for FringeShadow {
@@ -320,11 +296,7 @@ pub(crate) fn apply_fringe_shadow(
     children: Query<&Children>,
     meshes: Query<MeshNames, With<Mesh3d>>,
     names: Query<&Name>,
-    (standard, shades, rims): (
-        Query<&MeshMaterial3d<StandardMaterial>>,
-        Query<MtoonParts>,
-        Query<&VrmRim>,
-    ),
+    (standard, shades): (Query<&MeshMaterial3d<StandardMaterial>>, Query<MtoonParts>),
     (standards, mut extended): (
         Res<Assets<StandardMaterial>>,
         ResMut<Assets<FringeShadowMaterial>>,
@@ -374,7 +346,7 @@ pub(crate) fn apply_fringe_shadow(
                         continue;
                     };
                     let mut extension = wanted.shadow.clone();
-                    let (shade, band) = shades
+                    let (shade, band, rim) = shades
                         .get(e)
                         .ok()
                         .filter(|_| wanted.vrm_shades)
@@ -385,7 +357,7 @@ pub(crate) fn apply_fringe_shadow(
                     if let Some(band) = band {
                         (extension.cel_threshold, extension.cel_softness) = mtoon_cel_band(band);
                     }
-                    if let Some(rim) = rims.get(e).ok().filter(|_| wanted.vrm_shades) {
+                    if let Some(rim) = rim {
                         extension.rim = Some(*rim);
                     }
                     let m = extended.add(ExtendedMaterial {

@@ -17,7 +17,7 @@ use bevy::prelude::*;
 
 use super::ToonHairMaterial;
 use super::ramps::{BAND_DARKEST, ToonRamps, band_ramp, three_tone, two_tone};
-use crate::asset::{VrmShadeColor, VrmShading};
+use crate::asset::{VrmRim, VrmShadeColor, VrmShading};
 use crate::math::finite_or;
 
 /// Where the colours of the meshes a [`ToonHairMeshes`](super::ToonHairMeshes) dresses with a
@@ -56,6 +56,8 @@ pub(crate) struct GltfPaint {
     /// The ramp of its MToon shading band (see [`BandRamps`]), when the look worn is the
     /// default one: it replaces the look's ramp.
     pub band_ramp: Option<Handle<Image>>,
+    /// Its MToon rim light (a VRM's), if it has one.
+    pub rim: Option<VrmRim>,
 }
 
 impl GltfPaint {
@@ -75,6 +77,7 @@ impl GltfPaint {
             blends,
             shade: shade.map(|s| s.0),
             band_ramp: None,
+            rim: None,
         }
     }
 
@@ -82,7 +85,8 @@ impl GltfPaint {
     /// where the glTF material has none), double-sided if either is, cut out at its own
     /// cut-off or else this paint's; with a band ramp, that ramp instead of the look's; with an
     /// MToon shade colour, its shade colour set so the ramp's darkest tone (see
-    /// [`darkest_tone`]) draws that colour, times the look's own.
+    /// [`darkest_tone`]) draws that colour, times the look's own; with an MToon rim light, that
+    /// rim unless the look has one of its own.
     pub fn on(&self, look: &ToonHairMaterial, ramps: &ToonRamps) -> ToonHairMaterial {
         let mut m = look.clone();
         m.base_color = self.base_color;
@@ -96,6 +100,7 @@ impl GltfPaint {
             m.ramp = ramp.clone();
             darkest = Some(BAND_DARKEST);
         }
+        m.shading.mtoon_rim = look.shading.mtoon_rim.or(self.rim);
         if let Some(shade) = self.shade {
             let tint = shade_tint(shade, self.base_color, darkest);
             let own = look.shading.shade_color.to_linear();
@@ -155,8 +160,38 @@ pub(crate) fn shade_tint(shade: Color, base: Color, darkest: Option<f32>) -> Lin
     )
 }
 
-/// What a VRM's MToon material put on a mesh: its shade colour and shading band, if any.
-pub(crate) type MtoonParts = (Option<&'static VrmShadeColor>, Option<&'static VrmShading>);
+/// What a VRM's MToon material put on a mesh: its shade colour, shading band and rim light, if
+/// any.
+pub(crate) type MtoonParts = (
+    Option<&'static VrmShadeColor>,
+    Option<&'static VrmShading>,
+    Option<&'static VrmRim>,
+);
+
+/// An MToon rim's two uniform lanes, as the cel and toon shaders read them: its colour (linear,
+/// non-negative) and lighting mix, then its Fresnel power (at least `1e-5`) and lift; all zero
+/// without a rim (the shaders skip it).
+pub(crate) fn rim_uniform(rim: Option<&VrmRim>) -> (Vec4, Vec4) {
+    let Some(rim) = rim else {
+        return (Vec4::ZERO, Vec4::ZERO);
+    };
+    let c = rim.color.to_linear();
+    let channel = |x: f32| finite_or(x, 0.0).max(0.0);
+    (
+        Vec4::new(
+            channel(c.red),
+            channel(c.green),
+            channel(c.blue),
+            finite_or(rim.lighting_mix, 1.0).clamp(0.0, 1.0),
+        ),
+        Vec4::new(
+            finite_or(rim.fresnel_power, 5.0).clamp(1e-5, crate::asset::MAX_RIM_POWER),
+            finite_or(rim.lift, 0.0).clamp(-1.0, 1.0),
+            0.0,
+            0.0,
+        ),
+    )
+}
 
 /// The ramps made for MToon shading bands ([`band_ramp`]), one per band, for the default look
 /// of hair whose glTF material is MToon: its terminator where the band puts it, measured as the
@@ -302,7 +337,8 @@ mod tests {
     }
 
     /// A look in a glTF material's paint keeps everything of the look but the colour and
-    /// texture; sides and cut-out are the look's or the paint's.
+    /// texture; sides and cut-out are the look's or the paint's; the paint's MToon rim is worn
+    /// unless the look has a rim of its own.
     #[test]
     fn a_look_in_paint_keeps_its_look_and_takes_the_colours() {
         let mut app = App::new();
@@ -330,11 +366,16 @@ mod tests {
             blends: false,
             shade: None,
             band_ramp: None,
+            rim: Some(VrmRim {
+                color: Color::linear_rgb(0.4, 0.2, 0.1),
+                ..default()
+            }),
         };
         let ramps = ToonRamps::generate(&mut app.world_mut().resource_mut::<Assets<Image>>());
         let worn = paint.on(&look, &ramps);
         let mut expected = look.clone();
         expected.base_color = Color::srgb(0.9, 0.3, 0.2);
+        expected.shading.mtoon_rim = paint.rim;
         assert_eq!(worn.shading, expected.shading);
         assert_eq!(worn.ramp, ramp);
         assert_eq!(worn.base_color_texture, Some(painted));
@@ -355,6 +396,14 @@ mod tests {
         assert_eq!(worn.base_color_texture, Some(own));
         assert_eq!(worn.alpha_cutoff, Some(0.8));
         assert!(worn.double_sided);
+        let own_rim = VrmRim {
+            color: Color::WHITE,
+            fresnel_power: 2.0,
+            ..default()
+        };
+        let mut ringed = cut_look.clone();
+        ringed.shading.mtoon_rim = Some(own_rim);
+        assert_eq!(plain.on(&ringed, &ramps).shading.mtoon_rim, Some(own_rim));
     }
 
     /// What the toon shader draws for a tone `tone` bright with shade colour `shade` on

@@ -262,6 +262,15 @@ pub struct ToonShading {
     /// darkens the shadows. Channels are clamped to 0-16 (non-finite ones read as 1). Default:
     /// white (shadows are darker hair colour).
     pub shade_color: Color,
+    /// MToon's parametric rim light ([`VrmRim`](crate::asset::VrmRim)): its colour times
+    /// [`VrmRim::strength`](crate::asset::VrmRim::strength) added where the hair turns away
+    /// from the viewer, times what the hair's shading draws a white strand in there (the ramp's
+    /// tone, the shade colour and the light's hue) as far as its lighting mix says. Set by
+    /// [`ToonHairMeshes`](super::ToonHairMeshes) for a VRM's MToon hair with a rim (unless the
+    /// look has one). Unlike the back light it does not depend on where the light is. Default:
+    /// `None`.
+    #[reflect(default)]
+    pub mtoon_rim: Option<crate::asset::VrmRim>,
 }
 
 impl Default for ToonShading {
@@ -295,6 +304,7 @@ impl Default for ToonShading {
             tip_start: 0.6,
             tip_strength: 0.0,
             shade_color: Color::WHITE,
+            mtoon_rim: None,
         }
     }
 }
@@ -313,6 +323,8 @@ pub struct ToonHairUniform {
     tip_lab: Vec4,
     base_lab: Vec4,
     shade_color: Vec4,
+    rim: Vec4,
+    rim_shape: Vec4,
 }
 
 impl bevy::render::render_resource::AsBindGroupShaderType<ToonHairUniform> for ToonHairMaterial {
@@ -374,6 +386,8 @@ impl ToonShading {
                 .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
             base_lab: oklab(linear_color(self.base_color, 0.0, 1e4)).extend(0.0),
             shade_color: linear_color(self.shade_color, 1.0, 16.0),
+            rim: super::gltf_paint::rim_uniform(self.mtoon_rim.as_ref()).0,
+            rim_shape: super::gltf_paint::rim_uniform(self.mtoon_rim.as_ref()).1,
         }
     }
 }

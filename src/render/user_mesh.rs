@@ -434,9 +434,10 @@ pub(crate) fn apply_toon_to_user_meshes(
             let gltf = gltf_id.and_then(|id| standard.as_deref()?.get(id));
             // Its colours, sides (hair modelled as sheets) and cut-out (cards), as its glTF
             // material has them; the default look turns where an MToon material's band says.
-            let (shade, band) = shades.get(e).unwrap_or_default();
+            let (shade, band, rim) = shades.get(e).unwrap_or_default();
             let paint = gltf_id.zip(gltf).map(|(id, m)| {
                 let mut paint = GltfPaint::of(m, shade);
+                paint.rim = rim.copied();
                 if let (Some(band), Some(images), None) =
                     (band, images.as_deref_mut(), &wanted.material)
                 {

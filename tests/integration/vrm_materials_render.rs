@@ -307,7 +307,8 @@ fn material(doc: &Value, name: &str) -> usize {
 /// MToon mesh carries its shading band (the skin's own factors, in VRM 0.x converted; the
 /// others' defaults), and the cel-shaded ones turn where it says; the skins carry their rim
 /// lights (VRM 1.0's factors, VRM 0.x's sRGB colour with the 0.x defaults; the headband's
-/// broken rim colour gives none) and their cel shading draws them. The file as it is, beside
+/// broken rim colour gives none) and their cel shading draws them, and the VRM 1.0 hair its rim
+/// (its colour alone, the rest defaulted), which its toon material draws. The file as it is, beside
 /// them, has none. (The picture, `mtoon_avatars.png`: the three heads.)
 fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Failed> {
     let dir = std::env::temp_dir().join(format!("hair_mtoon_vrm_{}", std::process::id()));
@@ -340,6 +341,10 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
         mtoon["parametricRimFresnelPowerFactor"] = json!(3.0);
         mtoon["parametricRimLiftFactor"] = json!(0.05);
         mtoon["rimLightingMixFactor"] = json!(0.5);
+        // The hair's rim: its colour alone, the rest at the specification's defaults.
+        let hair = material(doc, "hair");
+        doc["materials"][hair]["extensions"]["VRMC_materials_mtoon"]["parametricRimColorFactor"] =
+            json!([0.2, 0.1, 0.3]);
         if let Some(used) = doc["extensionsUsed"].as_array_mut() {
             used.push(json!("VRMC_materials_mtoon"));
         }
@@ -476,6 +481,10 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
                 lift: 0.1,
                 lighting_mix: 0.0,
             }),
+            (1, "hair") => Some(VrmRim {
+                color: Color::linear_rgb(0.2, 0.1, 0.3),
+                ..default()
+            }),
             _ => None,
         };
         let rim_close = match (rim, &want_rim) {
@@ -495,6 +504,14 @@ fn a_vrm_files_mtoon_shade_colours_reach_its_hair_and_skin() -> Result<(), Faile
             wrong.push(format!(
                 "{root} {}: the cel shading draws the rim {:?}, the mesh has {rim:?}",
                 name.0, m.extension.rim
+            ));
+        }
+        if let Some(m) = hair.and_then(|m| toon.get(&m.0))
+            && m.shading.mtoon_rim.as_ref() != rim
+        {
+            wrong.push(format!(
+                "{root} {}: the hair's toon material draws the rim {:?}, the mesh has {rim:?}",
+                name.0, m.shading.mtoon_rim
             ));
         }
         // The cel-shaded MToon meshes turn where their band says.
