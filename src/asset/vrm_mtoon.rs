@@ -35,15 +35,28 @@ pub fn parse_vrm_shade_colors(
     file: &str,
     document: &gltf::Document,
 ) -> (Vec<Option<Color>>, Vec<VrmError>) {
+    per_material(file, document, shade_v1, shade_v0)
+}
+
+/// What each material of `document` gives, by material index: read by `v1` from its
+/// `VRMC_materials_mtoon` extension, else by `v0` from its VRM 0.x `materialProperties` entry
+/// (`(file, material index, JSON)`); a material with an error gives `None`, and the errors
+/// are returned beside.
+pub(super) fn per_material<T>(
+    file: &str,
+    document: &gltf::Document,
+    v1: impl Fn(&str, usize, &Value) -> Result<Option<T>, VrmError>,
+    v0: impl Fn(&str, usize, &Value) -> Result<Option<T>, VrmError>,
+) -> (Vec<Option<T>>, Vec<VrmError>) {
     let mut errors = Vec::new();
-    let v0 = v0_material_properties(file, document, &mut errors);
-    let shades = document
+    let properties = v0_material_properties(file, document, &mut errors);
+    let found = document
         .materials()
         .enumerate()
         .map(|(i, m)| {
             let found = match m.extension_value("VRMC_materials_mtoon") {
-                Some(v1) => shade_v1(file, i, v1),
-                None => v0.get(i).map_or(Ok(None), |p| shade_v0(file, i, p)),
+                Some(mtoon) => v1(file, i, mtoon),
+                None => properties.get(i).map_or(Ok(None), |p| v0(file, i, p)),
             };
             found.unwrap_or_else(|e| {
                 errors.push(e);
@@ -51,12 +64,12 @@ pub fn parse_vrm_shade_colors(
             })
         })
         .collect();
-    (shades, errors)
+    (found, errors)
 }
 
 /// VRM 0.x's `extensions.VRM.materialProperties` of `document` (empty when absent); too many
 /// entries, or not an array, is an error in `errors` and nothing is read from them.
-pub(super) fn v0_material_properties<'d>(
+fn v0_material_properties<'d>(
     file: &str,
     document: &'d gltf::Document,
     errors: &mut Vec<VrmError>,
@@ -111,6 +124,38 @@ pub(super) fn object<'v>(
     })
 }
 
+/// A JSON object's fields.
+pub(super) type Fields = serde_json::Map<String, Value>;
+
+/// VRM 0.x: `extensions.VRM.materialProperties[i]` with its JSON path, when it is an object
+/// whose shader is `VRM/MToon` (`None` for another shader).
+pub(super) fn v0_mtoon<'v>(
+    file: &str,
+    i: usize,
+    properties: &'v Value,
+) -> Result<Option<(String, &'v Fields)>, VrmError> {
+    let path = format!("extensions.VRM.materialProperties[{i}]");
+    let properties = object(file, &path, properties)?;
+    let mtoon = properties.get("shader").and_then(Value::as_str) == Some("VRM/MToon");
+    Ok(mtoon.then_some((path, properties)))
+}
+
+/// `properties[key]` (a VRM 0.x entry's `floatProperties` or `vectorProperties`, the entry at
+/// `path`) as an object, with its JSON path; `None` when absent.
+pub(super) fn v0_section<'v>(
+    file: &str,
+    path: &str,
+    properties: &'v Fields,
+    key: &str,
+) -> Result<Option<(String, &'v Fields)>, VrmError> {
+    let Some(v) = properties.get(key) else {
+        return Ok(None);
+    };
+    let path = format!("{path}.{key}");
+    let section = object(file, &path, v)?;
+    Ok(Some((path, section)))
+}
+
 /// VRM 1.0: `materials[i].extensions.VRMC_materials_mtoon.shadeColorFactor`, linear RGB.
 fn shade_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<Color>, VrmError> {
     let path = format!("materials[{i}].extensions.VRMC_materials_mtoon");
@@ -125,11 +170,9 @@ fn shade_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<Color>, VrmErr
 /// VRM 0.x: `extensions.VRM.materialProperties[i]` with shader `VRM/MToon`: its
 /// `vectorProperties._ShadeColor`, sRGB with alpha (as Unity stores a colour).
 fn shade_v0(file: &str, i: usize, properties: &Value) -> Result<Option<Color>, VrmError> {
-    let path = format!("extensions.VRM.materialProperties[{i}]");
-    let properties = object(file, &path, properties)?;
-    if properties.get("shader").and_then(Value::as_str) != Some("VRM/MToon") {
+    let Some((path, properties)) = v0_mtoon(file, i, properties)? else {
         return Ok(None);
-    }
+    };
     let Some(vectors) = properties.get("vectorProperties") else {
         return Ok(None);
     };
@@ -378,6 +421,62 @@ pub(super) mod tests {
         )
     }
 
+    /// A random document: up to 3 materials, each with an MToon extension `mtoon` makes (half of
+    /// them) or none, and up to 4 VRM 0.x `materialProperties` entries `entry` makes; with its
+    /// count of materials.
+    pub(in crate::asset) fn random_document(
+        rng: &mut crate::test_support::Rng,
+        mut mtoon: impl FnMut(&mut crate::test_support::Rng) -> Value,
+        mut entry: impl FnMut(&mut crate::test_support::Rng) -> Value,
+    ) -> (gltf::Document, usize) {
+        let count = (rng.unit() * 4.0) as usize;
+        let materials: Vec<Value> = (0..count)
+            .map(|_| {
+                if rng.unit() < 0.5 {
+                    json!({"extensions": {"VRMC_materials_mtoon": mtoon(rng)}})
+                } else {
+                    json!({})
+                }
+            })
+            .collect();
+        let properties: Vec<Value> = (0..(rng.unit() * 5.0) as usize)
+            .map(|_| entry(rng))
+            .collect();
+        let d = document(
+            &Value::Array(materials).to_string(),
+            &json!({"VRM": {"materialProperties": properties}}).to_string(),
+        );
+        (d, count)
+    }
+
+    /// Every error in `errors` names `file`, a path the material readers read and a message.
+    pub(in crate::asset) fn assert_located(errors: &[VrmError], file: &str) {
+        for e in errors {
+            assert_eq!(e.file, file);
+            assert!(
+                e.path.starts_with("materials[")
+                    || e.path.starts_with("extensions.VRM.materialProperties"),
+                "{e}"
+            );
+            assert!(!e.message.is_empty());
+        }
+    }
+
+    /// A random JSON value for a material's number: mostly in `[0, 1]`; one time in `kinds` a
+    /// number in `[-wild, wild]`, a string or null.
+    pub(in crate::asset) fn random_factor(
+        rng: &mut crate::test_support::Rng,
+        kinds: f32,
+        wild: f32,
+    ) -> Value {
+        match (rng.unit() * kinds) as u32 {
+            0 => json!((rng.unit() * 2.0 - 1.0) * wild),
+            1 => json!("x"),
+            2 => json!(null),
+            _ => json!(rng.unit()),
+        }
+    }
+
     /// Random materials (each with a random MToon extension or none) and random VRM 0.x
     /// `materialProperties`, 3,000 documents: no panic, one entry per material, every shade
     /// colour finite and within `[0, 1]`, every error naming the file and a path the reader
@@ -426,15 +525,7 @@ pub(super) mod tests {
                 }
                 shades_found += 1;
             }
-            for e in &errors {
-                assert_eq!(e.file, "r.vrm");
-                assert!(
-                    e.path.starts_with("materials[")
-                        || e.path.starts_with("extensions.VRM.materialProperties"),
-                    "{e}"
-                );
-                assert!(!e.message.is_empty());
-            }
+            assert_located(&errors, "r.vrm");
             errors_found += errors.len();
         }
         // Both kinds of outcome were reached.

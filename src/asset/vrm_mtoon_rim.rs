@@ -20,7 +20,7 @@ use bevy::prelude::*;
 use serde_json::Value;
 
 use super::vrm::VrmError;
-use super::vrm_mtoon::{channels, object, v0_material_properties};
+use super::vrm_mtoon::{channels, object, per_material, v0_mtoon, v0_section};
 use super::vrm_mtoon_shading::factor;
 
 /// The largest Fresnel power read: past it the rim is thinner than a pixel on any screen.
@@ -82,25 +82,13 @@ pub fn parse_vrm_rims(
     file: &str,
     document: &gltf::Document,
 ) -> (Vec<Option<VrmRim>>, Vec<VrmError>) {
-    let mut errors = Vec::new();
-    let v0 = v0_material_properties(file, document, &mut errors);
-    let rims = document
-        .materials()
-        .enumerate()
-        .map(|(i, m)| {
-            let found = match m.extension_value("VRMC_materials_mtoon") {
-                Some(v1) => rim_v1(file, i, v1),
-                None => v0.get(i).map_or(Ok(None), |p| rim_v0(file, i, p)),
-            };
-            found
-                .map(|rim| rim.filter(VrmRim::is_visible))
-                .unwrap_or_else(|e| {
-                    errors.push(e);
-                    None
-                })
-        })
-        .collect();
-    (rims, errors)
+    let visible = |rim: Result<Option<VrmRim>, VrmError>| rim.map(|r| r.filter(VrmRim::is_visible));
+    per_material(
+        file,
+        document,
+        |f, i, v| visible(rim_v1(f, i, v)),
+        |f, i, v| visible(rim_v0(f, i, v)),
+    )
 }
 
 /// The ranges of the rim's three numbers: power, lift, lighting mix.
@@ -135,35 +123,26 @@ fn rim_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<VrmRim>, VrmErro
 /// `vectorProperties._RimColor` (sRGB with alpha, default black) and `floatProperties`
 /// `_RimFresnelPower` (default 1), `_RimLift` (0) and `_RimLightingMix` (0).
 fn rim_v0(file: &str, i: usize, properties: &Value) -> Result<Option<VrmRim>, VrmError> {
-    let path = format!("extensions.VRM.materialProperties[{i}]");
-    let properties = object(file, &path, properties)?;
-    if properties.get("shader").and_then(Value::as_str) != Some("VRM/MToon") {
+    let Some((path, properties)) = v0_mtoon(file, i, properties)? else {
         return Ok(None);
-    }
-    let color = match properties.get("vectorProperties") {
-        None => None,
-        Some(vectors) => {
-            let path = format!("{path}.vectorProperties");
-            match object(file, &path, vectors)?.get("_RimColor") {
-                None => None,
-                Some(v) => {
-                    let c = channels(file, &format!("{path}._RimColor"), v, 4)?;
-                    Some(Color::srgb(c[0], c[1], c[2]))
-                }
-            }
-        }
     };
-    let (power, lift, mix) = match properties.get("floatProperties") {
+    let color = match v0_section(file, &path, properties, "vectorProperties")? {
+        Some((path, vectors)) => match vectors.get("_RimColor") {
+            Some(v) => {
+                let c = channels(file, &format!("{path}._RimColor"), v, 4)?;
+                Some(Color::srgb(c[0], c[1], c[2]))
+            }
+            None => None,
+        },
+        None => None,
+    };
+    let (power, lift, mix) = match v0_section(file, &path, properties, "floatProperties")? {
         None => (None, None, None),
-        Some(floats) => {
-            let path = format!("{path}.floatProperties");
-            let floats = object(file, &path, floats)?;
-            (
-                factor(file, &path, floats, "_RimFresnelPower", POWER)?,
-                factor(file, &path, floats, "_RimLift", LIFT)?,
-                factor(file, &path, floats, "_RimLightingMix", MIX)?,
-            )
-        }
+        Some((path, floats)) => (
+            factor(file, &path, floats, "_RimFresnelPower", POWER)?,
+            factor(file, &path, floats, "_RimLift", LIFT)?,
+            factor(file, &path, floats, "_RimLightingMix", MIX)?,
+        ),
     };
     Ok(Some(VrmRim {
         color: color.unwrap_or(Color::BLACK),
@@ -178,7 +157,9 @@ mod tests {
     use serde_json::json;
 
     use super::*;
-    use crate::asset::vrm_mtoon::tests::document;
+    use crate::asset::vrm_mtoon::tests::{
+        assert_located, document, random_document, random_factor,
+    };
 
     fn rim(color: Color, fresnel_power: f32, lift: f32, lighting_mix: f32) -> VrmRim {
         VrmRim {
@@ -320,45 +301,27 @@ mod tests {
     #[test]
     fn random_materials_give_rims_in_range_or_located_errors() {
         let mut rng = crate::test_support::Rng(0x5249_4d4c_4954);
-        let number = |rng: &mut crate::test_support::Rng| -> Value {
-            match (rng.unit() * 5.0) as u32 {
-                0 => json!(rng.unit() * 300.0 - 150.0),
-                1 => json!("x"),
-                2 => json!(null),
-                _ => json!(rng.unit()),
-            }
-        };
+        let number = |rng: &mut crate::test_support::Rng| random_factor(rng, 5.0, 150.0);
         let colour = |rng: &mut crate::test_support::Rng, n: usize| -> Value {
             let len = if rng.unit() < 0.8 { n } else { n + 1 };
             Value::Array((0..len).map(|_| json!(rng.unit() * 1.2)).collect())
         };
         let (mut found, mut failed) = (0, 0);
         for _ in 0..2_000 {
-            let count = (rng.unit() * 4.0) as usize;
-            let materials: Vec<Value> = (0..count)
-                .map(|_| {
-                    if rng.unit() < 0.5 {
-                        json!({"extensions": {"VRMC_materials_mtoon": {
-                            "parametricRimColorFactor": colour(&mut rng, 3),
-                            "parametricRimFresnelPowerFactor": number(&mut rng),
-                            "parametricRimLiftFactor": number(&mut rng),
-                            "rimLightingMixFactor": number(&mut rng)}}})
-                    } else {
-                        json!({})
-                    }
-                })
-                .collect();
-            let properties: Vec<Value> = (0..(rng.unit() * 5.0) as usize)
-                .map(|_| {
+            let (d, count) = random_document(
+                &mut rng,
+                |rng| {
+                    json!({"parametricRimColorFactor": colour(rng, 3),
+                        "parametricRimFresnelPowerFactor": number(rng),
+                        "parametricRimLiftFactor": number(rng),
+                        "rimLightingMixFactor": number(rng)})
+                },
+                |rng| {
                     json!({"shader": "VRM/MToon",
-                        "vectorProperties": {"_RimColor": colour(&mut rng, 4)},
-                        "floatProperties": {"_RimFresnelPower": number(&mut rng),
-                            "_RimLift": number(&mut rng), "_RimLightingMix": number(&mut rng)}})
-                })
-                .collect();
-            let d = document(
-                &Value::Array(materials).to_string(),
-                &json!({"VRM": {"materialProperties": properties}}).to_string(),
+                        "vectorProperties": {"_RimColor": colour(rng, 4)},
+                        "floatProperties": {"_RimFresnelPower": number(rng),
+                            "_RimLift": number(rng), "_RimLightingMix": number(rng)}})
+                },
             );
             let (rims, errors) = parse_vrm_rims("r.vrm", &d);
             assert_eq!(rims.len(), count);
@@ -372,14 +335,7 @@ mod tests {
                 }
                 found += 1;
             }
-            for e in &errors {
-                assert_eq!(e.file, "r.vrm");
-                assert!(
-                    e.path.starts_with("materials[")
-                        || e.path.starts_with("extensions.VRM.materialProperties["),
-                    "{e}"
-                );
-            }
+            assert_located(&errors, "r.vrm");
             failed += errors.len();
         }
         assert!(found > 50 && failed > 300, "{found} {failed}");

@@ -18,7 +18,7 @@ use bevy::prelude::*;
 use serde_json::Value;
 
 use super::vrm::VrmError;
-use super::vrm_mtoon::{error, object, v0_material_properties};
+use super::vrm_mtoon::{Fields, error, object, per_material, v0_mtoon, v0_section};
 
 /// On a mesh entity of a VRM scene whose glTF material is MToon: where its shading turns from
 /// the shade colour to the base colour, in VRM 1.0's terms (see [`VrmShading::lit_band`]).
@@ -73,23 +73,7 @@ pub fn parse_vrm_shading(
     file: &str,
     document: &gltf::Document,
 ) -> (Vec<Option<VrmShading>>, Vec<VrmError>) {
-    let mut errors = Vec::new();
-    let v0 = v0_material_properties(file, document, &mut errors);
-    let bands = document
-        .materials()
-        .enumerate()
-        .map(|(i, m)| {
-            let found = match m.extension_value("VRMC_materials_mtoon") {
-                Some(v1) => shading_v1(file, i, v1),
-                None => v0.get(i).map_or(Ok(None), |p| shading_v0(file, i, p)),
-            };
-            found.unwrap_or_else(|e| {
-                errors.push(e);
-                None
-            })
-        })
-        .collect();
-    (bands, errors)
+    per_material(file, document, shading_v1, shading_v0)
 }
 
 /// VRM 1.0: `materials[i].extensions.VRMC_materials_mtoon`'s two factors, each defaulted.
@@ -108,21 +92,15 @@ fn shading_v1(file: &str, i: usize, mtoon: &Value) -> Result<Option<VrmShading>,
 /// VRM 0.x: `extensions.VRM.materialProperties[i]` with shader `VRM/MToon`: its
 /// `floatProperties._ShadeShift` (default 0) and `_ShadeToony` (default 0.9), converted.
 fn shading_v0(file: &str, i: usize, properties: &Value) -> Result<Option<VrmShading>, VrmError> {
-    let path = format!("extensions.VRM.materialProperties[{i}]");
-    let properties = object(file, &path, properties)?;
-    if properties.get("shader").and_then(Value::as_str) != Some("VRM/MToon") {
+    let Some((path, properties)) = v0_mtoon(file, i, properties)? else {
         return Ok(None);
-    }
-    let (shift, toony) = match properties.get("floatProperties") {
+    };
+    let (shift, toony) = match v0_section(file, &path, properties, "floatProperties")? {
         None => (None, None),
-        Some(floats) => {
-            let path = format!("{path}.floatProperties");
-            let floats = object(file, &path, floats)?;
-            (
-                factor(file, &path, floats, "_ShadeShift", (-1.0, 1.0))?,
-                factor(file, &path, floats, "_ShadeToony", (0.0, 1.0))?,
-            )
-        }
+        Some((path, floats)) => (
+            factor(file, &path, floats, "_ShadeShift", (-1.0, 1.0))?,
+            factor(file, &path, floats, "_ShadeToony", (0.0, 1.0))?,
+        ),
     };
     Ok(Some(VrmShading::from_v0(
         shift.unwrap_or(0.0),
@@ -134,7 +112,7 @@ fn shading_v0(file: &str, i: usize, properties: &Value) -> Result<Option<VrmShad
 pub(super) fn factor(
     file: &str,
     path: &str,
-    object: &serde_json::Map<String, Value>,
+    object: &Fields,
     key: &str,
     (low, high): (f32, f32),
 ) -> Result<Option<f32>, VrmError> {
@@ -162,7 +140,9 @@ mod tests {
     use serde_json::json;
 
     use super::*;
-    use crate::asset::vrm_mtoon::tests::document;
+    use crate::asset::vrm_mtoon::tests::{
+        assert_located, document, random_document, random_factor,
+    };
 
     fn near(a: (f32, f32), b: (f32, f32)) -> bool {
         (a.0 - b.0).abs() < 1e-6 && (a.1 - b.1).abs() < 1e-6
@@ -312,37 +292,16 @@ mod tests {
     #[test]
     fn random_materials_give_bands_in_range_or_located_errors() {
         let mut rng = crate::test_support::Rng(0x5348_4946_5421);
-        let number = |rng: &mut crate::test_support::Rng| -> Value {
-            match (rng.unit() * 4.0) as u32 {
-                0 => json!(rng.unit() * 4.0 - 2.0),
-                1 => json!("x"),
-                2 => json!(null),
-                _ => json!(rng.unit()),
-            }
-        };
+        let number = |rng: &mut crate::test_support::Rng| random_factor(rng, 4.0, 2.0);
         let (mut found, mut failed) = (0, 0);
         for _ in 0..2_000 {
-            let count = (rng.unit() * 4.0) as usize;
-            let materials: Vec<Value> = (0..count)
-                .map(|_| {
-                    if rng.unit() < 0.5 {
-                        json!({"extensions": {"VRMC_materials_mtoon": {
-                            "shadingShiftFactor": number(&mut rng),
-                            "shadingToonyFactor": number(&mut rng)}}})
-                    } else {
-                        json!({})
-                    }
-                })
-                .collect();
-            let properties: Vec<Value> = (0..(rng.unit() * 5.0) as usize)
-                .map(|_| {
+            let (d, count) = random_document(
+                &mut rng,
+                |rng| json!({"shadingShiftFactor": number(rng), "shadingToonyFactor": number(rng)}),
+                |rng| {
                     json!({"shader": "VRM/MToon", "floatProperties": {
-                        "_ShadeShift": number(&mut rng), "_ShadeToony": number(&mut rng)}})
-                })
-                .collect();
-            let d = document(
-                &Value::Array(materials).to_string(),
-                &json!({"VRM": {"materialProperties": properties}}).to_string(),
+                        "_ShadeShift": number(rng), "_ShadeToony": number(rng)}})
+                },
             );
             let (bands, errors) = parse_vrm_shading("r.vrm", &d);
             assert_eq!(bands.len(), count);
@@ -353,14 +312,7 @@ mod tests {
                 assert!(lo.is_finite() && hi.is_finite() && lo <= hi + 1e-6, "{b:?}");
                 found += 1;
             }
-            for e in &errors {
-                assert_eq!(e.file, "r.vrm");
-                assert!(
-                    e.path.starts_with("materials[")
-                        || e.path.starts_with("extensions.VRM.materialProperties["),
-                    "{e}"
-                );
-            }
+            assert_located(&errors, "r.vrm");
             failed += errors.len();
         }
         assert!(found > 100 && failed > 300, "{found} {failed}");
