@@ -9,8 +9,9 @@
 //! simulation reports it.
 //!
 //! The handler also puts each MToon material's shade colour, shading band and rim light on the
-//! mesh entities that wear it ([`VrmShadeColor`], [`VrmShading`], [`VrmRim`]); a broken value is a warning naming
-//! the file and the JSON path, and that material's meshes get none of that kind.
+//! mesh entities that wear it ([`VrmShadeColor`], [`VrmShading`], [`VrmRim`]); a broken value
+//! is a warning naming the file and the JSON path, and that material's meshes get none of that
+//! kind.
 
 use bevy::asset::io::Reader;
 use bevy::asset::{AssetLoader, LoadContext};

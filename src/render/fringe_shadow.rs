@@ -125,6 +125,7 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
         &self,
         _images: &bevy::render::render_asset::RenderAssets<bevy::render::texture::GpuImage>,
     ) -> FringeShadowUniform {
+        let (rim, rim_shape) = rim_uniform(self.rim.as_ref());
         FringeShadowUniform {
             tone: self
                 .tone
@@ -144,8 +145,8 @@ impl bevy::render::render_resource::AsBindGroupShaderType<FringeShadowUniform> f
                 .to_vec4()
                 .truncate()
                 .extend(finite_or(self.cel_softness, 0.015).clamp(0.001, 1.0)),
-            rim: rim_uniform(self.rim.as_ref()).0,
-            rim_shape: rim_uniform(self.rim.as_ref()).1,
+            rim,
+            rim_shape,
         }
     }
 }

@@ -347,6 +347,7 @@ impl ToonShading {
     /// The uniform block the shader reads: every value finite and within the range the shader
     /// expects.
     fn uniform(&self) -> ToonHairUniform {
+        let (rim, rim_shape) = super::gltf_paint::rim_uniform(self.mtoon_rim.as_ref());
         ToonHairUniform {
             base_color: linear_color(self.base_color, 0.0, 1e4)
                 .truncate()
@@ -386,8 +387,8 @@ impl ToonShading {
                 .extend(finite_or(self.tip_strength, 0.0).clamp(0.0, 1.0)),
             base_lab: oklab(linear_color(self.base_color, 0.0, 1e4)).extend(0.0),
             shade_color: linear_color(self.shade_color, 1.0, 16.0),
-            rim: super::gltf_paint::rim_uniform(self.mtoon_rim.as_ref()).0,
-            rim_shape: super::gltf_paint::rim_uniform(self.mtoon_rim.as_ref()).1,
+            rim,
+            rim_shape,
         }
     }
 }
