@@ -560,7 +560,8 @@ fn pose_batch_lanes(
     for node in batch.nodes.iter().skip(1).step_by(2) {
         let x = &node.x;
         for l in 0..LANES {
-            live[l] &= x[0][l].is_finite() && x[1][l].is_finite() && x[2][l].is_finite();
+            // `&`, not `&&`: no branch per number, so the lanes are tested side by side.
+            live[l] &= x[0][l].is_finite() & x[1][l].is_finite() & x[2][l].is_finite();
         }
     }
     for l in 0..LANES {

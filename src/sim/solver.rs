@@ -30,6 +30,13 @@
 //! different strands overlap (a one-strand-at-a-time solver is latency-bound; see
 //! `PERF_NOTES.md`). A batch runs all of a frame's substeps before the next batch starts, so its
 //! nodes stay in L1.
+//!
+//! One batch's pass down its chains is still a chain of dependent square roots and divisions
+//! (each spring moves the node the next spring reads). Two or three batches of one chain length
+//! can step together ([`Batch::step_pair`], [`Batch::step_three`]): each spring of each batch
+//! runs beside the same spring of the others, so the processor works on one batch while another
+//! waits. Every batch ends bit for bit where it would alone; the simulation steps a hair's
+//! batches three at a time where their lengths allow.
 #![cfg_attr(
     target_arch = "x86_64",
     expect(
@@ -454,73 +461,28 @@ impl Batch {
     /// [`Batch::step`] with the anchor factors per node given apart from `input` (whose own
     /// `anchor_factor` is then not read), so batches of different chain lengths share one input.
     pub fn step_with(&mut self, input: &StepInput, anchors: &[f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if crate::simd::avx2() {
-            // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
-            unsafe { self.step_avx2(input, anchors) };
-            return;
-        }
-        self.step_portable(input, anchors);
+        step_together([self], input, anchors);
     }
 
-    /// [`Batch::step`] compiled with AVX2 enabled.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn step_avx2(&mut self, input: &StepInput, anchors: &[f32]) {
-        self.step_portable(input, anchors);
+    /// Steps three batches of one chain length together (see [`Batch::step_pair`]).
+    pub fn step_three(batches: [&mut Batch; 3], input: &StepInput, anchors: &[f32]) {
+        step_together(batches, input, anchors);
     }
 
-    /// The solver loop; inlined into each target-feature variant.
-    #[inline(always)]
-    fn step_portable(&mut self, input: &StepInput, anchors: &[f32]) {
-        let n = self.nodes.len();
-        let phases = input
-            .wind
-            .as_ref()
-            .map(|w| self.strands.map(|strand| w.wind.phase(strand)));
-        for (s, bone) in input.bones.iter().enumerate() {
-            if let Some(m) = input.carry.get(s) {
-                self.carry(m);
-            }
-            // Pinned nodes follow the bone.
-            for k in 0..PINNED.min(n) {
-                let x = transform(bone, &self.local[k]);
-                self.nodes[k].x = x;
-                self.nodes[k].p = x;
-            }
-            if let (Some(w), Some(phases)) = (&input.wind, &phases) {
-                self.blow(w, s, phases, input);
-            }
-            let f = input.field_count;
-            if f > 0 {
-                self.blow_fields(&input.fields[s * f..(s + 1) * f], input.damping);
-            }
-            if let Some(m) = input.bone_motion.get(s) {
-                self.damp_in_bone_frame(m, input.damping);
-            }
-            // Volumes every other substep (counted from the hair's first): enough to keep the
-            // style the only rest state, at half the cost.
-            // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
-            let volumes =
-                (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
-            self.integrate_and_solve(input, anchors, bone, volumes);
-            self.collide(input, s, true);
-        }
-        // Once a frame, after the last substep; then the last substep's collisions again, so
-        // nothing the limit pulled in stays inside a collider.
-        let last = input.bones.len();
-        let stretch = input.max_stretch.is_finite() && input.max_stretch >= 1.0;
-        let style = input.style_limit.is_finite() && input.style_limit >= 0.0;
-        if last > 0 && (stretch || style) {
-            if stretch {
-                self.limit_stretch(input.max_stretch);
-            }
-            if style {
-                self.limit_to_style(input.style_limit, &input.bones[last - 1]);
-            }
-            // Where the limits left them: no path to follow.
-            self.collide(input, last - 1, false);
-        }
+    /// Steps two batches of the same chain length with the same `input` and anchor factors,
+    /// their chains' dependent arithmetic interleaved (each spring of one batch beside the
+    /// same spring of the other), so the processor overlaps what one batch alone waits for.
+    /// Each batch ends bit for bit where [`Batch::step_with`] would take it.
+    ///
+    /// # Panics
+    /// If the batches' chains are not the same length.
+    pub fn step_pair(&mut self, other: &mut Batch, input: &StepInput, anchors: &[f32]) {
+        assert_eq!(
+            self.nodes.len(),
+            other.nodes.len(),
+            "a pair of batches steps chains of one length"
+        );
+        step_together([self, other], input, anchors);
     }
 
     /// Every collider of substep `s`; `swept`: along each particle's path this substep.
@@ -656,73 +618,6 @@ impl Batch {
             if k % 2 == 1 {
                 pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
             }
-        }
-    }
-
-    #[inline(always)]
-    /// One pass down the chain: each free node is predicted (Verlet, damping, gravity), then its
-    /// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
-    /// then the anchor spring of the node three back, which no later spring touches this
-    /// substep. Fusing them walks each node once per substep.
-    fn integrate_and_solve(
-        &mut self,
-        input: &StepInput,
-        anchors: &[f32],
-        bone: &Affine3A,
-        volumes: bool,
-    ) {
-        let g = input.gravity_h2.to_array();
-        let d = input.damping;
-        let n = self.nodes.len();
-        for k in PINNED..n {
-            let (head, tail) = self.nodes.split_at_mut(k);
-            let nk = &mut tail[0];
-            // Node k stays in registers through its prediction and its three springs.
-            let mut xk = nk.x;
-            for c in 0..3 {
-                for l in 0..LANES {
-                    let x = xk[c][l];
-                    let v = (x - nk.p[c][l]) * d;
-                    nk.p[c][l] = x;
-                    xk[c][l] = x + v + g[c];
-                }
-            }
-            for s in 0..3 {
-                // Two nodes apart, particle to particle (odd k), is the strand's own segment:
-                // an edge spring. Structural to structural (even k) is a bending spring.
-                let alpha = if s == 1 && k % 2 == 1 {
-                    input.alpha[0]
-                } else {
-                    input.alpha[s]
-                };
-                if k < s + 1 || alpha.is_infinite() {
-                    continue;
-                }
-                let j = k - s - 1;
-                let wj = if j < PINNED { 0.0 } else { 1.0 };
-                solve_distance(&mut head[j].x, &mut xk, &nk.rest[s], wj, alpha);
-            }
-            // Distances alone also hold the mirror image of the style: hold the tetrahedron's
-            // signed volume too, so the style is the only rest state.
-            if volumes && k >= 3 {
-                let w = |j: usize| if j < PINNED { 0.0 } else { 1.0 };
-                let [a, b, c] = &mut head[k - 3..k] else {
-                    unreachable!()
-                };
-                solve_volume(
-                    [&mut a.x, &mut b.x, &mut c.x, &mut xk],
-                    [w(k - 3), w(k - 2), w(k - 1), 1.0],
-                    &nk.volume,
-                );
-            }
-            nk.x = xk;
-            // Node k-3 is touched by no later spring this substep: its anchor can go now.
-            if k >= PINNED + 3 {
-                self.solve_anchor(k - 3, anchors, bone);
-            }
-        }
-        for k in n.saturating_sub(3).max(PINNED)..n {
-            self.solve_anchor(k, anchors, bone);
         }
     }
 
@@ -864,6 +759,174 @@ impl Batch {
             }
         }
     }
+}
+
+/// Steps every batch of `batches` (chains of one length) through every substep of `input`,
+/// choosing the AVX2 build where the CPU has it.
+fn step_together<const N: usize>(batches: [&mut Batch; N], input: &StepInput, anchors: &[f32]) {
+    #[cfg(target_arch = "x86_64")]
+    if crate::simd::avx2() {
+        // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.
+        unsafe { step_avx2(batches, input, anchors) };
+        return;
+    }
+    step_portable(batches, input, anchors);
+}
+
+/// [`step_portable`] compiled with AVX2 enabled.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn step_avx2<const N: usize>(batches: [&mut Batch; N], input: &StepInput, anchors: &[f32]) {
+    step_portable(batches, input, anchors);
+}
+
+/// The solver loop; inlined into each target-feature variant. The batches take each substep's
+/// stages one after another, except the pass down the chains, which interleaves them.
+#[inline(always)]
+fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput, anchors: &[f32]) {
+    let phases = input.wind.as_ref().map(|w| {
+        batches
+            .each_ref()
+            .map(|b| b.strands.map(|strand| w.wind.phase(strand)))
+    });
+    for (s, bone) in input.bones.iter().enumerate() {
+        for (i, batch) in batches.iter_mut().enumerate() {
+            let n = batch.nodes.len();
+            if let Some(m) = input.carry.get(s) {
+                batch.carry(m);
+            }
+            // Pinned nodes follow the bone.
+            for k in 0..PINNED.min(n) {
+                let x = transform(bone, &batch.local[k]);
+                batch.nodes[k].x = x;
+                batch.nodes[k].p = x;
+            }
+            if let (Some(w), Some(phases)) = (&input.wind, &phases) {
+                batch.blow(w, s, &phases[i], input);
+            }
+            let f = input.field_count;
+            if f > 0 {
+                batch.blow_fields(&input.fields[s * f..(s + 1) * f], input.damping);
+            }
+            if let Some(m) = input.bone_motion.get(s) {
+                batch.damp_in_bone_frame(m, input.damping);
+            }
+        }
+        // Volumes every other substep (counted from the hair's first): enough to keep the
+        // style the only rest state, at half the cost.
+        // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
+        let volumes =
+            (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
+        integrate_and_solve(&mut batches, input, anchors, bone, volumes);
+        for batch in &mut batches {
+            batch.collide(input, s, true);
+        }
+    }
+    // Once a frame, after the last substep; then the last substep's collisions again, so
+    // nothing the limit pulled in stays inside a collider.
+    let last = input.bones.len();
+    let stretch = input.max_stretch.is_finite() && input.max_stretch >= 1.0;
+    let style = input.style_limit.is_finite() && input.style_limit >= 0.0;
+    if last > 0 && (stretch || style) {
+        for batch in &mut batches {
+            if stretch {
+                batch.limit_stretch(input.max_stretch);
+            }
+            if style {
+                batch.limit_to_style(input.style_limit, &input.bones[last - 1]);
+            }
+            // Where the limits left them: no path to follow.
+            batch.collide(input, last - 1, false);
+        }
+    }
+}
+
+/// One pass down the chains: each free node is predicted (Verlet, damping, gravity), then its
+/// edge, bending and torsion springs to the three nodes before it are solved (Gauss-Seidel),
+/// then the anchor spring of the node three back, which no later spring touches this
+/// substep. Fusing them walks each node once per substep. With several batches, each stage of
+/// node `k` runs for every batch before the next stage: the batches' chains are independent,
+/// so one batch's arithmetic fills the time another waits on its square roots and divisions.
+#[inline(always)]
+fn integrate_and_solve<const N: usize>(
+    batches: &mut [&mut Batch; N],
+    input: &StepInput,
+    anchors: &[f32],
+    bone: &Affine3A,
+    volumes: bool,
+) {
+    let g = input.gravity_h2.to_array();
+    let d = input.damping;
+    let n = batches[0].nodes.len();
+    for k in PINNED..n {
+        // Node k stays in registers through its prediction and its three springs.
+        let mut xk = [[[0.0; LANES]; 3]; N];
+        for b in 0..N {
+            xk[b] = predict(&mut batches[b].nodes[k], g, d);
+        }
+        for s in 0..3 {
+            // Two nodes apart, particle to particle (odd k), is the strand's own segment:
+            // an edge spring. Structural to structural (even k) is a bending spring.
+            let alpha = if s == 1 && k % 2 == 1 {
+                input.alpha[0]
+            } else {
+                input.alpha[s]
+            };
+            if k < s + 1 || alpha.is_infinite() {
+                continue;
+            }
+            let j = k - s - 1;
+            let wj = if j < PINNED { 0.0 } else { 1.0 };
+            for b in 0..N {
+                let (head, tail) = batches[b].nodes.split_at_mut(k);
+                solve_distance(&mut head[j].x, &mut xk[b], &tail[0].rest[s], wj, alpha);
+            }
+        }
+        // Distances alone also hold the mirror image of the style: hold the tetrahedron's
+        // signed volume too, so the style is the only rest state.
+        if volumes && k >= 3 {
+            let w = |j: usize| if j < PINNED { 0.0 } else { 1.0 };
+            for b in 0..N {
+                let (head, tail) = batches[b].nodes.split_at_mut(k);
+                let [p, q, r] = &mut head[k - 3..k] else {
+                    unreachable!()
+                };
+                solve_volume(
+                    [&mut p.x, &mut q.x, &mut r.x, &mut xk[b]],
+                    [w(k - 3), w(k - 2), w(k - 1), 1.0],
+                    &tail[0].volume,
+                );
+            }
+        }
+        for b in 0..N {
+            batches[b].nodes[k].x = xk[b];
+            // Node k-3 is touched by no later spring this substep: its anchor can go now.
+            if k >= PINNED + 3 {
+                batches[b].solve_anchor(k - 3, anchors, bone);
+            }
+        }
+    }
+    for batch in batches.iter_mut() {
+        for k in n.saturating_sub(3).max(PINNED)..n {
+            batch.solve_anchor(k, anchors, bone);
+        }
+    }
+}
+
+/// Node `node` predicted for the substep (Verlet with damping `d`, then gravity `g`): returns
+/// where it goes and keeps where it was as its previous position.
+#[inline(always)]
+fn predict(node: &mut Node, g: [f32; 3], d: f32) -> [Lane; 3] {
+    let mut xk = node.x;
+    for c in 0..3 {
+        for l in 0..LANES {
+            let x = xk[c][l];
+            let v = (x - node.p[c][l]) * d;
+            node.p[c][l] = x;
+            xk[c][l] = x + v + g[c];
+        }
+    }
+    xk
 }
 
 /// Pulls `node` toward `xj` (lane by lane) where it lies farther than `max` times its rest

@@ -700,8 +700,8 @@ pub(crate) fn step_hair_strands(
     history.jobs = jobs;
 }
 
-/// Steps `batches` with `input` and resets each strand whose state stopped being finite onto
-/// its anchors at `last`; returns how many strands were reset, and (when `boxed`) the
+/// Steps `batches` with `input`, up to three of one chain length at a time, and resets each
+/// strand whose state stopped being finite onto its anchors at `last`; returns how many strands were reset, and (when `boxed`) the
 /// particles' box, each batch measured right after its step.
 fn step_batches(
     batches: &mut [Batch],
@@ -710,29 +710,58 @@ fn step_batches(
     last: &Affine3A,
     boxed: bool,
 ) -> (u32, ParticleBox) {
-    let mut resets = 0;
-    let mut particle_box = ParticleBox::EMPTY;
-    for b in batches.iter_mut() {
-        let f = factors
+    let factors_of = |b: &Batch| {
+        factors
             .iter()
             .find(|(n, _)| *n == b.nodes.len())
             .map(|(_, f)| f.as_slice())
-            .unwrap_or(&[]);
-        b.step_with(input, f);
-        // A strand whose state stopped being finite starts again on its anchors.
-        let bad = b.non_finite_lanes();
-        if bad != 0 {
-            for l in 0..super::solver::LANES {
-                if bad & (1 << l) != 0 {
-                    b.reset_lane(l, last);
-                    if l < b.count {
-                        resets += 1;
+            .unwrap_or(&[])
+    };
+    let mut resets = 0;
+    let mut particle_box = ParticleBox::EMPTY;
+    let mut rest = batches;
+    while let Some((first, after)) = rest.split_first_mut() {
+        // Up to three batches of one chain length step side by side (see `Batch::step_pair`).
+        let len = first.nodes.len();
+        let anchors = factors_of(first);
+        let same = after
+            .iter()
+            .take(2)
+            .take_while(|b| b.nodes.len() == len)
+            .count();
+        let stepped = match (same, after) {
+            (2, [second, third, tail @ ..]) => {
+                Batch::step_three([first, second, third], input, anchors);
+                rest = tail;
+                [Some(first), Some(second), Some(third)]
+            }
+            (1, [second, tail @ ..]) => {
+                first.step_pair(second, input, anchors);
+                rest = tail;
+                [Some(first), Some(second), None]
+            }
+            (_, others) => {
+                first.step_with(input, anchors);
+                rest = others;
+                [Some(first), None, None]
+            }
+        };
+        for b in stepped.into_iter().flatten() {
+            // A strand whose state stopped being finite starts again on its anchors.
+            let bad = b.non_finite_lanes();
+            if bad != 0 {
+                for l in 0..super::solver::LANES {
+                    if bad & (1 << l) != 0 {
+                        b.reset_lane(l, last);
+                        if l < b.count {
+                            resets += 1;
+                        }
                     }
                 }
             }
-        }
-        if boxed {
-            particle_box = particle_box.merge(ParticleBox::of(std::slice::from_ref(b)));
+            if boxed {
+                particle_box = particle_box.merge(ParticleBox::of(std::slice::from_ref(b)));
+            }
         }
     }
     (resets, particle_box)
@@ -746,7 +775,11 @@ fn step_shared(
     (input, factors, last): (&super::solver::StepInput, &[(usize, Vec<f32>)], &Affine3A),
     (measure, boxed): (bool, bool),
 ) -> (super::volume::Bounds, ParticleBox, u32) {
-    let chunk = batches.len().div_ceil(parallel::workers(pool) * 4).max(1);
+    // A multiple of three a part, so its batches step three at a time.
+    let chunk = batches
+        .len()
+        .div_ceil(parallel::workers(pool) * 4)
+        .next_multiple_of(3);
     let resets = AtomicU32::new(0);
     let measured = std::sync::Mutex::new((super::volume::NO_BOUNDS, ParticleBox::EMPTY));
     parallel::run_parts(pool, batches.chunks_mut(chunk), &|part: &mut [Batch]| {

@@ -768,6 +768,7 @@ fn the_lanes_near_a_box_are_the_per_lane_box_test() {
 }
 
 mod attach;
+mod batch_groups;
 mod chain_lanes;
 mod chains;
 mod motion;
