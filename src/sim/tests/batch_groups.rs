@@ -7,26 +7,12 @@ use bevy::prelude::*;
 
 use super::super::solver::{Batch, Contact, ContactShape, LANES, PINNED, StepInput, WindInput};
 use super::super::wind::{FieldStep, HairWind};
-use super::build_chain;
+use super::random_strands;
 use crate::test_support::Rng;
 
-/// A batch of `lanes` random wavy chains of `particles` particles hanging from a random root.
+/// A batch of `lanes` random wavy chains of `particles` particles near the bone, moving.
 fn random_batch(rng: &mut Rng, particles: usize, lanes: usize, first_id: u32) -> Batch {
-    let chains: Vec<Vec<Vec3>> = (0..lanes)
-        .map(|_| {
-            let root = rng.vec3(0.1);
-            let points: Vec<Vec3> = (0..particles)
-                .map(|i| root + Vec3::new(0.0, -0.03 * i as f32, 0.0) + rng.vec3(0.01))
-                .collect();
-            let mut chain = Vec::new();
-            build_chain(&points, 0.3 + 0.2 * rng.next(), None, &mut chain);
-            chain
-        })
-        .collect();
-    let ids: Vec<u32> = (first_id..first_id + lanes as u32).collect();
-    let refs: Vec<&[Vec3]> = chains.iter().map(Vec::as_slice).collect();
-    let margins: Vec<f32> = (0..lanes).map(|_| 0.005 + 0.005 * rng.next()).collect();
-    let mut batch = Batch::new(&ids, &refs, &[], &margins);
+    let mut batch = random_strands(rng, particles, lanes, first_id);
     batch.reset(&Affine3A::from_translation(rng.vec3(0.02)));
     // Give it some motion to damp and carry.
     for node in batch.nodes.iter_mut().skip(PINNED) {

@@ -551,6 +551,31 @@ fn state_after_500_fixed_steps_is_deterministic() {
     );
 }
 
+/// A batch of `lanes` random wavy strands of `particles` particles, each hanging from a random
+/// root, their ids counted from `first_id`; not yet placed on a bone.
+pub(super) fn random_strands(
+    rng: &mut Rng,
+    particles: usize,
+    lanes: usize,
+    first_id: u32,
+) -> Batch {
+    let chains: Vec<Vec<Vec3>> = (0..lanes)
+        .map(|_| {
+            let root = rng.vec3(0.1);
+            let points: Vec<Vec3> = (0..particles)
+                .map(|i| root + Vec3::new(0.0, -0.03 * i as f32, 0.0) + rng.vec3(0.01))
+                .collect();
+            let mut chain = Vec::new();
+            build_chain(&points, 0.3 + 0.2 * rng.next(), None, &mut chain);
+            chain
+        })
+        .collect();
+    let ids: Vec<u32> = (first_id..first_id + lanes as u32).collect();
+    let refs: Vec<&[Vec3]> = chains.iter().map(Vec::as_slice).collect();
+    let margins: Vec<f32> = (0..lanes).map(|_| 0.005 + 0.005 * rng.next()).collect();
+    Batch::new(&ids, &refs, &[], &margins)
+}
+
 #[test]
 #[cfg_attr(
     not(cartoon_hair_avx2_host),
@@ -562,22 +587,7 @@ fn solver_avx2_and_portable_paths_agree_bit_for_bit() {
     for trial in 0..24 {
         let particles = 3 + trial % 9;
         let lanes = 1 + trial % LANES;
-        // Random wavy strands hanging from a random root.
-        let chains: Vec<Vec<Vec3>> = (0..lanes)
-            .map(|_| {
-                let root = rng.vec3(0.1);
-                let points: Vec<Vec3> = (0..particles)
-                    .map(|i| root + Vec3::new(0.0, -0.03 * i as f32, 0.0) + rng.vec3(0.01))
-                    .collect();
-                let mut chain = Vec::new();
-                build_chain(&points, 0.3 + 0.2 * rng.next(), None, &mut chain);
-                chain
-            })
-            .collect();
-        let ids: Vec<u32> = (0..lanes as u32).collect();
-        let refs: Vec<&[Vec3]> = chains.iter().map(Vec::as_slice).collect();
-        let margins: Vec<f32> = (0..lanes).map(|_| 0.005 + 0.005 * rng.next()).collect();
-        let mut batch = Batch::new(&ids, &refs, &[], &margins);
+        let mut batch = random_strands(&mut rng, particles, lanes, 0);
         let start = bevy::math::Affine3A::from_translation(rng.vec3(0.2));
         batch.reset(&start);
         let nodes = batch.nodes.len();
