@@ -465,7 +465,15 @@ impl Batch {
     }
 
     /// Steps three batches of one chain length together (see [`Batch::step_pair`]).
+    ///
+    /// # Panics
+    /// If the batches' chains are not all the same length.
     pub fn step_three(batches: [&mut Batch; 3], input: &StepInput, anchors: &[f32]) {
+        let n = batches[0].nodes.len();
+        assert!(
+            batches.iter().all(|b| b.nodes.len() == n),
+            "three batches stepped together step chains of one length"
+        );
         step_together(batches, input, anchors);
     }
 

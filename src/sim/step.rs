@@ -701,8 +701,8 @@ pub(crate) fn step_hair_strands(
 }
 
 /// Steps `batches` with `input`, up to three of one chain length at a time, and resets each
-/// strand whose state stopped being finite onto its anchors at `last`; returns how many strands were reset, and (when `boxed`) the
-/// particles' box, each batch measured right after its step.
+/// strand whose state stopped being finite onto its anchors at `last`; returns how many strands
+/// were reset, and (when `boxed`) the particles' box, each batch measured right after its step.
 fn step_batches(
     batches: &mut [Batch],
     input: &super::solver::StepInput,
@@ -779,6 +779,7 @@ fn step_shared(
     let chunk = batches
         .len()
         .div_ceil(parallel::workers(pool) * 4)
+        .max(1)
         .next_multiple_of(3);
     let resets = AtomicU32::new(0);
     let measured = std::sync::Mutex::new((super::volume::NO_BOUNDS, ParticleBox::EMPTY));

@@ -209,3 +209,15 @@ fn a_pair_of_different_chain_lengths_is_refused() {
     let input = random_input(&mut rng, 0, a.nodes.len());
     a.step_pair(&mut b, &input, &input.anchor_factor.clone());
 }
+
+#[test]
+#[should_panic(expected = "three batches stepped together step chains of one length")]
+fn three_batches_of_different_chain_lengths_are_refused() {
+    let mut rng = Rng(11);
+    let mut a = random_batch(&mut rng, 4, 3, 0);
+    let mut b = random_batch(&mut rng, 4, 3, 8);
+    let mut c = random_batch(&mut rng, 6, 3, 16);
+    let input = random_input(&mut rng, 0, a.nodes.len());
+    let anchors = input.anchor_factor.clone();
+    Batch::step_three([&mut a, &mut b, &mut c], &input, &anchors);
+}
