@@ -1,6 +1,6 @@
 //! The strand solver's step over a hair's batches: each batch alone (`alone`, the baseline),
-//! two batches of one chain length at a time (`pairs`, `Batch::step_pair`) and three
-//! (`threes`, `Batch::step_three`), which the simulation uses. The batches end bit for bit in the
+//! two batches of one chain length at a time (`pairs`) and three (`threes`, which the
+//! simulation uses), both with `Batch::step_together`. The batches end bit for bit in the
 //! same state every way; only the time differs.
 //!
 //! ```text
@@ -98,13 +98,13 @@ fn bench_groups(c: &mut Criterion) {
                         "pairs" => {
                             for pair in batches.chunks_exact_mut(2) {
                                 let [a, b] = pair else { unreachable!() };
-                                a.step_pair(b, &input, anchors);
+                                Batch::step_together([a, b], &input, anchors);
                             }
                         }
                         _ => {
                             for three in batches.chunks_exact_mut(3) {
                                 let [a, b, c] = three else { unreachable!() };
-                                Batch::step_three([a, b, c], &input, anchors);
+                                Batch::step_together([a, b, c], &input, anchors);
                             }
                         }
                     }

@@ -32,8 +32,8 @@
 //! nodes stay in L1.
 //!
 //! One batch's pass down its chains is still a chain of dependent square roots and divisions
-//! (each spring moves the node the next spring reads). Two or three batches of one chain length
-//! can step together ([`Batch::step_pair`], [`Batch::step_three`]): each spring of each batch
+//! (each spring moves the node the next spring reads). Batches of one chain length can step
+//! together ([`Batch::step_together`]): each spring of each batch
 //! runs beside the same spring of the others, so the processor works on one batch while another
 //! waits. Every batch ends bit for bit where it would alone; the simulation steps a hair's
 //! batches three at a time where their lengths allow.
@@ -461,36 +461,28 @@ impl Batch {
     /// [`Batch::step`] with the anchor factors per node given apart from `input` (whose own
     /// `anchor_factor` is then not read), so batches of different chain lengths share one input.
     pub fn step_with(&mut self, input: &StepInput, anchors: &[f32]) {
-        step_together([self], input, anchors);
+        step_interleaved([self], input, anchors);
     }
 
-    /// Steps three batches of one chain length together (see [`Batch::step_pair`]).
+    /// Steps `N` batches of one chain length with the same `input` and anchor factors, their
+    /// chains' dependent arithmetic interleaved (each spring of one batch beside the same spring
+    /// of the others), so the processor overlaps what one batch alone waits for. Each batch ends
+    /// bit for bit where [`Batch::step_with`] would take it. The simulation steps three at a
+    /// time.
     ///
     /// # Panics
     /// If the batches' chains are not all the same length.
-    pub fn step_three(batches: [&mut Batch; 3], input: &StepInput, anchors: &[f32]) {
-        let n = batches[0].nodes.len();
+    pub fn step_together<const N: usize>(
+        batches: [&mut Batch; N],
+        input: &StepInput,
+        anchors: &[f32],
+    ) {
+        let n = batches.first().map_or(0, |b| b.nodes.len());
         assert!(
             batches.iter().all(|b| b.nodes.len() == n),
-            "three batches stepped together step chains of one length"
+            "batches stepped together step chains of one length"
         );
-        step_together(batches, input, anchors);
-    }
-
-    /// Steps two batches of the same chain length with the same `input` and anchor factors,
-    /// their chains' dependent arithmetic interleaved (each spring of one batch beside the
-    /// same spring of the other), so the processor overlaps what one batch alone waits for.
-    /// Each batch ends bit for bit where [`Batch::step_with`] would take it.
-    ///
-    /// # Panics
-    /// If the batches' chains are not the same length.
-    pub fn step_pair(&mut self, other: &mut Batch, input: &StepInput, anchors: &[f32]) {
-        assert_eq!(
-            self.nodes.len(),
-            other.nodes.len(),
-            "a pair of batches steps chains of one length"
-        );
-        step_together([self, other], input, anchors);
+        step_interleaved(batches, input, anchors);
     }
 
     /// Every collider of substep `s`; `swept`: along each particle's path this substep.
@@ -771,7 +763,7 @@ impl Batch {
 
 /// Steps every batch of `batches` (chains of one length) through every substep of `input`,
 /// choosing the AVX2 build where the CPU has it.
-fn step_together<const N: usize>(batches: [&mut Batch; N], input: &StepInput, anchors: &[f32]) {
+fn step_interleaved<const N: usize>(batches: [&mut Batch; N], input: &StepInput, anchors: &[f32]) {
     #[cfg(target_arch = "x86_64")]
     if crate::simd::avx2() {
         // SAFETY: `simd::avx2` found AVX2 on this CPU at run time, just above.

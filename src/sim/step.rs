@@ -721,7 +721,7 @@ fn step_batches(
     let mut particle_box = ParticleBox::EMPTY;
     let mut rest = batches;
     while let Some((first, after)) = rest.split_first_mut() {
-        // Up to three batches of one chain length step side by side (see `Batch::step_pair`).
+        // Up to three batches of one chain length step side by side (see `Batch::step_together`).
         let len = first.nodes.len();
         let anchors = factors_of(first);
         let same = after
@@ -731,12 +731,12 @@ fn step_batches(
             .count();
         let stepped = match (same, after) {
             (2, [second, third, tail @ ..]) => {
-                Batch::step_three([first, second, third], input, anchors);
+                Batch::step_together([first, second, third], input, anchors);
                 rest = tail;
                 [Some(first), Some(second), Some(third)]
             }
             (1, [second, tail @ ..]) => {
-                first.step_pair(second, input, anchors);
+                Batch::step_together([first, second], input, anchors);
                 rest = tail;
                 [Some(first), Some(second), None]
             }

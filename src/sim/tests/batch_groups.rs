@@ -1,4 +1,4 @@
-//! Batches stepped side by side (`Batch::step_pair`, `Batch::step_three`) end where each batch
+//! Batches stepped side by side (`Batch::step_together`) end where each batch
 //! stepped alone ends, bit for bit, on both the portable and the AVX2 paths, with every stage
 //! of a substep in play.
 
@@ -160,7 +160,7 @@ fn batches_stepped_side_by_side_end_where_each_alone_ends() {
                     unreachable!()
                 };
                 for _ in 0..3 {
-                    first.step_pair(second, &input, &anchors);
+                    Batch::step_together([first, second], &input, &anchors);
                 }
                 b
             };
@@ -170,7 +170,7 @@ fn batches_stepped_side_by_side_end_where_each_alone_ends() {
                     unreachable!()
                 };
                 for _ in 0..3 {
-                    Batch::step_three([first, second, third], &input, &anchors);
+                    Batch::step_together([first, second, third], &input, &anchors);
                 }
                 b
             };
@@ -201,23 +201,13 @@ fn batches_stepped_side_by_side_end_where_each_alone_ends() {
 }
 
 #[test]
-#[should_panic(expected = "a pair of batches steps chains of one length")]
-fn a_pair_of_different_chain_lengths_is_refused() {
-    let mut rng = Rng(7);
-    let mut a = random_batch(&mut rng, 4, 3, 0);
-    let mut b = random_batch(&mut rng, 5, 3, 8);
-    let input = random_input(&mut rng, 0, a.nodes.len());
-    a.step_pair(&mut b, &input, &input.anchor_factor.clone());
-}
-
-#[test]
-#[should_panic(expected = "three batches stepped together step chains of one length")]
-fn three_batches_of_different_chain_lengths_are_refused() {
+#[should_panic(expected = "batches stepped together step chains of one length")]
+fn batches_of_different_chain_lengths_are_refused() {
     let mut rng = Rng(11);
     let mut a = random_batch(&mut rng, 4, 3, 0);
     let mut b = random_batch(&mut rng, 4, 3, 8);
     let mut c = random_batch(&mut rng, 6, 3, 16);
     let input = random_input(&mut rng, 0, a.nodes.len());
     let anchors = input.anchor_factor.clone();
-    Batch::step_three([&mut a, &mut b, &mut c], &input, &anchors);
+    Batch::step_together([&mut a, &mut b, &mut c], &input, &anchors);
 }
