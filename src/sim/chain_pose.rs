@@ -6,7 +6,10 @@
 //! Two passes, each on every core: the poses are worked out hair by hair (each hair reads its
 //! own solver state and its joints' bind transforms; the chains of each solver batch are posed
 //! side by side in the solver's lanes, see `chain_lanes`, and a chain that needs more is posed
-//! alone here, one joint at a time), then written joint by joint.
+//! alone here, one joint at a time), then written joint by joint. Most hairs are posed by the
+//! step, on the thread that stepped them, right after their substeps ([`pose_chain_hair`]);
+//! [`pose_bone_chains`] poses the rest (a hair whose batches the step shared out over the
+//! threads, or whose volume pass ran after the step) and writes every hair's joints.
 //!
 //! Bevy's transform propagation does not visit most of the joints a hair poses (those its
 //! hair's build took over: see `chains::owned_from`), since every frame it would compute world
@@ -34,6 +37,8 @@ pub(crate) struct ChainPose {
     buffers: PoseBuffers,
     /// The collider shapes near the hair this frame.
     near: Vec<NearShape>,
+    /// Posed this frame by the step, right after its substeps.
+    pub(super) posed_early: bool,
 }
 
 /// A joint's pose: its entity, its local rotation, its world transform.
@@ -133,14 +138,77 @@ impl FrameShapes {
     }
 }
 
+/// What posing needs from the frame, gathered once for every hair.
+#[derive(Default)]
+pub(crate) struct PoseFrame {
+    /// The colliders where they are now.
+    shapes: FrameShapes,
+    /// Hairs whose joints' transforms changed (an animation, the game) or went since last
+    /// frame, sorted: their joints are read again. Posing itself stores rotations without
+    /// flagging them.
+    stale: Vec<Entity>,
+}
+
+impl PoseFrame {
+    /// The `colliders` where they are now.
+    pub(super) fn gather_colliders<'a>(
+        &mut self,
+        colliders: impl IntoIterator<Item = (Entity, &'a HairCollider, &'a GlobalTransform)>,
+    ) {
+        self.shapes.gather(colliders);
+    }
+
+    /// The hairs of the joints in `changed`.
+    pub(super) fn gather_stale<'a>(&mut self, changed: impl IntoIterator<Item = &'a ChainJoint>) {
+        self.stale.clear();
+        self.stale.extend(changed.into_iter().map(|j| j.hair));
+        self.stale.sort_unstable();
+        self.stale.dedup();
+    }
+}
+
+/// Poses one bone-chain hair (see [`pose_hair`]) into its [`ChainPose`]: its joints' bind
+/// transforms read again when `rebuilt` (its [`BoneChainHair`] changed) or its joints changed
+/// this frame, the colliders near its particles gathered.
+pub(super) fn pose_chain_hair(
+    (hair, driven, rebuilt): (Entity, &BoneChainHair, bool),
+    hair_world: &GlobalTransform,
+    computed: Option<&mut ComputedHair>,
+    pose: &mut ChainPose,
+    (settings, only): (&HairSimSettings, Option<&HairCollidesOnly>),
+    frame: &PoseFrame,
+    bind: &impl Fn(Entity) -> Option<Transform>,
+) {
+    if rebuilt || frame.stale.binary_search(&hair).is_ok() {
+        pose.buffers.lanes.forget();
+    }
+    let margin = computed
+        .as_deref()
+        .map_or(0.0, |c| settings.margins().0 * c.size);
+    match computed.as_deref() {
+        Some(c) => gather_near(&frame.shapes, c, only, margin, &mut pose.near),
+        None => pose.near.clear(),
+    }
+    pose_hair(
+        driven,
+        hair_world,
+        computed,
+        (&pose.near, margin),
+        &mut pose.buffers,
+        bind,
+        PosePath::Lanes,
+    );
+}
+
 /// Hairs posed by one task (a chain hair is small: a few dozen to a few hundred joints).
 const HAIRS_PER_TASK: usize = 4;
 
-/// Turns each chain's joints, root to tip, so each points at its next particle (its child, at
-/// the bone's length, kept off the hair's colliders and inside the joint's angle limit, if it
-/// has one: [`ChainJointLimits`](super::ChainJointLimits); the particle follows), and writes
-/// their local and global transforms (the skinned mesh is drawn from these this frame), then the
-/// global transforms of what hangs below them.
+/// Turns each chain's joints of the hairs the step did not pose ([`pose_chain_hair`]), root to
+/// tip, so each points at its next particle (its child, at the bone's length, kept off the
+/// hair's colliders and inside the joint's angle limit, if it has one:
+/// [`ChainJointLimits`](super::ChainJointLimits); the particle follows), and writes every hair's
+/// joints' local and global transforms (the skinned mesh is drawn from these this frame), then
+/// the global transforms of what hangs below them.
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -177,101 +245,97 @@ pub(crate) fn pose_bone_chains(
         Query<&Transform, Without<BoneChainHair>>,
         Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
     )>,
-    (mut frame, mut below, mut stale): (Local<FrameShapes>, Local<Below>, Local<Vec<Entity>>),
+    (mut frame, mut below): (Local<PoseFrame>, Local<Below>),
 ) {
     if hairs.is_empty() {
         return;
     }
     // Made with defaults when no app made it (tests, benches).
     crate::parallel::compute_pool();
-    // The colliders where they are now, once for every hair.
-    frame.gather(nodes.p0().iter());
-    // Hairs whose joints' transforms changed (an animation, the game) or went since last frame:
-    // their joints are read again. Posing itself stores rotations without flagging them.
-    stale.clear();
-    stale.extend(nodes.p4().iter().map(|j| j.hair));
-    stale.sort_unstable();
-    stale.dedup();
-    // Each hair's poses, on every core.
-    let (frame, stale) = (&*frame, &*stale);
-    let bind = &nodes.p3();
-    hairs
-        .par_iter_mut()
-        .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
-        .for_each(
-            |((hair, driven), hair_world, computed, mut pose, (settings, only))| {
-                let pose = &mut *pose;
-                if driven.is_changed() || stale.binary_search(&hair).is_ok() {
-                    pose.buffers.lanes.forget();
-                }
-                let computed = computed.map(Mut::into_inner);
-                let margin = computed
-                    .as_deref()
-                    .map_or(0.0, |c| settings.margins().0 * c.size);
-                match computed.as_deref() {
-                    Some(c) => gather_near(frame, c, only, margin, &mut pose.near),
-                    None => pose.near.clear(),
-                }
-                pose_hair(
-                    &driven,
-                    hair_world,
-                    computed,
-                    (&pose.near, margin),
-                    &mut pose.buffers,
-                    &|e| bind.get(e).ok().copied(),
-                    PosePath::Lanes,
-                );
-            },
-        );
+    // The colliders where they are now and the hairs whose joints changed, once for every hair
+    // left to pose (the step poses most).
+    if hairs.iter().all(|(_, _, _, pose, _)| pose.posed_early) {
+        for (_, _, _, mut pose, _) in &mut hairs {
+            pose.posed_early = false;
+        }
+    } else {
+        frame.gather_colliders(nodes.p0().iter());
+        frame.gather_stale(nodes.p4().iter());
+        // The other hairs' poses, on every core.
+        let (frame, bind) = (&*frame, &nodes.p3());
+        hairs
+            .par_iter_mut()
+            .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
+            .for_each(
+                |((hair, driven), hair_world, computed, mut pose, settings)| {
+                    if std::mem::take(&mut pose.posed_early) {
+                        return;
+                    }
+                    pose_chain_hair(
+                        (hair, &driven, driven.is_changed()),
+                        hair_world,
+                        computed.map(Mut::into_inner),
+                        &mut pose,
+                        settings,
+                        frame,
+                        &|e| bind.get(e).ok().copied(),
+                    );
+                },
+            );
+    }
     // Written joint by joint on every core. The world transform is written here, so the local
     // rotation is stored without flagging the joint changed: Bevy's propagation would otherwise
     // walk every joint's ancestors next frame to recompute what is already there.
     let hairs = &hairs;
-    nodes.p2().par_iter_mut().for_each_init(
-        || (below.0.borrow_local_mut(), None),
-        |(below, last), (joint, mut of, mut local, mut global, children)| {
-            // A hair's joints mostly come one after another: its poses are looked up once.
-            let poses: &[Pose] = match *last {
-                Some((hair, poses)) if hair == of.hair => poses,
-                _ => {
-                    let Ok((_, _, _, pose, _)) = hairs.get(of.hair) else {
-                        return;
-                    };
-                    *last = Some((of.hair, &pose.buffers.posed[..]));
-                    &pose.buffers.posed
+    nodes
+        .p2()
+        .par_iter_mut()
+        .batching_strategy(BatchingStrategy::new().batches_per_thread(4))
+        .for_each_init(
+            || (below.0.borrow_local_mut(), None),
+            |(below, last), (joint, mut of, mut local, mut global, children)| {
+                // A hair's joints mostly come one after another: its poses are looked up once.
+                let poses: &[Pose] = match *last {
+                    Some((hair, poses)) if hair == of.hair => poses,
+                    _ => {
+                        let Ok((_, _, _, pose, _)) = hairs.get(of.hair) else {
+                            return;
+                        };
+                        *last = Some((of.hair, &pose.buffers.posed[..]));
+                        &pose.buffers.posed
+                    }
+                };
+                let slot = of.slot as usize;
+                let Some(&(posed, rotation, world)) = poses.get(slot) else {
+                    return;
+                };
+                if posed != joint {
+                    return;
                 }
-            };
-            let slot = of.slot as usize;
-            let Some(&(posed, rotation, world)) = poses.get(slot) else {
-                return;
-            };
-            if posed != joint {
-                return;
-            }
-            local.bypass_change_detection().rotation = rotation;
-            *global = GlobalTransform::from(world);
-            // A chain's next joint is posed with it; anything else below is propagated.
-            let next = poses.get(slot + 1).map(|p| p.0);
-            let Some(children) = children else {
-                return;
-            };
-            let others = match of.others {
-                Some((seen, others)) if seen == next && !children.is_changed() => others,
-                _ => {
-                    let others = children.iter().any(|c| Some(c) != next);
-                    of.bypass_change_detection().others = Some((next, others));
-                    others
-                }
-            };
-            if others {
-                for c in children.iter() {
-                    if Some(c) != next {
-                        below.push((world, c));
+                local.bypass_change_detection().rotation = rotation;
+                *global = GlobalTransform::from(world);
+                // A chain's next joint is posed with it; anything else below is propagated.
+                let next = poses.get(slot + 1).map(|p| p.0);
+                let Some(children) = children else {
+                    return;
+                };
+                let others = match of.others {
+                    Some((seen, others)) if seen == next && !children.is_changed() => others,
+                    _ => {
+                        let others = children.iter().any(|c| Some(c) != next);
+                        of.bypass_change_detection().others = Some((next, others));
+                        others
+                    }
+                };
+                if others {
+                    for c in children.iter() {
+                        if Some(c) != next {
+                            below.push((world, c));
+                        }
                     }
                 }
-            }
-        },
-    );
+            },
+        );
     let mut nodes = nodes.p1();
     let Below(found, below) = &mut *below;
     below.clear();

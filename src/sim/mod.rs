@@ -45,6 +45,7 @@ mod segments;
 mod settings;
 pub mod solver;
 mod step;
+mod step_input;
 #[cfg(test)]
 mod tests;
 mod volume;
