@@ -703,3 +703,70 @@ fn joints_set(app: &mut App) -> Entity {
         .single(world)
         .unwrap()
 }
+
+/// The step poses a chain hair on its own thread right after its substeps when several hairs
+/// step at once, and leaves a hair alone to posing's system after every step: both give the
+/// same joints, to the bit, through a shake that throws the chains at a head collider.
+#[test]
+fn chains_posed_in_the_step_match_chains_posed_after_it() {
+    // `others` characters beside the first, 10 m apart: with none the first hair is alone.
+    let run = |others: usize| {
+        let mut app = event_app();
+        let mut first = None;
+        for i in 0..=others {
+            let (root, head, joints) = chain_character(
+                &mut app,
+                Transform::from_xyz(10.0 * i as f32, 0.0, 0.0),
+                1.0,
+            );
+            let world = app.world_mut();
+            world.spawn((
+                HairCollider {
+                    spheres: vec![CollisionSphere {
+                        center: Vec3::ZERO,
+                        radius: 0.05,
+                    }],
+                    ..default()
+                },
+                ChildOf(head),
+            ));
+            world.spawn((
+                HairBoneChains::matching(root, |n| n.starts_with("hair_")),
+                soft(),
+            ));
+            first.get_or_insert((root, joints));
+        }
+        let (root, joints) = first.unwrap();
+        let mut frames = Vec::new();
+        for f in 0..120 {
+            let t = (f + 1) as f32 / 60.0;
+            app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(t);
+            app.update();
+            frames.push(
+                joints
+                    .iter()
+                    .map(|&j| {
+                        let world = app.world();
+                        let local = world.get::<Transform>(j).unwrap().rotation;
+                        (local, world.get::<GlobalTransform>(j).unwrap().affine())
+                    })
+                    .collect::<Vec<_>>(),
+            );
+        }
+        frames
+    };
+    let (alone, beside) = (run(0), run(2));
+    let tip = |frames: &[Vec<(Quat, bevy::math::Affine3A)>], f: usize| {
+        Vec3::from(frames[f].last().unwrap().1.translation)
+    };
+    let swung = (0..alone.len())
+        .map(|f| tip(&alone, f).distance(tip(&alone, 0)))
+        .fold(0.0, f32::max);
+    assert!(swung > 0.01, "the chains must swing ({swung} m)");
+    for (f, (a, b)) in alone.iter().zip(&beside).enumerate() {
+        assert_eq!(
+            a, b,
+            "frame {f}: the joints posed alone and beside other hairs differ"
+        );
+    }
+}
