@@ -251,6 +251,18 @@ pub(crate) fn split_bone(bone: &Affine3A) -> (Affine3A, Vec3) {
     )
 }
 
+/// The scale [`split_bone`] takes out of `bone`, without the rotation (a built hair's check,
+/// every frame).
+pub(crate) fn bone_scale(bone: &Affine3A) -> Vec3 {
+    let m = &bone.matrix3;
+    // As `Affine3A::to_scale_rotation_translation` writes it: the same bits.
+    Vec3::new(
+        m.x_axis.length() * m.determinant().signum(),
+        m.y_axis.length(),
+        m.z_axis.length(),
+    )
+}
+
 /// Whether the bone's scale moved far enough from `built` (relative 1e-3) to rebuild the hair.
 pub(crate) fn scale_changed(built: Vec3, now: Vec3) -> bool {
     let tolerance = 1e-3 * built.abs().max_element().max(1e-12);
@@ -543,11 +555,6 @@ pub(crate) fn build_hair_strands(
                 .affine(),
         };
         let bone_ok = crate::math::usable_frame(&full);
-        let (bone, scale) = if bone_ok {
-            split_bone(&full)
-        } else {
-            (Affine3A::IDENTITY, Vec3::ONE)
-        };
         let reason = match &computed {
             None => None,
             Some(c) => Some(if status.reloaded {
@@ -559,11 +566,16 @@ pub(crate) fn build_hair_strands(
                 RebuildReason::Assets
             } else if c.offset != offset {
                 RebuildReason::Settings
-            } else if bone_ok && scale_changed(c.scale, scale) {
+            } else if bone_ok && scale_changed(c.scale, bone_scale(&full)) {
                 RebuildReason::Scale
             } else {
                 continue;
             }),
+        };
+        let (bone, scale) = if bone_ok {
+            split_bone(&full)
+        } else {
+            (Affine3A::IDENTITY, Vec3::ONE)
         };
         if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
             continue;
@@ -847,6 +859,27 @@ pub(crate) fn detach_hair(
 
 #[cfg(test)]
 mod tests {
+    use bevy::math::Affine3A;
+    use bevy::prelude::*;
+
+    /// The every-frame scale check reads the same scale the build splits off, to the bit.
+    #[test]
+    fn the_bone_scale_is_the_scale_split_off_the_bone() {
+        let turn = Quat::from_euler(EulerRot::XYZ, 0.3, -1.1, 2.0);
+        for scale in [
+            Vec3::ONE,
+            Vec3::splat(0.01),
+            Vec3::new(1.0, 2.5, 0.3),
+            Vec3::new(-1.0, 1.0, 1.0),
+            Vec3::new(2.0, -0.5, 3.0),
+        ] {
+            let bone = Affine3A::from_scale_rotation_translation(scale, turn, Vec3::X);
+            let split = super::split_bone(&bone).1;
+            assert_eq!(super::bone_scale(&bone).to_array(), split.to_array());
+            assert!((split.abs() - scale.abs()).abs().max_element() < 1e-5);
+        }
+    }
+
     #[test]
     fn load_errors_lose_their_backtrace_not_their_message() {
         let error = "Failed to load asset 'a.hair.xml': a.hair.xml:3:7: strand 0: \"x\": not a \

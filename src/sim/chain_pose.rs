@@ -116,25 +116,40 @@ impl FrameShapes {
         &mut self,
         colliders: impl IntoIterator<Item = (Entity, &'a HairCollider, &'a GlobalTransform)>,
     ) {
-        self.colliders.clear();
-        self.shapes.clear();
+        self.clear();
         for (e, collider, g) in colliders {
             let pose = g.affine();
-            let inside = collider.inside();
-            let first = self.shapes.len();
-            self.shapes
-                .extend(collider.shapes().map(|s| (s.at(&pose), inside)));
-            let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-            for (shape, _) in &self.shapes[first..] {
-                let (a, b) = if inside {
-                    (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
-                } else {
-                    shape.bounds()
-                };
-                (lo, hi) = (lo.min(a), hi.max(b));
-            }
-            self.colliders.push((e, first, self.shapes.len(), lo, hi));
+            self.add(e, collider.inside(), collider.shapes().map(|s| s.at(&pose)));
         }
+    }
+
+    /// No collider.
+    pub(super) fn clear(&mut self) {
+        self.colliders.clear();
+        self.shapes.clear();
+    }
+
+    /// Adds collider `e`'s shapes, `posed` where they are now; returns their bounds (infinite
+    /// for a keep-inside collider; empty, min above max, for a collider without shapes).
+    pub(super) fn add(
+        &mut self,
+        e: Entity,
+        inside: bool,
+        posed: impl IntoIterator<Item = ContactShape>,
+    ) -> (Vec3A, Vec3A) {
+        let first = self.shapes.len();
+        self.shapes.extend(posed.into_iter().map(|s| (s, inside)));
+        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+        for (shape, _) in &self.shapes[first..] {
+            let (a, b) = if inside {
+                (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+            } else {
+                shape.bounds()
+            };
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        self.colliders.push((e, first, self.shapes.len(), lo, hi));
+        (lo, hi)
     }
 }
 
@@ -150,6 +165,11 @@ pub(crate) struct PoseFrame {
 }
 
 impl PoseFrame {
+    /// The colliders' shapes, to be filled with [`FrameShapes::add`].
+    pub(super) fn shapes_mut(&mut self) -> &mut FrameShapes {
+        &mut self.shapes
+    }
+
     /// The `colliders` where they are now.
     pub(super) fn gather_colliders<'a>(
         &mut self,

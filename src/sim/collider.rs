@@ -1,7 +1,7 @@
 //! [`HairCollider`]: the crate's own collision shapes, so hair collides without any physics
 //! engine.
 
-use bevy::math::Vec3A;
+use bevy::math::{Affine3A, Vec3A};
 use bevy::prelude::*;
 
 use crate::asset::{CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere};
@@ -104,5 +104,20 @@ impl HairCollider {
     /// Whether particles are kept inside.
     pub(crate) fn inside(&self) -> bool {
         self.mode == HairColliderMode::Inside
+    }
+
+    /// Its shapes' bounds with the entity at `pose`: infinite when it keeps particles inside,
+    /// empty (min above max) when it has no usable shape.
+    pub(crate) fn bounds_at(&self, pose: &Affine3A) -> (Vec3A, Vec3A) {
+        let inside = self.inside();
+        self.shapes()
+            .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), shape| {
+                let (a, b) = if inside {
+                    (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+                } else {
+                    shape.at(pose).bounds()
+                };
+                (lo.min(a), hi.max(b))
+            })
     }
 }

@@ -374,6 +374,48 @@ fn far_colliders_cost_nothing_and_near_ones_are_tested() {
     assert_eq!(h.computed().stats.colliders, 3);
 }
 
+/// Where a collider's shapes were last frame is kept from then, but taken again from its
+/// shapes when they changed: a sphere that grew while it moved away is tested by the hair it
+/// sweeps past.
+#[test]
+fn a_collider_that_changed_is_looked_for_where_its_new_shapes_were() {
+    let mut h = Harness::new(spiky_groom(20, 6), HairSimSettings::default(), 60.0);
+    let ball = h
+        .app
+        .world_mut()
+        .spawn((
+            HairCollider::spheres(vec![CollisionSphere {
+                center: Vec3::ZERO,
+                radius: 0.05,
+            }]),
+            Transform::from_translation(BONE + Vec3::new(1.2, 0.0, 0.0)),
+        ))
+        .id();
+    h.update();
+    h.update();
+    assert_eq!(h.computed().stats.colliders, 1, "only the head is near");
+    // It grows to reach within 0.15 m of the bone where it was, and moves 0.9 m away (less than
+    // the teleport distance): where it is now it is 1.05 m from the bone, but over the frame
+    // it sweeps from where its new size covered the hair.
+    h.app
+        .world_mut()
+        .get_mut::<HairCollider>(ball)
+        .unwrap()
+        .spheres[0]
+        .radius = 1.05;
+    *h.app.world_mut().get_mut::<Transform>(ball).unwrap() =
+        Transform::from_translation(BONE + Vec3::new(2.1, 0.0, 0.0));
+    h.update();
+    assert_eq!(
+        h.computed().stats.colliders,
+        2,
+        "the grown sphere's sweep was not looked for where it began"
+    );
+    // Still there the next frame: far from the hair.
+    h.update();
+    assert_eq!(h.computed().stats.colliders, 1);
+}
+
 #[test]
 fn broken_collider_shapes_are_skipped_not_spread() {
     let c = HairCollider {

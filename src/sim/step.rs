@@ -26,7 +26,10 @@ use super::{HairSimControl, HairTime};
 /// interpolated per substep; and this frame's shapes and fields, in buffers reused every frame.
 #[derive(Resource, Default)]
 pub(crate) struct ColliderHistory {
-    poses: EntityHashMap<Affine3A>,
+    /// Per collider entity: its pose and its shapes' bounds (as in [`ColliderReach`]) last
+    /// frame, and this frame's being gathered.
+    poses: EntityHashMap<(Affine3A, (Vec3A, Vec3A))>,
+    poses_now: EntityHashMap<(Affine3A, (Vec3A, Vec3A))>,
     fields: EntityHashMap<Affine3A>,
     /// Every `HairCollider` shape this frame (pose last frame, now, shape, keep inside) and the
     /// entity it is on.
@@ -165,7 +168,7 @@ pub(crate) fn step_hair_strands(
         Option<(Ref<super::BoneChainHair>, &mut ChainPose)>,
     )>,
     (own, only_colliders, frames): (
-        Query<(Entity, &HairCollider, &GlobalTransform)>,
+        Query<(Entity, Ref<HairCollider>, &GlobalTransform)>,
         Query<&HairCollidesOnly>,
         Query<&GlobalTransform>,
     ),
@@ -183,45 +186,38 @@ pub(crate) fn step_hair_strands(
 ) {
     // The hair's clock: zero while paused, one step when stepped.
     let dt = time.delta_secs();
-    // Every HairCollider shape: its pose last frame and now (into last frame's buffers).
+    // Every HairCollider shape: its pose last frame and now (into last frame's buffers), and
+    // where its shapes are now for posing (the same posed shapes give the broad phase's box).
     let history = &mut *history;
     history.shapes.clear();
     history.colliders.clear();
+    let shapes_now = posing.shapes_mut();
+    shapes_now.clear();
+    let nowhere = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
     for (e, collider, g) in &own {
         let now = g.affine();
-        let prev = history.poses.get(&e).copied().unwrap_or(now);
         let inside = collider.inside();
+        let usable = usable_frame(&now);
+        let posed = shapes_now.add(e, inside, collider.shapes().map(|s| s.at(&now)));
+        let at_now = if usable { posed } else { nowhere };
+        // Where its shapes were last frame: kept from then, unless the collider changed since.
+        let (prev, at_prev) = match history.poses.get(&e) {
+            Some(&(prev, at_prev)) if !collider.is_changed() => (prev, at_prev),
+            Some(&(prev, _)) if usable_frame(&prev) => (prev, collider.bounds_at(&prev)),
+            Some(&(prev, _)) => (prev, nowhere),
+            None => (now, at_now),
+        };
         let first = history.shapes.len();
         history.shapes.extend(
             collider
                 .shapes()
                 .map(|shape| ((prev, now, shape, inside), e)),
         );
-        let (usable, prev_usable) = (usable_frame(&now), usable_frame(&prev));
-        let everywhere = (Vec3A::NEG_INFINITY, Vec3A::INFINITY);
-        let nowhere = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        let (mut at_prev, mut at_now) = (nowhere, nowhere);
-        for ((_, _, shape, _), _) in &history.shapes[first..] {
-            let grow = |pose: &Affine3A, into: &mut (Vec3A, Vec3A)| {
-                let (lo, hi) = if inside {
-                    everywhere
-                } else {
-                    shape.at(pose).bounds()
-                };
-                *into = (into.0.min(lo), into.1.max(hi));
-            };
-            if usable {
-                grow(&now, &mut at_now);
-            }
-            if prev_usable {
-                grow(&prev, &mut at_prev);
-            }
-        }
         history.colliders.push(ColliderReach {
             first,
             end: history.shapes.len(),
             usable,
-            travel: if prev_usable {
+            travel: if usable_frame(&prev) {
                 prev.translation.distance(now.translation)
             } else {
                 f32::INFINITY
@@ -229,11 +225,10 @@ pub(crate) fn step_hair_strands(
             prev: at_prev,
             now: at_now,
         });
+        history.poses_now.insert(e, (now, at_now));
     }
-    history.poses.clear();
-    history
-        .poses
-        .extend(own.iter().map(|(e, _, g)| (e, g.affine())));
+    std::mem::swap(&mut history.poses, &mut history.poses_now);
+    history.poses_now.clear();
     // Every force field that blows: its pose last frame and now.
     history.field_views.clear();
     for (e, field, g) in &fields {
@@ -265,7 +260,6 @@ pub(crate) fn step_hair_strands(
     // Posing needs the colliders where they are now and the hairs whose joints changed.
     let posing = &mut *posing;
     if hairs.iter().any(|h| h.9.is_some()) {
-        posing.gather_colliders(own.iter());
         posing.gather_stale(changed.iter());
     }
     let posing = &*posing;
@@ -569,32 +563,43 @@ pub(crate) fn write_strand_particles(
     strands
         .par_iter_mut()
         .batching_strategy(BatchingStrategy::new().batches_per_thread(4))
-        .for_each(|(of, strand, mut particles)| {
-            let Ok(computed) = hairs.get(of.0) else {
-                return;
-            };
-            let s = strand.index as usize;
-            let Some(&(b, l)) = computed.lane_of.get(s) else {
-                return;
-            };
-            let batch = &computed.batches[b as usize];
-            let l = l as usize;
-            let particles = &mut *particles;
-            let count = batch.nodes.len() / 2;
-            particles.positions.resize(count, Vec3::ZERO);
-            for (i, p) in particles.positions.iter_mut().enumerate() {
-                *p = batch.particle(l, i);
-            }
-            if structural {
-                // Structural nodes: the ghost before the root, then one per segment.
-                particles.structural.resize(count, Vec3::ZERO);
-                for (i, p) in particles.structural.iter_mut().enumerate() {
-                    *p = batch.node(l, if i == 0 { 0 } else { 2 * i });
+        .for_each_init(
+            || None,
+            |last, (of, strand, mut particles)| {
+                // A hair's strands mostly come one after another: its state is looked up once.
+                let computed: &ComputedHair = match *last {
+                    Some((hair, computed)) if hair == of.0 => computed,
+                    _ => {
+                        let Ok(computed) = hairs.get(of.0) else {
+                            return;
+                        };
+                        *last = Some((of.0, computed));
+                        computed
+                    }
+                };
+                let s = strand.index as usize;
+                let Some(&(b, l)) = computed.lane_of.get(s) else {
+                    return;
+                };
+                let batch = &computed.batches[b as usize];
+                let l = l as usize;
+                let particles = &mut *particles;
+                let count = batch.nodes.len() / 2;
+                particles.positions.resize(count, Vec3::ZERO);
+                for (i, p) in particles.positions.iter_mut().enumerate() {
+                    *p = batch.particle(l, i);
                 }
-            } else {
-                particles.structural.clear();
-            }
-        });
+                if structural {
+                    // Structural nodes: the ghost before the root, then one per segment.
+                    particles.structural.resize(count, Vec3::ZERO);
+                    for (i, p) in particles.structural.iter_mut().enumerate() {
+                        *p = batch.node(l, if i == 0 { 0 } else { 2 * i });
+                    }
+                } else {
+                    particles.structural.clear();
+                }
+            },
+        );
 }
 
 /// Debug builds: particle state must be finite after the simulation wrote it.
