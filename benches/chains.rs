@@ -473,8 +473,8 @@ fn median(mut values: Vec<f64>) -> f64 {
 /// frames of each, one after the other: both meet the machine in the same state, so their
 /// ratio holds where the machine's speed drifts between runs (criterion's figures for the two
 /// are taken seconds apart). Each round begins with caches the other filled and threads asleep,
-/// as a game's frame does after its other work. Per frame: our median, the reference's median,
-/// and the median of the rounds' ratios.
+/// as a game's frame may after its other work (not measured in a game). Per frame: our median,
+/// the reference's median, and the median of the rounds' ratios.
 fn interleaved(characters: usize, settings: &HairSimSettings) -> (f64, f64, f64) {
     const ROUNDS: usize = 8;
     const FRAMES: u32 = 200;

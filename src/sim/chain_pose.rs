@@ -25,7 +25,7 @@ use bevy::utils::Parallel;
 use super::attach::ComputedHair;
 use super::chain_lanes::{LaneJoints, ParticleBox};
 use super::chains::BoneChainHair;
-use super::collider::{HairCollider, HairCollidesOnly};
+use super::collider::{HairCollider, HairCollidesOnly, bounds_of};
 use super::contact::ContactShape;
 use super::limits::{limit_frame, limit_offset};
 use super::settings::HairSimSettings;
@@ -139,15 +139,7 @@ impl FrameShapes {
     ) -> (Vec3A, Vec3A) {
         let first = self.shapes.len();
         self.shapes.extend(posed.into_iter().map(|s| (s, inside)));
-        let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
-        for (shape, _) in &self.shapes[first..] {
-            let (a, b) = if inside {
-                (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
-            } else {
-                shape.bounds()
-            };
-            (lo, hi) = (lo.min(a), hi.max(b));
-        }
+        let (lo, hi) = bounds_of(inside, self.shapes[first..].iter().map(|&(s, _)| s));
         self.colliders.push((e, first, self.shapes.len(), lo, hi));
         (lo, hi)
     }

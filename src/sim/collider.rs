@@ -6,7 +6,7 @@ use bevy::prelude::*;
 
 use crate::asset::{CollisionBox, CollisionCapsule, CollisionPlane, CollisionSphere};
 
-use super::contact::LocalShape;
+use super::contact::{ContactShape, LocalShape};
 
 /// Shapes every hair collides with, in this entity's space (they move, turn and scale with it,
 /// and moving ones are followed per substep, so a fast arm cannot pass through hair between two
@@ -109,15 +109,24 @@ impl HairCollider {
     /// Its shapes' bounds with the entity at `pose`: infinite when it keeps particles inside,
     /// empty (min above max) when it has no usable shape.
     pub(crate) fn bounds_at(&self, pose: &Affine3A) -> (Vec3A, Vec3A) {
-        let inside = self.inside();
-        self.shapes()
-            .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), shape| {
-                let (a, b) = if inside {
-                    (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
-                } else {
-                    shape.at(pose).bounds()
-                };
-                (lo.min(a), hi.max(b))
-            })
+        bounds_of(self.inside(), self.shapes().map(|s| s.at(pose)))
     }
+}
+
+/// The bounds of a collider's `posed` shapes: infinite when it keeps particles `inside`, empty
+/// (min above max) when it has none.
+pub(crate) fn bounds_of(
+    inside: bool,
+    posed: impl IntoIterator<Item = ContactShape>,
+) -> (Vec3A, Vec3A) {
+    posed
+        .into_iter()
+        .fold((Vec3A::INFINITY, Vec3A::NEG_INFINITY), |(lo, hi), shape| {
+            let (a, b) = if inside {
+                (Vec3A::NEG_INFINITY, Vec3A::INFINITY)
+            } else {
+                shape.bounds()
+            };
+            (lo.min(a), hi.max(b))
+        })
 }

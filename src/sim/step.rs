@@ -207,6 +207,7 @@ pub(crate) fn step_hair_strands(
             Some(&(prev, _)) => (prev, nowhere),
             None => (now, at_now),
         };
+        let prev_usable = usable_frame(&prev);
         let first = history.shapes.len();
         history.shapes.extend(
             collider
@@ -217,7 +218,7 @@ pub(crate) fn step_hair_strands(
             first,
             end: history.shapes.len(),
             usable,
-            travel: if usable_frame(&prev) {
+            travel: if prev_usable {
                 prev.translation.distance(now.translation)
             } else {
                 f32::INFINITY
