@@ -133,6 +133,10 @@ pub struct ComputedHair {
     /// (no substep this frame, another kind of hair, a volume pass after the step).
     #[reflect(ignore)]
     pub(crate) particle_box: Option<super::chain_lanes::ParticleBox>,
+    /// This frame's step wrote the hair's strands' particles itself, from the thread that
+    /// stepped it; otherwise the pass after the step writes them.
+    #[reflect(ignore)]
+    pub(crate) strands_written: bool,
     /// What happened last frame, for the debug panel and tests.
     pub stats: HairStepStats,
 }
@@ -528,6 +532,59 @@ pub(super) fn report_failure(
     });
 }
 
+/// What [`build_hair_strands`] has to do for a hair whose bone is `full`: `None` nothing (built
+/// and up to date), `Some(None)` its first build, `Some(Some(reason))` a rebuild.
+pub(crate) fn build_wanted(
+    (hair, settings): (&Hair, &HairSimSettings),
+    computed: Option<&ComputedHair>,
+    status: &HairStatus,
+    full: &Affine3A,
+) -> Option<Option<RebuildReason>> {
+    let Some(c) = computed else {
+        return Some(None);
+    };
+    let reason = if status.reloaded {
+        RebuildReason::Reloaded
+    } else if c.groom != hair.groom.id()
+        || c.animation != hair.animation.as_ref().map(Handle::id)
+        || c.collision != hair.collision.as_ref().map(Handle::id)
+    {
+        RebuildReason::Assets
+    } else if c.offset != settings.structure_offset() {
+        RebuildReason::Settings
+    } else if crate::math::usable_frame(full) && scale_changed(c.scale, bone_scale(full)) {
+        RebuildReason::Scale
+    } else {
+        return None;
+    };
+    Some(Some(reason))
+}
+
+/// Run condition of [`build_hair_strands`]: some hair has a build, a rebuild or a report to
+/// make (the same test the system makes), so that a frame in which every hair is built and up
+/// to date does not run it.
+#[expect(
+    clippy::type_complexity,
+    reason = "a run condition: its parameter is its query"
+)]
+pub(crate) fn hairs_to_build(
+    hairs: Query<(
+        &Hair,
+        &HairSimSettings,
+        &GlobalTransform,
+        Option<&ComputedHair>,
+        &HairStatus,
+        Option<&BoneSearch>,
+    )>,
+) -> bool {
+    hairs
+        .iter()
+        .any(|(hair, settings, global, computed, status, search)| {
+            !matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound))
+                && build_wanted((hair, settings), computed, status, &global.affine()).is_some()
+        })
+}
+
 /// Spawns strand entities and solver state once a hair's assets are ready, and rebuilds them
 /// when a handle, a file (hot reload), the bone's scale or the structure offset changes. Failed
 /// assets and bone mismatches are reported once each.
@@ -544,6 +601,9 @@ pub(crate) fn build_hair_strands(
         let anim_id = hair.animation.as_ref().map(bevy::prelude::Handle::id);
         let collision_id = hair.collision.as_ref().map(bevy::prelude::Handle::id);
         let offset = settings.structure_offset();
+        if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
+            continue;
+        }
         // The hair may have been parented to its bone this frame, after transform propagation:
         // compute its pose from the hierarchy so it appears on the bone, not at the origin.
         let full = match &computed {
@@ -555,31 +615,15 @@ pub(crate) fn build_hair_strands(
                 .affine(),
         };
         let bone_ok = crate::math::usable_frame(&full);
-        let reason = match &computed {
-            None => None,
-            Some(c) => Some(if status.reloaded {
-                RebuildReason::Reloaded
-            } else if c.groom != hair.groom.id()
-                || c.animation != anim_id
-                || c.collision != collision_id
-            {
-                RebuildReason::Assets
-            } else if c.offset != offset {
-                RebuildReason::Settings
-            } else if bone_ok && scale_changed(c.scale, bone_scale(&full)) {
-                RebuildReason::Scale
-            } else {
-                continue;
-            }),
+        let Some(reason) = build_wanted((hair, settings), computed.as_deref(), &status, &full)
+        else {
+            continue;
         };
         let (bone, scale) = if bone_ok {
             split_bone(&full)
         } else {
             (Affine3A::IDENTITY, Vec3::ONE)
         };
-        if matches!(search, Some(BoneSearch::Waiting | BoneSearch::NotFound)) {
-            continue;
-        }
         // From here on this hair may queue commands.
         work.strands = ticks.this_run();
         // Only now: a hair that is up to date is not marked changed every frame.

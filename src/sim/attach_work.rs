@@ -6,7 +6,7 @@ use bevy::ecs::change_detection::Tick;
 use bevy::ecs::system::SystemChangeTick;
 use bevy::prelude::*;
 
-use super::attach::{Hair, StrandOf};
+use super::attach::StrandOf;
 use super::bone::AttachToBone;
 use super::chains::{BoneChainHair, BoneChainHairs, HairBoneChains};
 use super::vrm::VrmSpringChains;
@@ -55,12 +55,7 @@ pub(crate) fn bone_chains_pending(
     !sets.is_empty()
 }
 
-/// Run condition of `build_hair_strands`: there is hair.
-pub(crate) fn any_hair(hairs: Query<(), With<Hair>>) -> bool {
-    !hairs.is_empty()
-}
-
-/// Run condition of chain posing: there is hair on bone chains.
+/// Run condition of writing the joints out: there is hair on bone chains.
 pub(crate) fn any_chain_hair(hairs: Query<(), With<BoneChainHair>>) -> bool {
     !hairs.is_empty()
 }

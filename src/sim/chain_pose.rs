@@ -6,21 +6,21 @@
 //! Two passes, each on every core: the poses are worked out hair by hair (each hair reads its
 //! own solver state and its joints' bind transforms; the chains of each solver batch are posed
 //! side by side in the solver's lanes, see `chain_lanes`, and a chain that needs more is posed
-//! alone here, one joint at a time), then written joint by joint. Most hairs are posed by the
-//! step, on the thread that stepped them, right after their substeps ([`pose_chain_hair`]);
-//! [`pose_bone_chains`] poses the rest (a hair whose batches the step shared out over the
-//! threads, or whose volume pass ran after the step) and writes every hair's joints.
+//! alone here, one joint at a time), then written joint by joint (`write_out`). Most hairs are
+//! posed by the step, on the thread that stepped them, right after their substeps
+//! ([`pose_chain_hair`]); [`pose_bone_chains`] poses the rest (a hair whose batches the step
+//! shared out over the threads, or whose volume pass ran after the step, or one not built yet),
+//! and runs only in frames that have such a hair.
 //!
 //! Bevy's transform propagation does not visit most of the joints a hair poses (those its
 //! hair's build took over: see `chains::owned_from`), since every frame it would compute world
-//! transforms that posing replaces. So posing writes every joint each frame (a chain it cannot
-//! pose follows its bind pose) and propagates whatever hangs below a joint that is not a joint.
+//! transforms that posing replaces. So every joint is written each frame (a chain posing cannot
+//! turn follows its bind pose), and whatever hangs below a joint that is not a joint is
+//! propagated from it.
 
 use bevy::ecs::batching::BatchingStrategy;
 use bevy::math::{Affine3A, Mat3A, Vec3A};
 use bevy::prelude::*;
-use bevy::transform::components::TransformTreeChanged;
-use bevy::utils::Parallel;
 
 use super::attach::ComputedHair;
 use super::chain_lanes::{LaneJoints, ParticleBox};
@@ -37,8 +37,15 @@ pub(crate) struct ChainPose {
     buffers: PoseBuffers,
     /// The collider shapes near the hair this frame.
     near: Vec<NearShape>,
-    /// Posed this frame by the step, right after its substeps.
+    /// Posed this frame by the step, right after its substeps (set by the step every frame).
     pub(super) posed_early: bool,
+}
+
+impl ChainPose {
+    /// This frame's pose of each joint.
+    pub(super) fn posed(&self) -> &[Pose] {
+        &self.buffers.posed
+    }
 }
 
 /// A joint's pose: its entity, its local rotation, its world transform.
@@ -67,12 +74,6 @@ pub(super) enum PosePath {
     #[cfg(test)]
     Alone,
 }
-
-/// Entities below posed joints that are not joints themselves, with their parent's world
-/// transform this frame: found on every core, then propagated from one list (kept between
-/// frames).
-#[derive(Default)]
-pub(crate) struct Below(Parallel<Vec<(Affine3A, Entity)>>, Vec<(Affine3A, Entity)>);
 
 /// On a joint a bone-chain hair poses: the hair, and the joint's slot in its poses.
 #[derive(Component, Clone, Copy, Debug)]
@@ -218,9 +219,8 @@ const HAIRS_PER_TASK: usize = 4;
 /// Turns each chain's joints of the hairs the step did not pose ([`pose_chain_hair`]), root to
 /// tip, so each points at its next particle (its child, at the bone's length, kept off the
 /// hair's colliders and inside the joint's angle limit, if it has one:
-/// [`ChainJointLimits`](super::ChainJointLimits); the particle follows), and writes every hair's
-/// joints' local and global transforms (the skinned mesh is drawn from these this frame), then
-/// the global transforms of what hangs below them.
+/// [`ChainJointLimits`](super::ChainJointLimits); the particle follows). The joints are written
+/// after, with every other hair's (`write_out`).
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -233,141 +233,47 @@ pub(crate) fn pose_bone_chains(
         &mut ChainPose,
         (&HairSimSettings, Option<&HairCollidesOnly>),
     )>,
-    mut nodes: ParamSet<(
+    (colliders, bind, changed): (
         Query<(Entity, &HairCollider, &GlobalTransform), Without<BoneChainHair>>,
-        Query<
-            (
-                &mut Transform,
-                &mut GlobalTransform,
-                Option<&Children>,
-                Has<TransformTreeChanged>,
-            ),
-            Without<BoneChainHair>,
-        >,
-        Query<
-            (
-                Entity,
-                &mut ChainJoint,
-                &mut Transform,
-                &mut GlobalTransform,
-                Option<Ref<Children>>,
-            ),
-            Without<BoneChainHair>,
-        >,
         Query<&Transform, Without<BoneChainHair>>,
         Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
-    )>,
-    (mut frame, mut below): (Local<PoseFrame>, Local<Below>),
+    ),
+    mut frame: Local<PoseFrame>,
 ) {
-    if hairs.is_empty() {
-        return;
-    }
     // Made with defaults when no app made it (tests, benches).
     crate::parallel::compute_pool();
     // The colliders where they are now and the hairs whose joints changed, once for every hair
     // left to pose (the step poses most).
-    if hairs.iter().all(|(_, _, _, pose, _)| pose.posed_early) {
-        for (_, _, _, mut pose, _) in &mut hairs {
-            pose.posed_early = false;
-        }
-    } else {
-        frame.gather_colliders(nodes.p0().iter());
-        frame.gather_stale(nodes.p4().iter());
-        // The other hairs' poses, on every core.
-        let (frame, bind) = (&*frame, &nodes.p3());
-        hairs
-            .par_iter_mut()
-            .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
-            .for_each(
-                |((hair, driven), hair_world, computed, mut pose, settings)| {
-                    if std::mem::take(&mut pose.posed_early) {
-                        return;
-                    }
-                    pose_chain_hair(
-                        (hair, &driven, driven.is_changed()),
-                        hair_world,
-                        computed.map(Mut::into_inner),
-                        &mut pose,
-                        settings,
-                        frame,
-                        &|e| bind.get(e).ok().copied(),
-                    );
-                },
-            );
-    }
-    // Written joint by joint on every core. The world transform is written here, so the local
-    // rotation is stored without flagging the joint changed: Bevy's propagation would otherwise
-    // walk every joint's ancestors next frame to recompute what is already there.
-    let hairs = &hairs;
-    nodes
-        .p2()
+    frame.gather_colliders(colliders.iter());
+    frame.gather_stale(changed.iter());
+    let frame = &*frame;
+    hairs
         .par_iter_mut()
-        .batching_strategy(BatchingStrategy::new().batches_per_thread(4))
-        .for_each_init(
-            || (below.0.borrow_local_mut(), None),
-            |(below, last), (joint, mut of, mut local, mut global, children)| {
-                // A hair's joints mostly come one after another: its poses are looked up once.
-                let poses: &[Pose] = match *last {
-                    Some((hair, poses)) if hair == of.hair => poses,
-                    _ => {
-                        let Ok((_, _, _, pose, _)) = hairs.get(of.hair) else {
-                            return;
-                        };
-                        *last = Some((of.hair, &pose.buffers.posed[..]));
-                        &pose.buffers.posed
-                    }
-                };
-                let slot = of.slot as usize;
-                let Some(&(posed, rotation, world)) = poses.get(slot) else {
-                    return;
-                };
-                if posed != joint {
+        .batching_strategy(BatchingStrategy::fixed(HAIRS_PER_TASK))
+        .for_each(
+            |((hair, driven), hair_world, computed, mut pose, settings)| {
+                if pose.posed_early && computed.is_some() {
                     return;
                 }
-                local.bypass_change_detection().rotation = rotation;
-                *global = GlobalTransform::from(world);
-                // A chain's next joint is posed with it; anything else below is propagated.
-                let next = poses.get(slot + 1).map(|p| p.0);
-                let Some(children) = children else {
-                    return;
-                };
-                let others = match of.others {
-                    Some((seen, others)) if seen == next && !children.is_changed() => others,
-                    _ => {
-                        let others = children.iter().any(|c| Some(c) != next);
-                        of.bypass_change_detection().others = Some((next, others));
-                        others
-                    }
-                };
-                if others {
-                    for c in children.iter() {
-                        if Some(c) != next {
-                            below.push((world, c));
-                        }
-                    }
-                }
+                pose_chain_hair(
+                    (hair, &driven, driven.is_changed()),
+                    hair_world,
+                    computed.map(Mut::into_inner),
+                    &mut pose,
+                    settings,
+                    frame,
+                    &|e| bind.get(e).ok().copied(),
+                );
             },
         );
-    let mut nodes = nodes.p1();
-    let Below(found, below) = &mut *below;
-    below.clear();
-    below.extend(found.drain());
-    // What hangs below the joints (an end bone, an accessory), depth first. A posed joint of
-    // another chain (one Bevy's propagation skips) is its own hair's; a hair entity is left to
-    // Bevy's propagation next frame.
-    while let Some((parent, entity)) = below.pop() {
-        let Ok((local, mut global, children, propagated)) = nodes.get_mut(entity) else {
-            continue;
-        };
-        if !propagated {
-            continue;
-        }
-        let world = parent * local.compute_affine();
-        *global = GlobalTransform::from(world);
-        for &c in children.map_or(&[][..], |c| &c[..]) {
-            below.push((world, c));
-        }
-    }
+}
+
+/// Run condition of [`pose_bone_chains`]: some bone-chain hair was not posed by the step (one
+/// not built yet, a hair alone, or one whose batches the step shared out over the threads).
+pub(crate) fn hairs_left_to_pose(hairs: Query<(&ChainPose, Has<ComputedHair>)>) -> bool {
+    hairs
+        .iter()
+        .any(|(pose, built)| !pose.posed_early || !built)
 }
 
 /// The shapes of `frame` the hair of `computed` can meet: those near its particles' box grown

@@ -14,7 +14,7 @@
 //!
 //! Systems, in `PostUpdate`:
 //! 1. [`HairSystems::Attach`]: attach named bones, build strands.
-//! 2. [`HairSystems::Simulate`]: step, then write particles back.
+//! 2. [`HairSystems::Simulate`]: step (posing bone chains), then write joints and particles out.
 //!
 //! # Robustness
 //! Frames longer than [`HairSimSettings::max_frame_time`] are clamped; a bone that jumps farther
@@ -51,6 +51,7 @@ mod tests;
 mod volume;
 mod vrm;
 mod wind;
+mod write_out;
 
 pub use attach::{
     ComputedHair, Hair, HairStatus, HairStepStats, HairStrands, HeadColliderOf, Strand, StrandOf,
@@ -166,7 +167,7 @@ impl Plugin for HairSimulationPlugin {
                     // Strands are built on the bone found this frame. Each sync point runs only
                     // in frames whose systems before it queued work (see `AttachWork`).
                     ApplyDeferred.run_if(attach_work::AttachWork::bones),
-                    attach::build_hair_strands.run_if(attach_work::any_hair),
+                    attach::build_hair_strands.run_if(attach::hairs_to_build),
                     ApplyDeferred.run_if(attach_work::AttachWork::strands),
                 )
                     .chain()
@@ -178,8 +179,9 @@ impl Plugin for HairSimulationPlugin {
                     step::step_hair_strands.after(physics::GatherColliders),
                     // Posing moves the particles it keeps off colliders and inside angle
                     // limits: before they are written out.
-                    chain_pose::pose_bone_chains.run_if(attach_work::any_chain_hair),
-                    step::write_strand_particles.run_if(attach_work::any_strand),
+                    chain_pose::pose_bone_chains.run_if(chain_pose::hairs_left_to_pose),
+                    write_out::write_hair_state
+                        .run_if(attach_work::any_strand.or_else(attach_work::any_chain_hair)),
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

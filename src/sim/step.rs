@@ -10,7 +10,7 @@ use bevy::prelude::*;
 use crate::math::usable_frame;
 use crate::parallel;
 
-use super::attach::{ComputedHair, Hair, Strand, StrandOf, StrandParticles};
+use super::attach::{ComputedHair, Hair, HairStrands, Strand, StrandOf, StrandParticles};
 use super::chain_lanes::ParticleBox;
 use super::chain_pose::{ChainJoint, ChainPose, PoseFrame, pose_chain_hair};
 use super::collider::{HairCollider, HairCollidesOnly};
@@ -20,6 +20,7 @@ use super::settings::HairSimSettings;
 use super::solver::Batch;
 use super::step_input::{FrameShared, Prepared, prepare_hair};
 use super::wind::{HairForceField, HairWind, HairWindOverride};
+use super::write_out::EarlyStrands;
 use super::{HairSimControl, HairTime};
 
 /// [`HairCollider`]s' and [`HairForceField`]s' poses last frame, so moving ones are
@@ -166,6 +167,7 @@ pub(crate) fn step_hair_strands(
         Option<&super::HairInertiaFrame>,
         Has<super::BoneChainHair>,
         Option<(Ref<super::BoneChainHair>, &mut ChainPose)>,
+        Option<&HairStrands>,
     )>,
     (own, only_colliders, frames): (
         Query<(Entity, Ref<HairCollider>, &GlobalTransform)>,
@@ -182,6 +184,11 @@ pub(crate) fn step_hair_strands(
         Query<&Transform, Without<super::BoneChainHair>>,
         Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
         Local<PoseFrame>,
+    ),
+    (control, strand_info, strand_particles): (
+        Res<HairSimControl>,
+        Query<(&'static StrandOf, &'static Strand)>,
+        Query<&'static mut StrandParticles>,
     ),
 ) {
     // The hair's clock: zero while paused, one step when stepped.
@@ -264,6 +271,11 @@ pub(crate) fn step_hair_strands(
         posing.gather_stale(changed.iter());
     }
     let posing = &*posing;
+    let early = EarlyStrands {
+        info: &strand_info,
+        particles: &strand_particles,
+        structural: control.write_structural,
+    };
     // Each hair made ready and stepped whole on one thread, several hairs at once; a chain hair
     // then posed while its batches are in that thread's cache.
     hairs
@@ -281,6 +293,7 @@ pub(crate) fn step_hair_strands(
                 inertia,
                 chains,
                 chain,
+                strands,
             )| {
                 let computed = &mut *computed;
                 let done = match prepare_hair(
@@ -299,18 +312,25 @@ pub(crate) fn step_hair_strands(
                         later,
                     ),
                 };
-                if done && let Some((driven, mut pose)) = chain {
-                    pose_chain_hair(
-                        (entity, &driven, driven.is_changed()),
-                        global,
-                        Some(computed),
-                        &mut pose,
-                        (settings, only_colliders.get(entity).ok()),
-                        posing,
-                        &|e| bind.get(e).ok().copied(),
-                    );
-                    pose.posed_early = true;
+                if let Some((driven, mut pose)) = chain {
+                    // A hair left for later is posed by posing's own system.
+                    pose.posed_early = done;
+                    if done {
+                        pose_chain_hair(
+                            (entity, &driven, driven.is_changed()),
+                            global,
+                            Some(&mut *computed),
+                            &mut pose,
+                            (settings, only_colliders.get(entity).ok()),
+                            posing,
+                            &|e| bind.get(e).ok().copied(),
+                        );
+                    }
                 }
+                // Its particles written out while its batches are in this thread's cache (after
+                // posing, which moves them); a hair left for later is written after the step.
+                computed.strands_written =
+                    done && strands.is_some_and(|list| early.write(entity, computed, list));
             },
         );
     let mut later = std::mem::take(
@@ -554,55 +574,6 @@ fn finish_hair(
     computed.stats.volume_spread = computed.volume.spread;
 }
 
-/// Copies solver state into each strand entity's [`StrandParticles`], in parallel over strands.
-pub(crate) fn write_strand_particles(
-    control: Res<HairSimControl>,
-    hairs: Query<&ComputedHair>,
-    mut strands: Query<(&StrandOf, &Strand, &mut StrandParticles)>,
-) {
-    let structural = control.write_structural;
-    strands
-        .par_iter_mut()
-        .batching_strategy(BatchingStrategy::new().batches_per_thread(4))
-        .for_each_init(
-            || None,
-            |last, (of, strand, mut particles)| {
-                // A hair's strands mostly come one after another: its state is looked up once.
-                let computed: &ComputedHair = match *last {
-                    Some((hair, computed)) if hair == of.0 => computed,
-                    _ => {
-                        let Ok(computed) = hairs.get(of.0) else {
-                            return;
-                        };
-                        *last = Some((of.0, computed));
-                        computed
-                    }
-                };
-                let s = strand.index as usize;
-                let Some(&(b, l)) = computed.lane_of.get(s) else {
-                    return;
-                };
-                let batch = &computed.batches[b as usize];
-                let l = l as usize;
-                let particles = &mut *particles;
-                let count = batch.nodes.len() / 2;
-                particles.positions.resize(count, Vec3::ZERO);
-                for (i, p) in particles.positions.iter_mut().enumerate() {
-                    *p = batch.particle(l, i);
-                }
-                if structural {
-                    // Structural nodes: the ghost before the root, then one per segment.
-                    particles.structural.resize(count, Vec3::ZERO);
-                    for (i, p) in particles.structural.iter_mut().enumerate() {
-                        *p = batch.node(l, if i == 0 { 0 } else { 2 * i });
-                    }
-                } else {
-                    particles.structural.clear();
-                }
-            },
-        );
-}
-
 /// Debug builds: particle state must be finite after the simulation wrote it.
 #[cfg(debug_assertions)]
 pub(crate) fn assert_particles_finite(strands: Query<(Entity, &Strand, &StrandParticles)>) {
@@ -610,7 +581,7 @@ pub(crate) fn assert_particles_finite(strands: Query<(Entity, &Strand, &StrandPa
         if let Some(i) = particles.positions.iter().position(|p| !p.is_finite()) {
             panic!(
                 "strand {} ({entity}) particle {i} is {:?}: last written by \
-                 write_strand_particles in HairSystems::Simulate",
+                 write_hair_state in HairSystems::Simulate",
                 strand.index, particles.positions[i]
             );
         }

@@ -839,7 +839,7 @@ fn ran_in_a_frame(h: &mut Harness, systems: &[std::any::TypeId]) -> Vec<bool> {
 
 #[test]
 fn systems_with_nothing_to_look_at_do_not_run() {
-    use super::super::{attach, bone, chain_pose, chains, reload, step, vrm};
+    use super::super::{attach, bone, chain_pose, chains, reload, step, vrm, write_out};
     let mut h = Harness::new(spiky_groom(10, 5), HairSimSettings::default(), 60.0);
     let idle = [
         system_type(bone::attach_to_bones),
@@ -848,18 +848,32 @@ fn systems_with_nothing_to_look_at_do_not_run() {
         system_type(chains::build_bone_chains),
         system_type(reload::mark_reloaded_hairs),
         system_type(reload::report_failed_reloads),
+        system_type(attach::build_hair_strands),
         system_type(chain_pose::pose_bone_chains),
     ];
     let busy = [
-        system_type(attach::build_hair_strands),
         system_type(step::step_hair_strands),
-        system_type(step::write_strand_particles),
+        system_type(write_out::write_hair_state),
     ];
     h.update();
-    // A built hair hung on its bone as a child, no chains, no VRM, no reloads: only the build
-    // check, the step and the write run.
+    // A built hair hung on its bone as a child, no chains, no VRM, no reloads, its bone not
+    // scaled since: only the step and the write run.
     assert_eq!(ran_in_a_frame(&mut h, &idle), vec![false; idle.len()]);
     assert_eq!(ran_in_a_frame(&mut h, &busy), vec![true; busy.len()]);
+    // Its bone scaled: the build runs that frame (and rebuilds the hair), then rests again.
+    let build = [system_type(attach::build_hair_strands)];
+    let builds = h.app.world().get::<HairStatus>(h.hair).unwrap().builds;
+    h.app
+        .world_mut()
+        .get_mut::<Transform>(h.bone)
+        .unwrap()
+        .scale = Vec3::splat(1.5);
+    assert_eq!(ran_in_a_frame(&mut h, &build), vec![true]);
+    assert_eq!(
+        h.app.world().get::<HairStatus>(h.hair).unwrap().builds,
+        builds + 1
+    );
+    assert_eq!(ran_in_a_frame(&mut h, &build), vec![false]);
     // A hair hung by bone search, and bone chains: their systems run while they have work.
     let bone = h.bone;
     let groom = h.app.world().get::<Hair>(h.hair).unwrap().groom.clone();
@@ -893,12 +907,39 @@ fn systems_with_nothing_to_look_at_do_not_run() {
         system_type(chains::build_bone_chains),
     ];
     assert_eq!(ran_in_a_frame(&mut h, &first), vec![true; first.len()]);
-    // The chains built: posing runs from now on; the chain build rests again.
+    // The chains built: the step poses them beside the other hairs, so posing's own system
+    // rests, as does the chain build; the joints are written each frame.
     let next = [
         system_type(chain_pose::pose_bone_chains),
         system_type(chains::build_bone_chains),
+        system_type(write_out::write_hair_state),
     ];
-    assert_eq!(ran_in_a_frame(&mut h, &next), vec![true, false]);
+    assert_eq!(ran_in_a_frame(&mut h, &next), vec![false, false, true]);
+    let lock = h
+        .app
+        .world()
+        .get::<GlobalTransform>(joint)
+        .unwrap()
+        .affine();
+    assert!(
+        lock.translation.distance(Vec3A::ZERO) > 0.01,
+        "the joint was written where its bone is, not left at the origin: {lock:?}"
+    );
+    // The chain hair alone (a hair alone shares its batches out over the threads, so the step
+    // leaves it): posing's own system poses it, every frame.
+    let others: Vec<Entity> = h
+        .app
+        .world_mut()
+        .query_filtered::<Entity, (With<Hair>, Without<BoneChainHair>)>()
+        .iter(h.app.world())
+        .collect();
+    for e in others {
+        h.app.world_mut().entity_mut(e).despawn();
+    }
+    h.update();
+    let posing = [system_type(chain_pose::pose_bone_chains)];
+    assert_eq!(ran_in_a_frame(&mut h, &posing), vec![true]);
+    assert_eq!(ran_in_a_frame(&mut h, &posing), vec![true]);
 }
 
 /// A character whose scene does not load (here a path with no file) leaves no hair waiting

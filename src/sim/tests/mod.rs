@@ -785,3 +785,4 @@ mod motion;
 mod segments;
 mod volume;
 mod vrm;
+mod write_out;
