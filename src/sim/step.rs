@@ -153,9 +153,11 @@ impl Between {
     reason = "a Bevy system: its parameters are its queries"
 )]
 pub(crate) fn step_hair_strands(
-    time: Res<Time<HairTime>>,
-    mut history: ResMut<ColliderHistory>,
-    world: Res<WorldColliders>,
+    (time, mut history, world): (
+        Res<Time<HairTime>>,
+        ResMut<ColliderHistory>,
+        Res<WorldColliders>,
+    ),
     mut hairs: Query<(
         Entity,
         &Hair,
@@ -185,6 +187,7 @@ pub(crate) fn step_hair_strands(
         Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
         Local<PoseFrame>,
     ),
+    // The strands' particles, written by the thread that stepped their hair.
     (control, strand_info, strand_particles): (
         Res<HairSimControl>,
         Query<(&'static StrandOf, &'static Strand)>,
