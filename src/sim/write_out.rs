@@ -1,6 +1,7 @@
 //! Writing the frame's simulation out, in one system after the step and posing: every posed
 //! joint's local and global transforms (the skinned mesh is drawn from these this frame) and
-//! the global transforms of what hangs below them, then every strand's particles.
+//! the global transforms of what hangs below them, then the particles of the strands the step
+//! did not write itself ([`EarlyStrands`]: most are written by the thread that stepped them).
 //!
 //! One system for both, rather than one each: every system the hair's stages run costs the
 //! scheduler a hand-over besides its own work, which a crowd of small hairs feels.
