@@ -146,8 +146,9 @@ impl Between {
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
 /// teleports carried, unusable bones skipped, non-finite strands reset. Each small hair is made
 /// ready ([`prepare_hair`]), stepped and finished on one thread, several hairs at once, and a
-/// bone-chain hair is then posed on that thread while its batches are in its cache; big hairs
-/// follow, each shared out over the threads.
+/// bone-chain hair is then posed on that thread while its batches are in its cache, and its
+/// strands' particles written ([`EarlyStrands`]); big hairs follow, each shared out over the
+/// threads, and are posed and written by the systems after this one.
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
