@@ -13,7 +13,9 @@
 
 use bevy::math::{Vec3, Vec3A};
 
-use super::solver::{Batch, ContactShape, LANES, PINNED, StepInput, lanes_near, set_lanes};
+use super::solver::{
+    Batch, ContactShape, LANES, PINNED, ParticleSpan, StepInput, lanes_near, set_lanes,
+};
 
 /// A segment end nearer its collider than this share of the segment is left to the particle
 /// collision.
@@ -93,18 +95,19 @@ impl Batch {
             .fold(f32::INFINITY, f32::min);
         let short =
             |radius: f32| longest * longest <= 4.0 * (2.0 * radius * margin + margin * margin);
+        let mut span = self.particle_span();
         for &(centre, radius) in spheres {
             if !short(radius) {
-                self.push_segments(Core::Point(centre), radius);
+                self.push_segments(Core::Point(centre), radius, &mut span);
             }
         }
         for shape in contacts {
             match *shape {
                 ContactShape::Sphere { centre, radius } if !short(radius) => {
-                    self.push_segments(Core::Point(centre), radius);
+                    self.push_segments(Core::Point(centre), radius, &mut span);
                 }
                 ContactShape::Capsule { a, b, radius } if !short(radius) => {
-                    self.push_segments(Core::Segment(a, b), radius);
+                    self.push_segments(Core::Segment(a, b), radius, &mut span);
                 }
                 _ => {}
             }
@@ -114,12 +117,16 @@ impl Batch {
     /// Pushes each segment `a`-`b` of each lane whose point nearest `core` lies strictly
     /// between its ends, within `radius` plus the lane's margin, while both ends are outside
     /// that reach (an end inside is the particle collision's; a pinned root inside cannot be
-    /// turned out).
+    /// turned out). `span` holds every particle, and grows with those moved.
     #[inline(always)]
-    fn push_segments(&mut self, core: Core, radius: f32) {
+    fn push_segments(&mut self, core: Core, radius: f32, span: &mut ParticleSpan) {
         let margin = self.margin.iter().copied().fold(0.0f32, f32::max);
         let (lo, hi) = core.bounds();
         let (lo, hi) = (lo - (radius + margin), hi + (radius + margin));
+        // No segment of any lane near the collider.
+        if span.apart(lo, hi) {
+            return;
+        }
         // Particle `i` is node `2 i + 1`; the root particle is pinned.
         let particles = self.nodes.len() / 2;
         for i in 0..particles.saturating_sub(1) {
@@ -154,9 +161,13 @@ impl Batch {
                 let (sa, sb) = (wa * (1.0 - t), t);
                 let scale = depth / (sa * (1.0 - t) + sb * t).max(1e-6);
                 if wa > 0.0 {
-                    set(&mut self.nodes[ia].x, l, a + n * (sa * scale));
+                    let moved = a + n * (sa * scale);
+                    set(&mut self.nodes[ia].x, l, moved);
+                    span.take(moved);
                 }
-                set(&mut self.nodes[ib].x, l, b + n * (sb * scale));
+                let moved = b + n * (sb * scale);
+                set(&mut self.nodes[ib].x, l, moved);
+                span.take(moved);
             }
         }
     }

@@ -268,6 +268,33 @@ pub(crate) fn lanes_near(a: &[Lane; 3], b: &[Lane; 3], lo: Vec3A, hi: Vec3A) -> 
     near
 }
 
+/// Where a batch's particles are, every lane's (the root's too): a box that skips a shape for
+/// the whole batch where [`lanes_near`] would find no lane near it at any particle. Grown as
+/// particles move; with a NaN coordinate (which [`lanes_near`] counts as near) it skips nothing.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ParticleSpan {
+    lo: Vec3A,
+    hi: Vec3A,
+    nan: bool,
+}
+
+impl ParticleSpan {
+    /// Whether every particle is outside the box `lo`..`hi` on one axis (then so is every
+    /// particle and every segment between two of them, as [`lanes_near`] tests them).
+    #[inline(always)]
+    pub(crate) fn apart(&self, lo: Vec3A, hi: Vec3A) -> bool {
+        !self.nan && (self.lo.cmpgt(hi).any() || self.hi.cmplt(lo).any())
+    }
+
+    /// Grows the box to hold `p`, a particle just moved.
+    #[inline(always)]
+    pub(crate) fn take(&mut self, p: Vec3A) {
+        self.nan |= p.is_nan();
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p);
+    }
+}
+
 /// The lanes set in `mask`, lowest first.
 #[inline(always)]
 pub(crate) fn set_lanes(mut mask: u32) -> impl Iterator<Item = usize> {
@@ -485,6 +512,34 @@ impl Batch {
         step_interleaved(batches, input, anchors);
     }
 
+    /// The box of every lane's particles, root included ([`ParticleSpan`]).
+    #[inline(always)]
+    pub(crate) fn particle_span(&self) -> ParticleSpan {
+        let mut lo = [[f32::INFINITY; LANES]; 3];
+        let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
+        let mut nan = [false; LANES];
+        // Lane by lane, so the compiler keeps eight lanes a register; `if` rather than
+        // `f32::min`, which would test for NaN in every step.
+        for node in self.nodes.iter().skip(1).step_by(2) {
+            for c in 0..3 {
+                for l in 0..LANES {
+                    let v = node.x[c][l];
+                    nan[l] |= v.is_nan();
+                    lo[c][l] = if v < lo[c][l] { v } else { lo[c][l] };
+                    hi[c][l] = if v > hi[c][l] { v } else { hi[c][l] };
+                }
+            }
+        }
+        let fold = |rows: &[Lane; 3], pick: fn(f32, f32) -> f32| {
+            Vec3A::from_array(rows.map(|row| row.into_iter().reduce(pick).unwrap_or(0.0)))
+        };
+        ParticleSpan {
+            lo: fold(&lo, f32::min),
+            hi: fold(&hi, f32::max),
+            nan: nan.contains(&true),
+        }
+    }
+
     /// Every collider of substep `s`; `swept`: along each particle's path this substep.
     #[inline(always)]
     fn collide(&mut self, input: &StepInput, s: usize, swept: bool) {
@@ -687,8 +742,14 @@ impl Batch {
     /// relative to the shape this substep (so a fast shape pushes them ahead instead of passing
     /// them), with friction.
     fn collide_contacts(&mut self, contacts: &[Contact], friction: f32, swept: bool) {
+        let mut span = self.particle_span();
         for contact in contacts {
             let (lo, hi) = contact.reach;
+            // No particle of any lane within its reach: the per-particle tests below would each
+            // find none.
+            if span.apart(lo, hi) {
+                continue;
+            }
             for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
                 // Particles outside the shape's reach are left as they are.
                 for l in set_lanes(lanes_near(&node.x, &node.x, lo, hi)) {
@@ -715,6 +776,7 @@ impl Batch {
                         to
                     };
                     set3(&mut node.x, l, to);
+                    span.take(to.into());
                 }
             }
         }

@@ -154,10 +154,10 @@ impl Between {
     reason = "a Bevy system: its parameters are its queries"
 )]
 pub(crate) fn step_hair_strands(
-    (time, mut history, world): (
+    (time, mut history, mut world): (
         Res<Time<HairTime>>,
         ResMut<ColliderHistory>,
-        Res<WorldColliders>,
+        ResMut<WorldColliders>,
     ),
     mut hairs: Query<(
         Entity,
@@ -378,6 +378,8 @@ pub(crate) fn step_hair_strands(
         .later
         .get_mut()
         .unwrap_or_else(std::sync::PoisonError::into_inner) = later;
+    // The engines' colliders read: their gathering finds the buffers empty next frame.
+    world.next_frame();
 }
 
 /// Steps and finishes a small hair made ready by [`prepare_hair`], on this thread; returns

@@ -86,32 +86,18 @@ macro_rules! local_shapes_for {
 #[cfg(any(feature = "rapier", feature = "avian"))]
 use local_shapes_for;
 
-/// The engines' gathering systems run in this set, after last frame's colliders are cleared
-/// and before the hairs are stepped.
+/// The engines' gathering systems run in this set, before the hairs are stepped (the step
+/// leaves [`WorldColliders`] empty for them: [`WorldColliders::next_frame`]).
 #[derive(SystemSet, Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub(crate) struct GatherColliders;
 
 /// Adds the enabled engines' gathering systems and head-collider observers.
 pub(crate) fn build(app: &mut App) {
-    app.init_resource::<WorldColliders>().add_systems(
-        PostUpdate,
-        begin_frame
-            .before(GatherColliders)
-            .in_set(crate::schedule::HairSystems::Simulate),
-    );
+    app.init_resource::<WorldColliders>();
     #[cfg(feature = "rapier")]
     rapier::build(app);
     #[cfg(feature = "avian")]
     avian::build(app);
-}
-
-/// Last frame's colliders go; their poses become the history moving ones are interpolated from.
-fn begin_frame(mut world: ResMut<WorldColliders>) {
-    let world = &mut *world;
-    world.colliders.clear();
-    world.seen_by.clear();
-    std::mem::swap(&mut world.poses, &mut world.next_poses);
-    world.next_poses.clear();
 }
 
 /// What a gathered engine collider is, for the solver.
@@ -138,11 +124,22 @@ pub(crate) struct WorldColliders {
     pub seen_by: EntityHashMap<Vec<usize>>,
     /// Each gathered collider's pose last frame.
     poses: EntityHashMap<Affine3A>,
-    /// Poses written this frame (swapped into `poses` at the start of the next gather).
+    /// Poses written this frame (swapped into `poses` after the step: [`Self::next_frame`]).
     next_poses: EntityHashMap<Affine3A>,
 }
 
 impl WorldColliders {
+    /// Once the step has read them, this frame's colliders go and their poses become the
+    /// history next frame's moving ones are interpolated from: the gathering systems find it
+    /// empty. (Done by the step rather than by a system of its own before the gathering: a
+    /// system costs a hand-over between threads every frame.)
+    pub(crate) fn next_frame(&mut self) {
+        self.colliders.clear();
+        self.seen_by.clear();
+        std::mem::swap(&mut self.poses, &mut self.next_poses);
+        self.next_poses.clear();
+    }
+
     /// Adds a collider that `hairs` see (nothing when none does).
     /// The engines scale their shapes themselves, so the pose keeps only the collider's
     /// rotation and translation.

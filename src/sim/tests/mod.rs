@@ -781,6 +781,7 @@ mod attach;
 mod batch_groups;
 mod chain_lanes;
 mod chains;
+mod far_shapes;
 mod motion;
 mod segments;
 mod volume;
