@@ -68,3 +68,48 @@ fn a_particle_pushed_toward_a_shape_the_batch_was_far_from_is_kept_out_of_it() {
     assert!(p.y < pushed - 1e-4, "the upper sphere pushed it down: {p}");
     assert!(batch.particle(1, 3).distance(Vec3::new(-5.0, -5.0, 0.0)) < 0.5);
 }
+
+/// The same for segment collision: a segment lifted off one sphere into a second that the whole
+/// batch was out of reach of is still kept off the second.
+#[test]
+fn a_segment_lifted_toward_a_shape_the_batch_was_far_from_is_kept_off_it() {
+    let mut batch = random_strands(&mut Rng(11), 4, 2, 0);
+    batch.reset(&Affine3A::from_translation(Vec3::new(-5.0, -5.0, 0.0)));
+    let margin = 0.005;
+    batch.margin = [margin; LANES];
+    // Lane 0 along a line 2 cm above the first sphere's centre: its last segment, 6 cm long,
+    // dips 5 mm into the sphere's reach with both ends outside it.
+    for (i, x) in [-0.3, -0.2, -0.03, 0.03].into_iter().enumerate() {
+        batch.set_particle(0, i, Vec3::new(x, 0.02, 0.0));
+    }
+    let (low, high) = (Vec3::ZERO, Vec3::new(0.0, 0.048, 0.0));
+    // The upper sphere's reach (radius 2 cm and the margin) starts above every particle; the
+    // segment lifted out of the lower one's reach (to 2.5 cm) dips into it.
+    let reach = 0.02 + margin;
+    assert!(
+        batch
+            .particle_span()
+            .apart(Vec3A::from(high) - reach, Vec3A::from(high) + reach)
+    );
+    assert!(high.y - (low.y + reach) < reach);
+    let input = StepInput {
+        spheres: vec![(low.into(), 0.02), (high.into(), 0.02)],
+        sphere_count: 2,
+        ..default()
+    };
+    batch.collide_segments(&input, 0);
+    let (a, b) = (batch.particle(0, 2), batch.particle(0, 3));
+    // Both ends moved alike: the segment's middle is nearest the spheres' centres.
+    let middle = (a + b) / 2.0;
+    assert!(middle.x.abs() < 1e-6 && (a.y - b.y).abs() < 1e-6, "{a} {b}");
+    assert!(
+        middle.distance(high) >= reach - 1e-5,
+        "the segment ended {} m from the upper sphere's centre (reach {reach}): lifted into it \
+         and left there ({a} - {b})",
+        middle.distance(high)
+    );
+    assert!(
+        middle.y < low.y + reach - 1e-4,
+        "the upper sphere pushed it down: {middle}"
+    );
+}
