@@ -6,9 +6,8 @@ use bevy::ecs::change_detection::Tick;
 use bevy::ecs::system::SystemChangeTick;
 use bevy::prelude::*;
 
-use super::attach::StrandOf;
 use super::bone::AttachToBone;
-use super::chains::{BoneChainHair, BoneChainHairs, HairBoneChains};
+use super::chains::{BoneChainHairs, HairBoneChains};
 use super::vrm::VrmSpringChains;
 use crate::asset::VrmSpringBones;
 
@@ -53,14 +52,4 @@ pub(crate) fn bone_chains_pending(
     sets: Query<(), (With<HairBoneChains>, Without<BoneChainHairs>)>,
 ) -> bool {
     !sets.is_empty()
-}
-
-/// Run condition of writing the joints out: there is hair on bone chains.
-pub(crate) fn any_chain_hair(hairs: Query<(), With<BoneChainHair>>) -> bool {
-    !hairs.is_empty()
-}
-
-/// Run condition of writing strands' particles out: there are strand entities.
-pub(crate) fn any_strand(strands: Query<(), With<StrandOf>>) -> bool {
-    !strands.is_empty()
 }

@@ -3,14 +3,15 @@
 //! joint's angle limit), and its local and global transforms written so Bevy's skinning draws
 //! this frame's pose.
 //!
-//! Two passes, each on every core: the poses are worked out hair by hair (each hair reads its
-//! own solver state and its joints' bind transforms; the chains of each solver batch are posed
-//! side by side in the solver's lanes, see `chain_lanes`, and a chain that needs more is posed
-//! alone here, one joint at a time), then written joint by joint (`write_out`). Most hairs are
-//! posed by the step, on the thread that stepped them, right after their substeps
-//! ([`pose_chain_hair`]); [`pose_bone_chains`] poses the rest (a hair whose batches the step
-//! shared out over the threads, or whose volume pass ran after the step, or one not built yet),
-//! and runs only in frames that have such a hair.
+//! The poses are worked out hair by hair, on every core (each hair reads its own solver state
+//! and its joints' bind transforms; the chains of each solver batch are posed side by side in
+//! the solver's lanes, see `chain_lanes`, and a chain that needs more is posed alone here, one
+//! joint at a time), then written (`write_out`). Most hairs are posed by the step, on the
+//! thread that stepped them, right after their substeps ([`pose_chain_hair`]), and their joints
+//! written by that thread too; [`pose_bone_chains`] poses the rest (a hair whose batches the
+//! step shared out over the threads, or whose volume pass ran after the step, or one not built
+//! yet), and runs only in frames that have such a hair; their joints are written joint by joint
+//! after.
 //!
 //! Bevy's transform propagation does not visit most of the joints a hair poses (those its
 //! hair's build took over: see `chains::owned_from`), since every frame it would compute world
@@ -39,6 +40,10 @@ pub(crate) struct ChainPose {
     near: Vec<NearShape>,
     /// Posed this frame by the step, right after its substeps (set by the step every frame).
     pub(super) posed_early: bool,
+    /// Every joint posed this frame was also written by the thread that posed it
+    /// ([`EarlyJoints::write`](super::write_out::EarlyJoints::write)): the write after the step
+    /// leaves the hair alone.
+    pub(super) joints_written: bool,
 }
 
 impl ChainPose {
@@ -85,15 +90,20 @@ pub(crate) struct ChainJoint {
     /// its children or that entity change, since reading every joint's children each frame
     /// costs a visit to memory far from the rest. `None`: not looked at yet.
     pub(crate) others: Option<(Option<Entity>, bool)>,
+    /// Another hair was built on this joint too (its chains take it as well), and may read its
+    /// transform while the step runs: the joint is written after the step, never by the
+    /// thread that posed it.
+    pub(crate) shared: bool,
 }
 
 impl ChainJoint {
-    /// The joint in `slot` of `hair`'s poses.
-    pub(crate) fn new(hair: Entity, slot: u32) -> Self {
+    /// The joint in `slot` of `hair`'s poses; `shared`: another hair takes it too.
+    pub(crate) fn new(hair: Entity, slot: u32, shared: bool) -> Self {
         Self {
             hair,
             slot,
             others: None,
+            shared,
         }
     }
 }
@@ -155,6 +165,9 @@ pub(crate) struct PoseFrame {
     /// frame, sorted: their joints are read again. Posing itself stores rotations without
     /// flagging them.
     stale: Vec<Entity>,
+    /// Joints some hair's step reads the world transform of (an inertia frame on a joint),
+    /// sorted: written after the step, never by the thread that posed them.
+    pub(super) read_elsewhere: Vec<Entity>,
 }
 
 impl PoseFrame {
@@ -171,10 +184,18 @@ impl PoseFrame {
         self.shapes.gather(colliders);
     }
 
-    /// The hairs of the joints in `changed`.
-    pub(super) fn gather_stale<'a>(&mut self, changed: impl IntoIterator<Item = &'a ChainJoint>) {
+    /// The joints some hair's step reads the world transform of.
+    pub(super) fn gather_read_elsewhere(&mut self, joints: impl IntoIterator<Item = Entity>) {
+        self.read_elsewhere.clear();
+        self.read_elsewhere.extend(joints);
+        self.read_elsewhere.sort_unstable();
+        self.read_elsewhere.dedup();
+    }
+
+    /// The hairs whose joints changed: `hairs`, one for each changed joint.
+    pub(super) fn gather_stale(&mut self, hairs: impl IntoIterator<Item = Entity>) {
         self.stale.clear();
-        self.stale.extend(changed.into_iter().map(|j| j.hair));
+        self.stale.extend(hairs);
         self.stale.sort_unstable();
         self.stale.dedup();
     }
@@ -220,7 +241,7 @@ const HAIRS_PER_TASK: usize = 4;
 /// tip, so each points at its next particle (its child, at the bone's length, kept off the
 /// hair's colliders and inside the joint's angle limit, if it has one:
 /// [`ChainJointLimits`](super::ChainJointLimits); the particle follows). The joints are written
-/// after, with every other hair's (`write_out`).
+/// after, with those of every hair whose joints the step did not write (`write_out`).
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -245,7 +266,7 @@ pub(crate) fn pose_bone_chains(
     // The colliders where they are now and the hairs whose joints changed, once for every hair
     // left to pose (the step poses most).
     frame.gather_colliders(colliders.iter());
-    frame.gather_stale(changed.iter());
+    frame.gather_stale(changed.iter().map(|j| j.hair));
     let frame = &*frame;
     hairs
         .par_iter_mut()
@@ -255,6 +276,7 @@ pub(crate) fn pose_bone_chains(
                 if pose.posed_early && computed.is_some() {
                     return;
                 }
+                pose.joints_written = false;
                 pose_chain_hair(
                     (hair, &driven, driven.is_changed()),
                     hair_world,

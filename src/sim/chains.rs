@@ -231,7 +231,11 @@ pub(crate) fn build_bone_chains(
         bevy::ecs::system::SystemChangeTick,
         Option<Res<AssetServer>>,
     ),
+    (owners, chain_hairs): (Query<&ChainJoint>, Query<(), With<BoneChainHair>>),
 ) {
+    // The joints the hairs built here take: a joint another hair takes too (built before, or
+    // here) is shared, and written only after the step (see `ChainJoint::shared`).
+    let mut claimed = bevy::ecs::entity::EntityHashSet::default();
     for (set, chains, settings, only, (limits, inertia)) in &sets {
         let starts = chain_starts(chains.root, &chains.select, &children, &names);
         if starts.is_empty() {
@@ -395,10 +399,15 @@ pub(crate) fn build_bone_chains(
             let hair = hair.id();
             hairs.push(hair);
             for (slot, &joint) in joints.iter().enumerate() {
+                let taken_before = owners
+                    .get(joint)
+                    .is_ok_and(|j| j.hair != hair && chain_hairs.contains(j.hair));
+                let shared = taken_before || claimed.contains(&joint);
                 commands
                     .entity(joint)
-                    .insert(ChainJoint::new(hair, slot as u32));
+                    .insert(ChainJoint::new(hair, slot as u32, shared));
             }
+            claimed.extend(joints.iter().copied());
             for &joint in &taken {
                 commands.entity(joint).remove::<TransformTreeChanged>();
             }

@@ -180,8 +180,7 @@ impl Plugin for HairSimulationPlugin {
                     // Posing moves the particles it keeps off colliders and inside angle
                     // limits: before they are written out.
                     chain_pose::pose_bone_chains.run_if(chain_pose::hairs_left_to_pose),
-                    write_out::write_hair_state
-                        .run_if(attach_work::any_strand.or_else(attach_work::any_chain_hair)),
+                    write_out::write_hair_state.run_if(write_out::anything_left_to_write),
                     #[cfg(debug_assertions)]
                     step::assert_particles_finite,
                 )

@@ -20,7 +20,9 @@ use super::settings::HairSimSettings;
 use super::solver::Batch;
 use super::step_input::{FrameShared, Prepared, prepare_hair};
 use super::wind::{HairForceField, HairWind, HairWindOverride};
-use super::write_out::EarlyStrands;
+use super::write_out::{
+    EarlyJointNodes, EarlyJoints, EarlyStrands, NotEarlyJoint, OtherChangedJoints,
+};
 use super::{HairSimControl, HairTime};
 
 /// [`HairCollider`]s' and [`HairForceField`]s' poses last frame, so moving ones are
@@ -146,9 +148,10 @@ impl Between {
 /// Advances every hair by the frame's time: fixed substeps, bone interpolated per substep,
 /// teleports carried, unusable bones skipped, non-finite strands reset. Each small hair is made
 /// ready ([`prepare_hair`]), stepped and finished on one thread, several hairs at once, and a
-/// bone-chain hair is then posed on that thread while its batches are in its cache, and its
-/// strands' particles written ([`EarlyStrands`]); big hairs follow, each shared out over the
-/// threads, and are posed and written by the systems after this one.
+/// bone-chain hair is then posed on that thread while its batches are in its cache and its
+/// joints written ([`EarlyJoints`]), and its strands' particles written ([`EarlyStrands`]); big
+/// hairs follow, each shared out over the threads, and are posed and written by the systems
+/// after this one.
 #[expect(
     clippy::type_complexity,
     reason = "a Bevy system: its parameters are its queries"
@@ -175,7 +178,7 @@ pub(crate) fn step_hair_strands(
     (own, only_colliders, frames): (
         Query<(Entity, Ref<HairCollider>, &GlobalTransform)>,
         Query<&HairCollidesOnly>,
-        Query<&GlobalTransform>,
+        Query<&GlobalTransform, NotEarlyJoint>,
     ),
     (animations, global_wind, own_wind, fields): (
         Res<Assets<crate::asset::HairAnimation>>,
@@ -183,9 +186,13 @@ pub(crate) fn step_hair_strands(
         Query<&HairWindOverride>,
         Query<(Entity, &HairForceField, &GlobalTransform)>,
     ),
-    (bind, changed, mut posing): (
-        Query<&Transform, Without<super::BoneChainHair>>,
-        Query<&ChainJoint, Or<(Changed<Transform>, Without<Transform>)>>,
+    (bind, (owners, mut joint_nodes, other_changed), mut posing): (
+        Query<&Transform, NotEarlyJoint>,
+        (
+            Query<&'static ChainJoint>,
+            EarlyJointNodes,
+            OtherChangedJoints,
+        ),
         Local<PoseFrame>,
     ),
     // The strands' particles, written by the thread that stepped their hair.
@@ -255,13 +262,32 @@ pub(crate) fn step_hair_strands(
     history
         .fields
         .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
+    // Posing needs the hairs whose joints changed, and the joints the step reads.
+    if hairs.iter().any(|h| h.9.is_some()) {
+        let changed = joint_nodes
+            .iter_mut()
+            .filter(|(_, local, ..)| local.is_changed())
+            .filter_map(|(joint, ..)| owners.get(joint).ok().map(|j| j.hair));
+        posing.gather_stale(changed.chain(other_changed.iter().map(|j| j.hair)));
+    }
+    posing.gather_read_elsewhere(
+        hairs
+            .iter()
+            .filter_map(|h| h.7.map(|frame| frame.0))
+            .filter(|&frame| joint_nodes.contains(frame)),
+    );
+    let joints = EarlyJoints {
+        owners: &owners,
+        nodes: &joint_nodes,
+        read_elsewhere: &posing.read_elsewhere,
+    };
     let pool = parallel::compute_pool();
     let shared = FrameShared {
         dt,
         history,
         world: &world,
         only_colliders: &|e| only_colliders.get(e).ok(),
-        frames: &|e| frames.get(e).ok(),
+        frames: &|e| joints.world(e, &frames),
         animations: &animations,
         global_wind: global_wind.as_deref(),
         own_wind: &|e| own_wind.get(e).ok().map(|o| &o.0),
@@ -269,11 +295,6 @@ pub(crate) fn step_hair_strands(
     // A hair alone shares its batches out over the threads, as a big hair does.
     let alone = hairs.iter().nth(1).is_none();
     let later = &history.later;
-    // Posing needs the colliders where they are now and the hairs whose joints changed.
-    let posing = &mut *posing;
-    if hairs.iter().any(|h| h.9.is_some()) {
-        posing.gather_stale(changed.iter());
-    }
     let posing = &*posing;
     let early = EarlyStrands {
         info: &strand_info,
@@ -327,9 +348,11 @@ pub(crate) fn step_hair_strands(
                             &mut pose,
                             (settings, only_colliders.get(entity).ok()),
                             posing,
-                            &|e| bind.get(e).ok().copied(),
+                            &|e| joints.local(entity, e, &bind),
                         );
                     }
+                    // Its joints written while its poses are in this thread's cache.
+                    pose.joints_written = done && joints.write(entity, pose.posed());
                 }
                 // Its particles written out while its batches are in this thread's cache (after
                 // posing, which moves them); a hair left for later is written after the step.
