@@ -276,8 +276,8 @@ impl EarlyStrands<'_, '_, '_> {
     }
 }
 
-/// Entities a joint may be besides a joint whose transforms the step reads while it runs: a
-/// hair, a collider, a force field. Such a joint is written after the step.
+/// What a joint may also be whose transforms the step reads while it runs: a hair, a collider,
+/// a force field. Such a joint is written after the step.
 type ReadByStep = Or<(With<Hair>, With<HairCollider>, With<HairForceField>)>;
 
 /// Everything but the joints [`EarlyJoints`] writes: what the step's other queries of
