@@ -81,18 +81,28 @@ impl Batch {
         // the shape itself, only the margin around it, and that shape is skipped.
         let particles = self.nodes.len() / 2;
         let live = self.count.clamp(1, LANES);
-        let mut longest = 0.0f32;
+        // Each lane's longest segment, the lanes side by side, then the longest of the live
+        // lanes. `if` rather than `f32::max`, which would test each number for NaN one after
+        // another (both leave a NaN out).
+        let mut longest = [0.0f32; LANES];
         for i in 1..particles {
-            longest = self.nodes[2 * i + 1].rest[1][..live]
-                .iter()
-                .fold(longest, |m, &r| m.max(r));
+            let rest = &self.nodes[2 * i + 1].rest[1];
+            for l in 0..LANES {
+                longest[l] = if rest[l] > longest[l] {
+                    rest[l]
+                } else {
+                    longest[l]
+                };
+            }
         }
+        let longest = longest[..live]
+            .iter()
+            .fold(0.0f32, |m, &r| if r > m { r } else { m });
         // Room for the stretch a substep allows before the strain limit.
         let longest = longest * SEGMENT_STRETCH;
         let margin = self.margin[..live]
             .iter()
-            .copied()
-            .fold(f32::INFINITY, f32::min);
+            .fold(f32::INFINITY, |m, &r| if r < m { r } else { m });
         let short =
             |radius: f32| longest * longest <= 4.0 * (2.0 * radius * margin + margin * margin);
         let mut span = self.particle_span();
@@ -120,7 +130,10 @@ impl Batch {
     /// turned out). `span` holds every particle, and grows with those moved.
     #[inline(always)]
     fn push_segments(&mut self, core: Core, radius: f32, span: &mut ParticleSpan) {
-        let margin = self.margin.iter().copied().fold(0.0f32, f32::max);
+        let margin = self
+            .margin
+            .iter()
+            .fold(0.0f32, |m, &r| if r > m { r } else { m });
         let (lo, hi) = core.bounds();
         let (lo, hi) = (lo - (radius + margin), hi + (radius + margin));
         // No segment of any lane near the collider.
