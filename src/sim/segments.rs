@@ -105,19 +105,24 @@ impl Batch {
             .fold(f32::INFINITY, |m, &r| if r < m { r } else { m });
         let short =
             |radius: f32| longest * longest <= 4.0 * (2.0 * radius * margin + margin * margin);
+        // The widest margin of any lane: how far from a shape a segment can be pushed.
+        let widest = self
+            .margin
+            .iter()
+            .fold(0.0f32, |m, &r| if r > m { r } else { m });
         let mut span = self.particle_span();
         for &(centre, radius) in spheres {
             if !short(radius) {
-                self.push_segments(Core::Point(centre), radius, &mut span);
+                self.push_segments(Core::Point(centre), (radius, widest), &mut span);
             }
         }
         for shape in contacts {
             match *shape {
                 ContactShape::Sphere { centre, radius } if !short(radius) => {
-                    self.push_segments(Core::Point(centre), radius, &mut span);
+                    self.push_segments(Core::Point(centre), (radius, widest), &mut span);
                 }
                 ContactShape::Capsule { a, b, radius } if !short(radius) => {
-                    self.push_segments(Core::Segment(a, b), radius, &mut span);
+                    self.push_segments(Core::Segment(a, b), (radius, widest), &mut span);
                 }
                 _ => {}
             }
@@ -127,13 +132,10 @@ impl Batch {
     /// Pushes each segment `a`-`b` of each lane whose point nearest `core` lies strictly
     /// between its ends, within `radius` plus the lane's margin, while both ends are outside
     /// that reach (an end inside is the particle collision's; a pinned root inside cannot be
-    /// turned out). `span` holds every particle, and grows with those moved.
+    /// turned out). `margin` is the widest lane's margin; `span` holds every particle, and
+    /// grows with those moved.
     #[inline(always)]
-    fn push_segments(&mut self, core: Core, radius: f32, span: &mut ParticleSpan) {
-        let margin = self
-            .margin
-            .iter()
-            .fold(0.0f32, |m, &r| if r > m { r } else { m });
+    fn push_segments(&mut self, core: Core, (radius, margin): (f32, f32), span: &mut ParticleSpan) {
         let (lo, hi) = core.bounds();
         let (lo, hi) = (lo - (radius + margin), hi + (radius + margin));
         // No segment of any lane near the collider.

@@ -83,10 +83,12 @@ fn strands_are_written_by_their_hairs_thread_or_after_the_step() {
     assert_eq!(particles_checked(&h.app, other), 12 * 6);
 }
 
-/// A character at `x` with two hair chains of four joints under its head (`lock_{c}_{k}`);
-/// returns its root and its joints, chain by chain.
-fn locked_character(app: &mut App, x: f32) -> (Entity, Vec<Entity>) {
-    let (root, head) = character(app, Transform::from_xyz(x, 0.0, 0.0), Vec3::Y * 1.6);
+/// A character at `x` with two hair chains of four joints under its head (`lock_{c}_{k}`),
+/// its lengths in units of `unit` metres (its root scaled by `unit`); returns its root and its
+/// joints, chain by chain.
+fn locked_character(app: &mut App, x: f32, unit: f32) -> (Entity, Vec<Entity>) {
+    let root = Transform::from_xyz(x, 0.0, 0.0).with_scale(Vec3::splat(unit));
+    let (root, head) = character(app, root, Vec3::Y * 1.6 / unit);
     let mut joints = Vec::new();
     for c in 0..2 {
         let mut parent = head;
@@ -100,7 +102,7 @@ fn locked_character(app: &mut App, x: f32) -> (Entity, Vec<Entity>) {
                 .world_mut()
                 .spawn((
                     Name::new(format!("lock_{c}_{k}")),
-                    Transform::from_translation(offset),
+                    Transform::from_translation(offset / unit),
                     ChildOf(parent),
                 ))
                 .id();
@@ -165,8 +167,9 @@ fn shake_roots(app: &mut App, roots: &[Entity], frames: std::ops::Range<i32>) {
 #[test]
 fn joints_are_written_by_their_hairs_thread_or_after_the_step() {
     let mut app = event_app();
-    let (a_root, a_joints) = locked_character(&mut app, 0.0);
-    let (b_root, b_joints) = locked_character(&mut app, 1.0);
+    // One rig in metres, one in centimetres.
+    let (a_root, a_joints) = locked_character(&mut app, 0.0, 1.0);
+    let (b_root, b_joints) = locked_character(&mut app, 1.0, 0.01);
     let sets: Vec<Entity> = [a_root, b_root]
         .into_iter()
         .map(|root| {
@@ -254,7 +257,7 @@ fn joints_are_written_by_their_hairs_thread_or_after_the_step() {
 #[test]
 fn a_joint_two_hairs_take_is_written_after_the_step_from_its_owners_pose() {
     let mut app = event_app();
-    let (root, joints) = locked_character(&mut app, 0.0);
+    let (root, joints) = locked_character(&mut app, 0.0, 1.0);
     let chains = || {
         (
             HairBoneChains::matching(root, |n| n.starts_with("lock_")),
