@@ -23,6 +23,8 @@
 //! them. Then the hair's stages and the reference step taken in turns, 200 frames of each at
 //! a time, and their ratio: on a machine whose speed drifts from one run to the next (a shared
 //! cloud machine), the ratio holds where criterion's figures, taken seconds apart, do not.
+//! With it, the share of the machine's time its hypervisor stole meanwhile (Linux): a run with
+//! steal is slowed in the hair's two-thread stages more than in the one-thread reference.
 #![expect(
     missing_docs,
     reason = "criterion's macros define undocumented functions"
@@ -463,6 +465,31 @@ fn shaken_frame(app: &mut App, roots: &[Entity], frame: &mut u32) {
     app.update();
 }
 
+/// The machine's CPU time so far, in clock ticks: all of it, and the share the hypervisor gave
+/// to other guests while this one had work ("steal", the eighth number of `/proc/stat`'s `cpu`
+/// line). `None` where there is no such file.
+fn cpu_ticks() -> Option<(u64, u64)> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    let line = stat.lines().find(|l| l.starts_with("cpu "))?;
+    let ticks: Vec<u64> = line
+        .split_whitespace()
+        .skip(1)
+        .map(|n| n.parse().ok())
+        .collect::<Option<_>>()?;
+    Some((ticks.iter().take(8).sum(), *ticks.get(7)?))
+}
+
+/// The share of the machine's CPU time stolen by the hypervisor between two [`cpu_ticks`], or
+/// NaN where unknown.
+fn stolen(from: Option<(u64, u64)>, to: Option<(u64, u64)>) -> f64 {
+    match (from, to) {
+        (Some((all0, steal0)), Some((all1, steal1))) if all1 > all0 => {
+            steal1.saturating_sub(steal0) as f64 / (all1 - all0) as f64
+        }
+        _ => f64::NAN,
+    }
+}
+
 /// The median of `values`.
 fn median(mut values: Vec<f64>) -> f64 {
     values.sort_by(f64::total_cmp);
@@ -474,8 +501,10 @@ fn median(mut values: Vec<f64>) -> f64 {
 /// ratio holds where the machine's speed drifts between runs (criterion's figures for the two
 /// are taken seconds apart). Each round begins with caches the other filled and threads asleep,
 /// as a game's frame may after its other work (not measured in a game). Per frame: our median,
-/// the reference's median, and the median of the rounds' ratios.
-fn interleaved(characters: usize, settings: &HairSimSettings) -> (f64, f64, f64) {
+/// the reference's median, the median of the rounds' ratios, and the share of the machine's
+/// time its hypervisor stole meanwhile (a cloud machine's neighbours: the hair's stages wait on
+/// both cores, the reference on one, so steal slows ours more).
+fn interleaved(characters: usize, settings: &HairSimSettings) -> (f64, f64, f64, f64) {
     const ROUNDS: usize = 8;
     const FRAMES: u32 = 200;
     let (mut app, roots, _) = our_app(characters, 60.0, Some(settings));
@@ -494,6 +523,7 @@ fn interleaved(characters: usize, settings: &HairSimSettings) -> (f64, f64, f64)
     }
     reference(FRAMES);
     let (mut ours, mut theirs, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let ticks = cpu_ticks();
     for _ in 0..ROUNDS {
         app.world_mut().resource_mut::<StageClock>().spent = Duration::ZERO;
         for _ in 0..FRAMES {
@@ -507,7 +537,8 @@ fn interleaved(characters: usize, settings: &HairSimSettings) -> (f64, f64, f64)
         theirs.push(their);
         ratios.push(our / their);
     }
-    (median(ours), median(theirs), median(ratios))
+    let steal = stolen(ticks, cpu_ticks());
+    (median(ours), median(theirs), median(ratios), steal)
 }
 
 fn bench_chains(c: &mut Criterion) {
@@ -566,13 +597,15 @@ fn bench_chains(c: &mut Criterion) {
          of an idle app"
     );
     for characters in [CHARACTERS, CROWD] {
-        let (ours, reference, ratio) = interleaved(characters, &defaults);
+        let (ours, reference, ratio, steal) = interleaved(characters, &defaults);
         println!(
             "{characters} x {CHAINS} x {JOINTS}, 8 rounds of 200 frames of each, taken in \
              turns: the hair's stages {:.3} ms a frame, the VRM reference step {:.3} ms (medians); \
-             ours / reference {ratio:.3} (median of the rounds)",
+             ours / reference {ratio:.3} (median of the rounds); CPU time stolen by the \
+             hypervisor meanwhile {:.1}%",
             ours * 1000.0,
-            reference * 1000.0
+            reference * 1000.0,
+            steal * 100.0
         );
     }
     let mut group = c.benchmark_group("chains");

@@ -659,7 +659,8 @@ fn pose_batch_lanes(
             posed[first[s] + k] = (row.entity[l], rotation, next.affine(l));
             in_lanes += 1;
         }
-        std::mem::swap(&mut parents, &mut next);
+        // `turn` wrote every lane of `next`: one copy makes it the next row's parents.
+        parents = next;
     }
     in_lanes
 }
