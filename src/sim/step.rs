@@ -21,7 +21,8 @@ use super::solver::Batch;
 use super::step_input::{FrameShared, Prepared, prepare_hair};
 use super::wind::{HairForceField, HairWind, HairWindOverride};
 use super::write_out::{
-    EarlyJointNodes, EarlyJoints, EarlyStrands, NotEarlyJoint, OtherChangedJoints,
+    ChangedEarlyJoints, EarlyJointNodes, EarlyJoints, EarlyStrands, NotEarlyJoint,
+    OtherChangedJoints,
 };
 use super::{HairSimControl, HairTime};
 
@@ -186,11 +187,11 @@ pub(crate) fn step_hair_strands(
         Query<&HairWindOverride>,
         Query<(Entity, &HairForceField, &GlobalTransform)>,
     ),
-    (bind, (owners, mut joint_nodes, other_changed), mut posing): (
+    (bind, (owners, mut joint_sets, other_changed), mut posing): (
         Query<&Transform, NotEarlyJoint>,
         (
             Query<&'static ChainJoint>,
-            EarlyJointNodes,
+            ParamSet<(EarlyJointNodes, ChangedEarlyJoints)>,
             OtherChangedJoints,
         ),
         Local<PoseFrame>,
@@ -264,12 +265,13 @@ pub(crate) fn step_hair_strands(
         .extend(fields.iter().map(|(e, _, g)| (e, g.affine())));
     // Posing needs the hairs whose joints changed, and the joints the step reads.
     if hairs.iter().any(|h| h.9.is_some()) {
-        let changed = joint_nodes
-            .iter_mut()
-            .filter(|(_, local, ..)| local.is_changed())
-            .filter_map(|(joint, ..)| owners.get(joint).ok().map(|j| j.hair));
+        let changed = joint_sets.p1();
+        let changed = changed
+            .iter()
+            .filter_map(|joint| owners.get(joint).ok().map(|j| j.hair));
         posing.gather_stale(changed.chain(other_changed.iter().map(|j| j.hair)));
     }
+    let joint_nodes = joint_sets.p0();
     posing.gather_read_elsewhere(
         hairs
             .iter()

@@ -308,6 +308,22 @@ pub(crate) type EarlyJointNodes<'w, 's> = Query<
     ),
 >;
 
+/// The joints of [`EarlyJointNodes`] whose transform changed since the step last ran: the same
+/// joints as its items' `is_changed`, found by the change ticks alone (a crowd's tens of
+/// thousands of joints are looked at on one thread before the step's threads start).
+pub(crate) type ChangedEarlyJoints<'w, 's> = Query<
+    'w,
+    's,
+    Entity,
+    (
+        With<ChainJoint>,
+        Without<Hair>,
+        Without<HairCollider>,
+        Without<HairForceField>,
+        Changed<Transform>,
+    ),
+>;
+
 /// The joints without a transform, and those whose transform changed since the step last ran
 /// among the joints [`EarlyJointNodes`] leaves out (the step finds the others through it).
 pub(crate) type OtherChangedJoints<'w, 's> =

@@ -268,6 +268,33 @@ fn lanes_posed_as_alone(unit: f32) {
         before < 1e-4 && after < 1e-4,
         "the app's poses are those worked out alone: {before}, {after}"
     );
+    // The same on the other hair, whose joints all have transforms (the first one's joint
+    // without a transform makes it read its joints every frame): both hairs are posed and
+    // written by the step's threads, which must find the joints the game changed.
+    let joint = |app: &mut App, name: &str| {
+        let mut q = app.world_mut().query::<(Entity, &Name)>();
+        q.iter(app.world())
+            .find(|(_, n)| n.as_str() == name)
+            .map(|(e, _)| e)
+            .unwrap()
+    };
+    let (shifted, scaled) = (
+        joint(&mut app, "spring_15_1"),
+        joint(&mut app, "spring_18_0"),
+    );
+    app.world_mut()
+        .get_mut::<Transform>(shifted)
+        .unwrap()
+        .translation
+        .z -= 0.015 / unit;
+    app.world_mut().get_mut::<Transform>(scaled).unwrap().scale = Vec3::splat(0.7);
+    app.update();
+    let later = written(&mut app);
+    println!("unit {unit} m: after the game's change to the other hair: {later:e}");
+    assert!(
+        later < 1e-4,
+        "the app's poses follow the game's change to a joint of a hair posed by the step: {later}"
+    );
     println!(
         "unit {unit} m: {in_lanes} of {joints} joints posed in lanes; {moved} particles moved by \
          posing; apart at most: rotation {:e}, world transform {:e}, particle {:e} m",
