@@ -63,6 +63,13 @@ impl Core {
     }
 }
 
+/// `b` where it is above `m`, else `m`: `f32::max` without its NaN test (a NaN `b` is left out,
+/// as `f32::max` leaves it out), so lanes side by side stay side by side.
+#[inline(always)]
+fn larger(m: f32, b: f32) -> f32 {
+    if b > m { b } else { m }
+}
+
 impl Batch {
     /// Keeps every segment of every lane off substep `s`'s spheres and outside capsules (out of
     /// line: most hairs never come here, and the solver's loop stays as it was).
@@ -82,22 +89,15 @@ impl Batch {
         let particles = self.nodes.len() / 2;
         let live = self.count.clamp(1, LANES);
         // Each lane's longest segment, the lanes side by side, then the longest of the live
-        // lanes. `if` rather than `f32::max`, which would test each number for NaN one after
-        // another (both leave a NaN out).
+        // lanes ([`larger`], not `f32::max`, which tests each number for NaN one after another).
         let mut longest = [0.0f32; LANES];
         for i in 1..particles {
             let rest = &self.nodes[2 * i + 1].rest[1];
             for l in 0..LANES {
-                longest[l] = if rest[l] > longest[l] {
-                    rest[l]
-                } else {
-                    longest[l]
-                };
+                longest[l] = larger(longest[l], rest[l]);
             }
         }
-        let longest = longest[..live]
-            .iter()
-            .fold(0.0f32, |m, &r| if r > m { r } else { m });
+        let longest = longest[..live].iter().fold(0.0f32, |m, &r| larger(m, r));
         // Room for the stretch a substep allows before the strain limit.
         let longest = longest * SEGMENT_STRETCH;
         let margin = self.margin[..live]
@@ -106,10 +106,7 @@ impl Batch {
         let short =
             |radius: f32| longest * longest <= 4.0 * (2.0 * radius * margin + margin * margin);
         // The widest margin of any lane: how far from a shape a segment can be pushed.
-        let widest = self
-            .margin
-            .iter()
-            .fold(0.0f32, |m, &r| if r > m { r } else { m });
+        let widest = self.margin.iter().fold(0.0f32, |m, &r| larger(m, r));
         let mut span = self.particle_span();
         for &(centre, radius) in spheres {
             if !short(radius) {

@@ -289,6 +289,15 @@ pub(crate) type NotEarlyJoint = Or<(
     With<HairForceField>,
 )>;
 
+/// A joint the thread that posed it may write while the step runs: not also something the step
+/// reads ([`ReadByStep`]).
+type EarlyJoint = (
+    With<ChainJoint>,
+    Without<Hair>,
+    Without<HairCollider>,
+    Without<HairForceField>,
+);
+
 /// The joints the thread that posed them may write while the step runs: every joint that is not
 /// also something the step reads ([`ReadByStep`]).
 pub(crate) type EarlyJointNodes<'w, 's> = Query<
@@ -300,29 +309,14 @@ pub(crate) type EarlyJointNodes<'w, 's> = Query<
         &'static mut GlobalTransform,
         Option<Ref<'static, Children>>,
     ),
-    (
-        With<ChainJoint>,
-        Without<Hair>,
-        Without<HairCollider>,
-        Without<HairForceField>,
-    ),
+    EarlyJoint,
 >;
 
 /// The joints of [`EarlyJointNodes`] whose transform changed since the step last ran: the same
 /// joints as its items' `is_changed`, found by the change ticks alone (a crowd's tens of
 /// thousands of joints are looked at on one thread before the step's threads start).
-pub(crate) type ChangedEarlyJoints<'w, 's> = Query<
-    'w,
-    's,
-    Entity,
-    (
-        With<ChainJoint>,
-        Without<Hair>,
-        Without<HairCollider>,
-        Without<HairForceField>,
-        Changed<Transform>,
-    ),
->;
+pub(crate) type ChangedEarlyJoints<'w, 's> =
+    Query<'w, 's, Entity, (EarlyJoint, Changed<Transform>)>;
 
 /// The joints without a transform, and those whose transform changed since the step last ran
 /// among the joints [`EarlyJointNodes`] leaves out (the step finds the others through it).
