@@ -577,90 +577,107 @@ fn pose_batch_lanes(
         }
     }
     let (from, to) = joints.rows_of[b];
-    let mut parents = Parents::splat(start);
-    let mut next = parents;
+    let rows = &joints.rows[from..to];
+    // Each lane's chain's angle limits, looked up once for all its rows.
+    let limits: [&[Option<_>]; LANES] = std::array::from_fn(|l| {
+        driven
+            .limits
+            .get(strands[l] as usize)
+            .map_or(&[][..], Vec::as_slice)
+    });
+    // Two rows' parents taking turns: each row's posed joints are the next row's parents, with
+    // no copy between rows (a copy of every lane a row, its loads waiting on its stores).
+    let mut even = Parents::splat(start);
+    let mut odd = even;
     let mut r = Reach::default();
     let (mut local, mut ok) = ([[0.0; LANES]; 4], [false; LANES]);
     let mut in_lanes = 0;
-    for (k, row) in joints.rows[from..to].iter().enumerate() {
-        // A chain that ends, loses a joint or needs more than the lanes give leaves them.
-        for l in 0..LANES {
-            if !live[l] || row.step[l] == Step::Lanes {
-                continue;
-            }
-            live[l] = false;
-            let s = strands[l] as usize;
-            match row.step[l] {
-                Step::Alone => alone((parents.cursor(l, s), k), computed, (posed, particles)),
-                Step::Missing => {
-                    posed[first[s] + k..first[s] + driven.joints[s].len()].fill(UNPOSED);
+    let mut k = 0;
+    // Row `k`, posed under `$parents` into `$next`; past the last row or the last live lane,
+    // out of the loop `$done`.
+    macro_rules! pose_row {
+        ($parents:ident, $next:ident, $done:lifetime) => {
+            let Some(row) = rows.get(k) else {
+                break $done;
+            };
+            // A chain that ends, loses a joint or needs more than the lanes give leaves them.
+            for l in 0..LANES {
+                if !live[l] || row.step[l] == Step::Lanes {
+                    continue;
                 }
-                Step::Lanes | Step::End => {}
-            }
-        }
-        if !live.contains(&true) {
-            break;
-        }
-        reach(
-            &parents,
-            row,
-            &computed.batches[b].nodes[2 * (k + 1) + 1].x,
-            &mut r,
-        );
-        // The posed child at its bone's length, kept off the colliders the particle was kept
-        // off, and inside the joint's angle limit (the particle follows: the simulation goes on
-        // from where the joint is, as VRM's step does).
-        let clear = if near.is_empty() {
-            [true; LANES]
-        } else {
-            clear_of_all(near, &r, margin)
-        };
-        for l in 0..LANES {
-            let s = strands[l] as usize;
-            let limit = driven
-                .limits
-                .get(s)
-                .and_then(|v| v.get(k))
-                .and_then(Option::as_ref);
-            if !live[l] || (clear[l] && limit.is_none()) {
-                continue;
-            }
-            let origin = get3(&r.origin, l);
-            let mut to = get3(&r.to, l);
-            if !clear[l]
-                && let Some(kept) = keep_off(near, origin, to, r.length[l], margin)
-            {
-                computed.batches[b].set_particle(l, k + 1, origin + kept);
-                to = kept;
-            }
-            if let Some(limit) = limit {
-                let frame = limit_frame(lane4(&r.at_rest, l), get3(&row.child, l), limit);
-                let limited = limit_offset(frame, limit, to);
-                if limited != to {
-                    computed.batches[b].set_particle(l, k + 1, origin + limited);
-                    to = limited;
-                }
-            }
-            set3(&mut r.to, l, to);
-        }
-        turn(&parents, &r, &row.scale, (&mut next, &mut local, &mut ok));
-        for l in 0..LANES {
-            if !live[l] {
-                continue;
-            }
-            let s = strands[l] as usize;
-            let rotation = lane4(&local, l);
-            if !ok[l] || !rotation.is_finite() {
-                // A bone without a direction, a half turn or a non-finite turn: posed alone.
                 live[l] = false;
-                alone((parents.cursor(l, s), k), computed, (posed, particles));
-                continue;
+                let s = strands[l] as usize;
+                match row.step[l] {
+                    Step::Alone => alone(($parents.cursor(l, s), k), computed, (posed, particles)),
+                    Step::Missing => {
+                        posed[first[s] + k..first[s] + driven.joints[s].len()].fill(UNPOSED);
+                    }
+                    Step::Lanes | Step::End => {}
+                }
             }
-            posed[first[s] + k] = (row.entity[l], rotation, next.affine(l));
-            in_lanes += 1;
-        }
-        // `turn` wrote every lane of `next`: one copy makes it the next row's parents.
-        parents = next;
+            if !live.contains(&true) {
+                break $done;
+            }
+            reach(
+                &$parents,
+                row,
+                &computed.batches[b].nodes[2 * (k + 1) + 1].x,
+                &mut r,
+            );
+            // The posed child at its bone's length, kept off the colliders the particle was
+            // kept off, and inside the joint's angle limit (the particle follows: the simulation
+            // goes on from where the joint is, as VRM's step does).
+            let clear = if near.is_empty() {
+                [true; LANES]
+            } else {
+                clear_of_all(near, &r, margin)
+            };
+            for l in 0..LANES {
+                let limit = limits[l].get(k).and_then(Option::as_ref);
+                if !live[l] || (clear[l] && limit.is_none()) {
+                    continue;
+                }
+                let origin = get3(&r.origin, l);
+                let mut to = get3(&r.to, l);
+                if !clear[l]
+                    && let Some(kept) = keep_off(near, origin, to, r.length[l], margin)
+                {
+                    computed.batches[b].set_particle(l, k + 1, origin + kept);
+                    to = kept;
+                }
+                if let Some(limit) = limit {
+                    let frame = limit_frame(lane4(&r.at_rest, l), get3(&row.child, l), limit);
+                    let limited = limit_offset(frame, limit, to);
+                    if limited != to {
+                        computed.batches[b].set_particle(l, k + 1, origin + limited);
+                        to = limited;
+                    }
+                }
+                set3(&mut r.to, l, to);
+            }
+            turn(&$parents, &r, &row.scale, (&mut $next, &mut local, &mut ok));
+            for l in 0..LANES {
+                if !live[l] {
+                    continue;
+                }
+                let s = strands[l] as usize;
+                let rotation = lane4(&local, l);
+                if !ok[l] || !rotation.is_finite() {
+                    // A bone without a direction, a half turn or a non-finite turn: posed
+                    // alone.
+                    live[l] = false;
+                    alone(($parents.cursor(l, s), k), computed, (posed, particles));
+                    continue;
+                }
+                posed[first[s] + k] = (row.entity[l], rotation, $next.affine(l));
+                in_lanes += 1;
+            }
+            k += 1;
+        };
+    }
+    'rows: loop {
+        pose_row!(even, odd, 'rows);
+        pose_row!(odd, even, 'rows);
     }
     in_lanes
 }

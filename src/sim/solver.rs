@@ -716,24 +716,40 @@ impl Batch {
                 reach[l] = radius + self.margin[l];
             }
             for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
+                // Every lane's push worked out and kept only where it is inside, by a bit mask
+                // (no branch or select per lane, which the compiler would make scalar again), so
+                // the lanes go side by side; the lanes outside keep their bits.
+                let mut x = node.x;
+                let (mut d, mut keep, mut top) =
+                    ([[0.0f32; LANES]; 3], [0u32; LANES], [0u32; LANES]);
+                let mut f = [0.0f32; LANES];
                 for l in 0..LANES {
-                    let dx = node.x[0][l] - centre.x;
-                    let dy = node.x[1][l] - centre.y;
-                    let dz = node.x[2][l] - centre.z;
-                    let d2 = dx * dx + dy * dy + dz * dz;
+                    d[0][l] = x[0][l] - centre.x;
+                    d[1][l] = x[1][l] - centre.y;
+                    d[2][l] = x[2][l] - centre.z;
+                    let d2 = d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l];
                     let r = reach[l];
-                    if d2 < r * r {
-                        let d = d2.sqrt();
-                        if d > 1e-9 {
-                            let f = r / d;
-                            node.x[0][l] = centre.x + dx * f;
-                            node.x[1][l] = centre.y + dy * f;
-                            node.x[2][l] = centre.z + dz * f;
-                        } else {
-                            node.x[1][l] = centre.y + r;
-                        }
+                    let len = d2.sqrt();
+                    f[l] = r / len;
+                    let inside = d2 < r * r;
+                    // At the centre itself: straight up.
+                    let moved = inside & (len > 1e-9);
+                    keep[l] = u32::from(moved).wrapping_neg();
+                    top[l] = u32::from(inside & !moved).wrapping_neg();
+                }
+                let c = [centre.x, centre.y, centre.z];
+                for a in 0..3 {
+                    for l in 0..LANES {
+                        let pushed = (c[a] + d[a][l] * f[l]).to_bits();
+                        let old = x[a][l].to_bits();
+                        x[a][l] = f32::from_bits((pushed & keep[l]) | (old & !keep[l]));
                     }
                 }
+                for l in 0..LANES {
+                    let up = (centre.y + reach[l]).to_bits();
+                    x[1][l] = f32::from_bits((up & top[l]) | (x[1][l].to_bits() & !top[l]));
+                }
+                node.x = x;
             }
         }
     }
@@ -1097,5 +1113,65 @@ fn solve_distance(xj: &mut [Lane; 3], xk: &mut [Lane; 3], rest: &Lane, wj: f32, 
         xj[0][l] += wj * f * dx;
         xj[1][l] += wj * f * dy;
         xj[2][l] += wj * f * dz;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sphere pass, lane by lane: a particle inside goes onto the sphere grown by its lane's
+    /// margin along the line from the centre, one at the centre straight up, one outside or on
+    /// the surface keeps its bits; previous positions and the other particles are left alone.
+    #[test]
+    fn sphere_pass_pushes_each_lane_alone() {
+        let chain: Vec<Vec3> = (0..8)
+            .map(|k| Vec3::new(0.0, -0.1 * k as f32, 0.0))
+            .collect();
+        let chains = [chain.as_slice(); 4];
+        let margins = [0.0, 0.0, 0.0, 0.1];
+        let mut batch = Batch::new(&[0, 1, 2, 3], &chains, &[], &margins);
+        batch.reset(&Affine3A::IDENTITY);
+        let (centre, radius) = (Vec3A::new(1.0, 2.0, 3.0), 0.5);
+        // Particle 2, the second free one.
+        let node = 5;
+        let placed = [
+            // Inside, off the centre.
+            Vec3::new(1.1, 2.05, 2.9),
+            // At the centre.
+            Vec3::new(1.0, 2.0, 3.0),
+            // Outside.
+            Vec3::new(1.0, 2.7, 3.0),
+            // On the sphere, inside the sphere grown by the lane's margin of 0.1.
+            Vec3::new(1.0, 2.0, 3.5),
+        ];
+        for (l, p) in placed.iter().enumerate() {
+            batch.set_particle(l, 2, *p);
+        }
+        let before = batch.clone();
+        batch.collide_spheres(&[(centre, radius)], &[], 0.0);
+        let pushed = |l: usize| get3(&batch.nodes[node].x, l);
+        // Along the line from the centre, at the grown radius.
+        let d = placed[0] - Vec3::from(centre);
+        assert!(((pushed(0) - Vec3::from(centre)).length() - radius).abs() < 1e-6);
+        assert!(
+            (pushed(0) - Vec3::from(centre))
+                .normalize()
+                .dot(d.normalize())
+                > 1.0 - 1e-6
+        );
+        assert_eq!(pushed(1), Vec3::new(1.0, 2.5, 3.0));
+        assert_eq!(
+            pushed(2).to_array().map(f32::to_bits),
+            placed[2].to_array().map(f32::to_bits)
+        );
+        assert!(((pushed(3) - Vec3::from(centre)).length() - 0.6).abs() < 1e-6);
+        assert!((pushed(3) - Vec3::new(1.0, 2.0, 3.6)).length() < 1e-6);
+        for (k, (a, b)) in batch.nodes.iter().zip(&before.nodes).enumerate() {
+            assert_eq!(a.p, b.p, "node {k}'s previous position moved");
+            if k != node {
+                assert_eq!(a.x, b.x, "node {k} moved");
+            }
+        }
     }
 }
