@@ -32,6 +32,7 @@ mod chain_pose;
 mod chains;
 mod clock;
 mod collider;
+mod collider_index;
 #[cfg(test)]
 mod collider_tests;
 mod contact;

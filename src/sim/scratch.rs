@@ -22,6 +22,8 @@ pub struct StepScratch {
     pub(super) origins: Vec<Vec3A>,
     /// Anchor factors per node, for each chain length.
     pub(super) factors: Vec<(usize, Vec<f32>)>,
+    /// The colliders near the hair this frame (indices into the frame's colliders).
+    pub(super) near: Vec<u32>,
 }
 
 impl StepScratch {
@@ -46,6 +48,7 @@ impl StepScratch {
             of(&self.fields),
             of(&self.origins),
             of(&self.factors),
+            of(&self.near),
         ];
         out.extend(self.factors.iter().map(|(_, f)| of(f)));
         out

@@ -43,6 +43,9 @@ pub(crate) struct ColliderHistory {
     /// Per collider entity: its run of `shapes` and where they were and are, so a hair skips a
     /// far collider with one box test (a crowd's hair meets its own character's body).
     pub(super) colliders: Vec<ColliderReach>,
+    /// `colliders` sorted along X, so a hair in a crowd finds the few near it without testing
+    /// every one.
+    pub(super) index: super::collider_index::ColliderIndex,
     /// This frame's hairs that step or finish after the rest (reused every frame).
     later: std::sync::Mutex<Vec<Later>>,
 }
@@ -210,6 +213,7 @@ pub(crate) fn step_hair_strands(
     let history = &mut *history;
     history.shapes.clear();
     history.colliders.clear();
+    history.index.clear();
     let shapes_now = posing.shapes_mut();
     shapes_now.clear();
     let nowhere = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
@@ -245,8 +249,10 @@ pub(crate) fn step_hair_strands(
             prev: at_prev,
             now: at_now,
         });
+        history.index.add([at_prev, at_now]);
         history.poses_now.insert(e, (now, at_now));
     }
+    history.index.sort();
     std::mem::swap(&mut history.poses, &mut history.poses_now);
     history.poses_now.clear();
     // Every force field that blows: its pose last frame and now.

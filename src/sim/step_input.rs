@@ -160,6 +160,7 @@ pub(super) fn prepare_hair(
         fields: field_templates,
         origins,
         factors,
+        near,
     } = &mut scratch;
     let mut wind_times = input.wind.take().map(|w| w.times).unwrap_or_default();
     input.h = h;
@@ -267,7 +268,19 @@ pub(super) fn prepare_hair(
     // A collider whose pose is not usable (NaN, zero scale) is skipped until it is; one
     // that cannot reach the hair this frame is skipped whole.
     let only = only_colliders(hair_entity);
-    for c in &history.colliders {
+    // The colliders whose box can reach the hair's along X, in their order (every one without
+    // a reach); each then tested whole.
+    match reach {
+        Some(r) => history.index.near(r, max_margin, near),
+        None => {
+            near.clear();
+            near.extend(0..u32::try_from(history.colliders.len()).unwrap_or(u32::MAX));
+        }
+    }
+    for c in near
+        .iter()
+        .filter_map(|&i| history.colliders.get(i as usize))
+    {
         let Some(&(_, on)) = history.shapes.get(c.first) else {
             continue;
         };
