@@ -718,24 +718,28 @@ impl Batch {
             for node in self.nodes.iter_mut().skip(PINNED).step_by(2) {
                 // Every lane's push worked out and kept only where it is inside, by a bit mask
                 // (no branch or select per lane, which the compiler would make scalar again), so
-                // the lanes go side by side; the lanes outside keep their bits.
-                let mut x = node.x;
-                let (mut d, mut keep, mut top) =
-                    ([[0.0f32; LANES]; 3], [0u32; LANES], [0u32; LANES]);
-                let mut f = [0.0f32; LANES];
+                // the lanes go side by side; the lanes outside keep their bits. A row with no
+                // lane inside (most rows of a strand hanging off the head) is left as it is.
+                let x = &mut node.x;
+                let mut d = [[0.0f32; LANES]; 3];
+                let (mut d2, mut inside) = ([0.0f32; LANES], [0u32; LANES]);
                 for l in 0..LANES {
                     d[0][l] = x[0][l] - centre.x;
                     d[1][l] = x[1][l] - centre.y;
                     d[2][l] = x[2][l] - centre.z;
-                    let d2 = d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l];
-                    let r = reach[l];
-                    let len = d2.sqrt();
-                    f[l] = r / len;
-                    let inside = d2 < r * r;
+                    d2[l] = d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l];
+                    inside[l] = u32::from(d2[l] < reach[l] * reach[l]).wrapping_neg();
+                }
+                if inside.iter().fold(0, |a, &m| a | m) == 0 {
+                    continue;
+                }
+                let (mut f, mut keep, mut top) = ([0.0f32; LANES], [0u32; LANES], [0u32; LANES]);
+                for l in 0..LANES {
+                    let len = d2[l].sqrt();
+                    f[l] = reach[l] / len;
                     // At the centre itself: straight up.
-                    let moved = inside & (len > 1e-9);
-                    keep[l] = u32::from(moved).wrapping_neg();
-                    top[l] = u32::from(inside & !moved).wrapping_neg();
+                    keep[l] = inside[l] & u32::from(len > 1e-9).wrapping_neg();
+                    top[l] = inside[l] & !keep[l];
                 }
                 let c = [centre.x, centre.y, centre.z];
                 for a in 0..3 {
@@ -749,7 +753,6 @@ impl Batch {
                     let up = (centre.y + reach[l]).to_bits();
                     x[1][l] = f32::from_bits((up & top[l]) | (x[1][l].to_bits() & !top[l]));
                 }
-                node.x = x;
             }
         }
     }
