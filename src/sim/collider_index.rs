@@ -20,8 +20,6 @@ pub(super) struct ColliderIndex {
     everywhere: Vec<u32>,
     /// The widest finite box along X (grown a little against rounding).
     widest: f32,
-    /// Colliders added since the last [`clear`](Self::clear).
-    count: u32,
 }
 
 impl ColliderIndex {
@@ -30,7 +28,11 @@ impl ColliderIndex {
         self.by_x.clear();
         self.everywhere.clear();
         self.widest = 0.0;
-        self.count = 0;
+    }
+
+    /// Colliders added since the last [`clear`](Self::clear).
+    fn count(&self) -> u32 {
+        u32::try_from(self.by_x.len() + self.everywhere.len()).unwrap_or(u32::MAX)
     }
 
     /// Adds the next collider, whose shapes lie within `boxes` (their boxes, any number of them;
@@ -41,8 +43,7 @@ impl ColliderIndex {
             .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), (a, b)| {
                 (lo.min(a.x), hi.max(b.x))
             });
-        let i = self.count;
-        self.count += 1;
+        let i = self.count();
         if lo.is_finite() && hi.is_finite() && lo <= hi {
             self.by_x.push((lo, i));
             self.widest = self.widest.max(hi - lo);
@@ -60,7 +61,7 @@ impl ColliderIndex {
 
     /// Into `out` (emptied first), in the order they were added: every collider whose box, grown
     /// by `margin`, can overlap `reach` along X. A superset of the colliders whose box overlaps
-    /// `reach` in all three axes.
+    /// `reach` in all three axes; every collider for a `reach` without finite bounds.
     pub(super) fn near(&self, reach: (Vec3A, Vec3A), margin: f32, out: &mut Vec<u32>) {
         out.clear();
         // A little wider than the caller's test, whose rounding may differ.
@@ -70,7 +71,7 @@ impl ColliderIndex {
             reach.1.x + margin + slack,
         );
         if !(from.is_finite() && to.is_finite()) {
-            out.extend(0..self.count);
+            out.extend(0..self.count());
             return;
         }
         let first = self.by_x.partition_point(|&(lo, _)| lo < from);

@@ -270,13 +270,10 @@ pub(super) fn prepare_hair(
     let only = only_colliders(hair_entity);
     // The colliders whose box can reach the hair's along X, in their order (every one without
     // a reach); each then tested whole.
-    match reach {
-        Some(r) => history.index.near(r, max_margin, near),
-        None => {
-            near.clear();
-            near.extend(0..u32::try_from(history.colliders.len()).unwrap_or(u32::MAX));
-        }
-    }
+    let everywhere = (Vec3A::NEG_INFINITY, Vec3A::INFINITY);
+    history
+        .index
+        .near(reach.unwrap_or(everywhere), max_margin, near);
     for c in near
         .iter()
         .filter_map(|&i| history.colliders.get(i as usize))
