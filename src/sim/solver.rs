@@ -652,11 +652,12 @@ impl Batch {
     /// `max` times the rest length from the node before it (and, for particles, from the particle
     /// before) is pulled in along that line; its previous position moves with it, so no velocity
     /// is made. The rest length is the longer of the styled one and the anchors' (a keyframe may
-    /// stretch the style).
+    /// stretch the style). Returns `false` when no node was near its limit, none moved.
     #[inline(always)]
-    fn limit_stretch(&mut self, max: f32) {
+    fn limit_stretch(&mut self, max: f32) -> bool {
         let Self { nodes, local, .. } = self;
         let n = nodes.len();
+        let mut pulled = false;
         for k in PINNED..n {
             let (head, tail) = nodes.split_at_mut(k);
             let nk = &mut tail[0];
@@ -669,11 +670,12 @@ impl Batch {
                     &head[j].anchor
                 }
             };
-            pull_within(nk, &head[k - 1].x, anchor_of(k - 1), 0, max);
+            pulled |= pull_within(nk, &head[k - 1].x, anchor_of(k - 1), 0, max);
             if k % 2 == 1 {
-                pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
+                pulled |= pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
             }
         }
+        pulled
     }
 
     /// Pulls node `k` toward its anchor (the last change to it in a substep before collisions).
@@ -910,14 +912,15 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
     let style = input.style_limit.is_finite() && input.style_limit >= 0.0;
     if last > 0 && (stretch || style) {
         for batch in &mut batches {
-            if stretch {
-                batch.limit_stretch(input.max_stretch);
-            }
+            let pulled = stretch && batch.limit_stretch(input.max_stretch);
             if style {
                 batch.limit_to_style(input.style_limit, &input.bones[last - 1]);
             }
-            // Where the limits left them: no path to follow.
-            batch.collide(input, last - 1, false);
+            // Where the limits left them: no path to follow. A batch the limits left alone is
+            // where the last substep's collisions put it.
+            if pulled || style {
+                batch.collide(input, last - 1, false);
+            }
         }
     }
 }
@@ -1010,11 +1013,33 @@ fn predict(node: &mut Node, g: [f32; 3], d: f32) -> [Lane; 3] {
     xk
 }
 
+/// How far under the square of a stretch limit a squared length must be for
+/// [`pull_within`] to know, without rounding in doubt, that the limit pulls nothing.
+const CLEARLY_WITHIN: f32 = 1.0 - 1e-4;
+
 /// Pulls `node` toward `xj` (lane by lane) where it lies farther than `max` times its rest
 /// distance `rest[s]` (or the anchors' distance `anchor - aj`, if longer); its previous position
-/// moves with it.
+/// moves with it. Returns `false` when every lane was clearly within, none moved.
 #[inline(always)]
-fn pull_within(node: &mut Node, xj: &[Lane; 3], aj: &[Lane; 3], s: usize, max: f32) {
+fn pull_within(node: &mut Node, xj: &[Lane; 3], aj: &[Lane; 3], s: usize, max: f32) -> bool {
+    // A row whose every lane is clearly within the styled rest length, which the anchors'
+    // distance can only lengthen, would be pulled by nothing: found by squared lengths alone
+    // (no square roots or divisions), the usual case, since the springs hold lengths within a
+    // few percent. A lane near the limit, or not finite, takes the full test below.
+    let mut beyond = 0u32;
+    for l in 0..LANES {
+        let (dx, dy, dz) = (
+            node.x[0][l] - xj[0][l],
+            node.x[1][l] - xj[1][l],
+            node.x[2][l] - xj[2][l],
+        );
+        let limit = max * node.rest[s][l];
+        let within = dx * dx + dy * dy + dz * dz <= limit * limit * CLEARLY_WITHIN;
+        beyond |= u32::from(!within);
+    }
+    if beyond == 0 {
+        return false;
+    }
     let mut f = [0.0; LANES];
     let mut d = [[0.0; LANES]; 3];
     for l in 0..LANES {
@@ -1039,6 +1064,7 @@ fn pull_within(node: &mut Node, xj: &[Lane; 3], aj: &[Lane; 3], s: usize, max: f
             node.p[c][l] -= f[l] * d[c][l];
         }
     }
+    true
 }
 
 /// Six times the signed volume of the tetrahedron `(a, b, c, d)`: `(b - a) x (c - a) . (d - a)`.
@@ -1174,6 +1200,45 @@ mod tests {
             assert_eq!(a.p, b.p, "node {k}'s previous position moved");
             if k != node {
                 assert_eq!(a.x, b.x, "node {k} moved");
+            }
+        }
+    }
+
+    /// The stretch limit looks at a row's lengths squared first: a batch at rest is clearly
+    /// within and reports nothing moved (so the collisions after the limits are skipped); a lane
+    /// stretched past the limit is pulled back onto it, reported, and the other lanes keep
+    /// their places.
+    #[test]
+    fn stretch_limit_pulls_only_what_is_past_it_and_says_so() {
+        let chain: Vec<Vec3> = (0..8)
+            .map(|k| Vec3::new(0.0, -0.1 * k as f32, 0.0))
+            .collect();
+        let mut points = Vec::new();
+        build_chain(&chain, 0.5, None, &mut points);
+        let chains = [points.as_slice(); 4];
+        let mut batch = Batch::new(&[0, 1, 2, 3], &chains, &[], &[0.0; 4]);
+        batch.reset(&Affine3A::IDENTITY);
+        let at_rest = batch.clone();
+        assert!(!batch.limit_stretch(1.1), "a batch at rest was pulled");
+        for (a, b) in batch.nodes.iter().zip(&at_rest.nodes) {
+            assert_eq!((a.x, a.p), (b.x, b.p));
+        }
+        // Lane 1's last particle half again as far from the one before as at rest.
+        let last = batch.nodes.len() - 1;
+        let (before, tip) = (
+            get3(&batch.nodes[last - 2].x, 1),
+            get3(&batch.nodes[last].x, 1),
+        );
+        set3(&mut batch.nodes[last].x, 1, before + (tip - before) * 1.5);
+        let stretched = batch.clone();
+        assert!(batch.limit_stretch(1.1), "a stretched lane was not pulled");
+        let rest = batch.nodes[last].rest[1][1];
+        let now = get3(&batch.nodes[last].x, 1).distance(get3(&batch.nodes[last - 2].x, 1));
+        assert!(now <= 1.1 * rest * (1.0 + 1e-5), "{now} past 1.1 x {rest}");
+        assert!(now > 1.05 * rest, "{now}: pulled further than the limit");
+        for (k, (a, b)) in batch.nodes.iter().zip(&stretched.nodes).enumerate() {
+            for l in [0, 2, 3] {
+                assert_eq!(get3(&a.x, l), get3(&b.x, l), "lane {l} node {k} moved");
             }
         }
     }
