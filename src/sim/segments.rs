@@ -72,9 +72,15 @@ fn larger(m: f32, b: f32) -> f32 {
 
 impl Batch {
     /// Keeps every segment of every lane off substep `s`'s spheres and outside capsules (out of
-    /// line: most hairs never come here, and the solver's loop stays as it was).
+    /// line: most hairs never come here, and the solver's loop stays as it was). `span` holds
+    /// every particle ([`Batch::particle_span`]), and grows with those moved.
     #[inline(never)]
-    pub(super) fn collide_segments(&mut self, input: &StepInput, s: usize) {
+    pub(super) fn collide_segments(
+        &mut self,
+        input: &StepInput,
+        s: usize,
+        span: &mut ParticleSpan,
+    ) {
         let n = input.sphere_count;
         let spheres = &input.spheres[s * n..(s + 1) * n];
         let n = input.contact_count;
@@ -107,19 +113,18 @@ impl Batch {
             |radius: f32| longest * longest <= 4.0 * (2.0 * radius * margin + margin * margin);
         // The widest margin of any lane: how far from a shape a segment can be pushed.
         let widest = self.margin.iter().fold(0.0f32, |m, &r| larger(m, r));
-        let mut span = self.particle_span();
         for &(centre, radius) in spheres {
             if !short(radius) {
-                self.push_segments(Core::Point(centre), (radius, widest), &mut span);
+                self.push_segments(Core::Point(centre), (radius, widest), span);
             }
         }
         for shape in contacts {
             match *shape {
                 ContactShape::Sphere { centre, radius } if !short(radius) => {
-                    self.push_segments(Core::Point(centre), (radius, widest), &mut span);
+                    self.push_segments(Core::Point(centre), (radius, widest), span);
                 }
                 ContactShape::Capsule { a, b, radius } if !short(radius) => {
-                    self.push_segments(Core::Segment(a, b), (radius, widest), &mut span);
+                    self.push_segments(Core::Segment(a, b), (radius, widest), span);
                 }
                 _ => {}
             }

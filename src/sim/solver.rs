@@ -517,14 +517,15 @@ impl Batch {
     pub(crate) fn particle_span(&self) -> ParticleSpan {
         let mut lo = [[f32::INFINITY; LANES]; 3];
         let mut hi = [[f32::NEG_INFINITY; LANES]; 3];
-        let mut nan = [false; LANES];
+        let mut nan = [0u32; LANES];
         // Lane by lane, so the compiler keeps eight lanes a register; `if` rather than
-        // `f32::min`, which would test for NaN in every step.
+        // `f32::min`, which would test for NaN in every step; a NaN kept as a bit, not a
+        // `bool` (bytes the compiler would pack from the lanes' masks every row).
         for node in self.nodes.iter().skip(1).step_by(2) {
             for c in 0..3 {
                 for l in 0..LANES {
                     let v = node.x[c][l];
-                    nan[l] |= v.is_nan();
+                    nan[l] |= u32::from(v.is_nan());
                     lo[c][l] = if v < lo[c][l] { v } else { lo[c][l] };
                     hi[c][l] = if v > hi[c][l] { v } else { hi[c][l] };
                 }
@@ -536,7 +537,7 @@ impl Batch {
         ParticleSpan {
             lo: fold(&lo, f32::min),
             hi: fold(&hi, f32::max),
-            nan: nan.contains(&true),
+            nan: nan.iter().fold(0, |a, &m| a | m) != 0,
         }
     }
 
@@ -551,14 +552,25 @@ impl Batch {
             input.friction,
         );
         let c = input.contact_count;
+        if c == 0 && !input.segments {
+            if !input.shapes.is_empty() {
+                self.collide_shapes(&input.shapes, input.friction);
+            }
+            return;
+        }
+        // The box of the particles, measured once: the contacts grow it with the particles
+        // they move, and the segments' pass starts from it.
+        let mut span = self.particle_span();
         if c > 0 {
-            self.collide_contacts(&input.contacts[s * c..(s + 1) * c], input.friction, swept);
+            let contacts = &input.contacts[s * c..(s + 1) * c];
+            self.collide_contacts(contacts, input.friction, swept, &mut span);
         }
         if !input.shapes.is_empty() {
             self.collide_shapes(&input.shapes, input.friction);
+            span = self.particle_span();
         }
         if input.segments {
-            self.collide_segments(input, s);
+            self.collide_segments(input, s, &mut span);
         }
     }
 
@@ -701,6 +713,7 @@ impl Batch {
         for (i, &(centre, radius)) in spheres.iter().enumerate() {
             if friction > 0.0 {
                 let shift = shifts.get(i).copied().unwrap_or(Vec3A::ZERO);
+                let mut span = self.particle_span();
                 self.collide_contacts(
                     &[Contact::new(
                         ContactShape::Sphere { centre, radius },
@@ -710,6 +723,7 @@ impl Batch {
                     )],
                     friction,
                     false,
+                    &mut span,
                 );
                 continue;
             }
@@ -761,9 +775,15 @@ impl Batch {
 
     /// Keeps free particles the margin outside (or inside) analytic shapes, along their path
     /// relative to the shape this substep (so a fast shape pushes them ahead instead of passing
-    /// them), with friction.
-    fn collide_contacts(&mut self, contacts: &[Contact], friction: f32, swept: bool) {
-        let mut span = self.particle_span();
+    /// them), with friction. `span` holds every particle ([`Batch::particle_span`]), and grows
+    /// with those moved.
+    fn collide_contacts(
+        &mut self,
+        contacts: &[Contact],
+        friction: f32,
+        swept: bool,
+        span: &mut ParticleSpan,
+    ) {
         for contact in contacts {
             let (lo, hi) = contact.reach;
             // No particle of any lane within its reach: the per-particle tests below would each

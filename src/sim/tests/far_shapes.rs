@@ -97,7 +97,8 @@ fn a_segment_lifted_toward_a_shape_the_batch_was_far_from_is_kept_off_it() {
         sphere_count: 2,
         ..default()
     };
-    batch.collide_segments(&input, 0);
+    let mut span = batch.particle_span();
+    batch.collide_segments(&input, 0, &mut span);
     let (a, b) = (batch.particle(0, 2), batch.particle(0, 3));
     // Both ends moved alike: the segment's middle is nearest the spheres' centres.
     let middle = (a + b) / 2.0;
