@@ -551,25 +551,22 @@ impl Batch {
             input.sphere_shift.get(range).unwrap_or(&[]),
             input.friction,
         );
-        let c = input.contact_count;
-        if c == 0 && !input.segments {
-            if !input.shapes.is_empty() {
-                self.collide_shapes(&input.shapes, input.friction);
-            }
-            return;
-        }
         // The box of the particles, measured once: the contacts grow it with the particles
         // they move, and the segments' pass starts from it.
-        let mut span = self.particle_span();
+        let mut span = None;
+        let c = input.contact_count;
         if c > 0 {
             let contacts = &input.contacts[s * c..(s + 1) * c];
-            self.collide_contacts(contacts, input.friction, swept, &mut span);
+            let span = span.insert(self.particle_span());
+            self.collide_contacts(contacts, input.friction, swept, span);
         }
         if !input.shapes.is_empty() {
             self.collide_shapes(&input.shapes, input.friction);
-            span = self.particle_span();
+            // Moved without growing the box.
+            span = None;
         }
         if input.segments {
+            let mut span = span.unwrap_or_else(|| self.particle_span());
             self.collide_segments(input, s, &mut span);
         }
     }
