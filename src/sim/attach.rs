@@ -214,6 +214,13 @@ impl ComputedHair {
         }
     }
 
+    /// [`Batch::move_particle`] for particle `i` of strand `s`.
+    pub(crate) fn move_particle(&mut self, s: usize, i: usize, p: Vec3) {
+        if let Some(&(b, l)) = self.lane_of.get(s) {
+            self.batches[b as usize].move_particle(l as usize, i, p);
+        }
+    }
+
     /// Puts every strand back on its styled (base) pose under the hair entity's current
     /// transform `bone`, at rest, as when the strands were built. The clip recorder does this
     /// before its first frame so a clip never depends on when assets finished loading.

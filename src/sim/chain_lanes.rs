@@ -649,7 +649,7 @@ fn pose_batch_lanes(
                     let frame = limit_frame(lane4(&r.at_rest, l), get3(&row.child, l), limit);
                     let limited = limit_offset(frame, limit, to);
                     if limited != to {
-                        computed.batches[b].set_particle(l, k + 1, origin + limited);
+                        computed.batches[b].move_particle(l, k + 1, origin + limited);
                         to = limited;
                     }
                 }

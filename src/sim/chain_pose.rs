@@ -558,8 +558,10 @@ fn pose_joint(
         let frame = limit_frame(at_rest_rotation, child, limit);
         let limited = limit_offset(frame, limit, to);
         if limited != to {
-            // The simulation goes on from the limited joint, as VRM's step does.
-            computed.set_particle(s, k + 1, origin + limited);
+            // The simulation goes on from the limited joint, as VRM's step does, with the
+            // particle's velocity: a limit makes none (a kick back out of the limit would swing
+            // a loose chain over, to flip it across a hinge).
+            computed.move_particle(s, k + 1, origin + limited);
             to = limited;
         }
     }

@@ -163,6 +163,9 @@ pub struct Batch {
     pub keys: Vec<Vec<[Lane; 3]>>,
     /// Collision margin per lane.
     pub margin: Lane,
+    /// Per node: for a particle, the rest distance to the particle two before it (the bending
+    /// springs of [`StepInput::particles_only`]); 0 for the others and the first two particles.
+    pub bend: Vec<Lane>,
 }
 
 /// Wind for one frame of one hair.
@@ -233,6 +236,14 @@ pub struct StepInput {
     /// Strain limit applied after the last substep: no chain edge (and no particle segment)
     /// longer than this times its rest length; `inf` or below 1 = none.
     pub max_stretch: f32,
+    /// Bone chains: only the particles are simulated. Each hangs on the particle before it (an
+    /// edge spring) and on the one two before (a bending spring, `alpha[1]`); the first free
+    /// particle on the three pinned nodes (its edge, and bending springs to the two pinned
+    /// structural points, which hold its angle to the bone). No torsion springs or volumes: a
+    /// chain's joints are turned by the shortest arc onto the next particle, so the twist the
+    /// structural nodes carry never shows. The structural nodes are placed from the particles
+    /// once a frame, at their styled offsets.
+    pub particles_only: bool,
 }
 
 /// Lane `l` of three lanes, as a vector.
@@ -309,7 +320,7 @@ pub(crate) fn set_lanes(mut mask: u32) -> impl Iterator<Item = usize> {
 
 /// `m * v` for every lane.
 #[inline(always)]
-fn transform(m: &Affine3A, v: &[Lane; 3]) -> [Lane; 3] {
+pub(super) fn transform(m: &Affine3A, v: &[Lane; 3]) -> [Lane; 3] {
     let (c0, c1, c2, t) = (
         m.matrix3.x_axis,
         m.matrix3.y_axis,
@@ -338,6 +349,7 @@ impl Batch {
         let nodes = chains[0].len();
         let lane = |l: usize| if l < count { l } else { 0 };
         let mut local = vec![[[0.0; LANES]; 3]; nodes];
+        let mut bend = vec![[0.0; LANES]; nodes];
         let mut out = Vec::with_capacity(nodes);
         for k in 0..nodes {
             let mut node = Node::default();
@@ -354,6 +366,9 @@ impl Batch {
                 }
                 if k >= 3 {
                     node.volume[l] = signed_volume(c[k - 3], c[k - 2], c[k - 1], c[k]);
+                }
+                if k >= 5 && k % 2 == 1 {
+                    bend[k][l] = c[k].distance(c[k - 4]);
                 }
             }
             out.push(node);
@@ -381,6 +396,7 @@ impl Batch {
             local,
             keys,
             margin,
+            bend,
         }
     }
 
@@ -459,6 +475,16 @@ impl Batch {
     /// the solver sees, as a limit that cuts a step short).
     pub fn set_particle(&mut self, l: usize, i: usize, p: Vec3) {
         set3(&mut self.nodes[2 * i + 1].x, l, p);
+    }
+
+    /// Moves particle `i` of lane `l` to `p` and its previous position with it: its velocity
+    /// kept, none made by the move (as the style and stretch limits move particles).
+    pub fn move_particle(&mut self, l: usize, i: usize, p: Vec3) {
+        let node = &mut self.nodes[2 * i + 1];
+        let d = p - get3(&node.x, l);
+        set3(&mut node.x, l, p);
+        let q = get3(&node.p, l) + d;
+        set3(&mut node.p, l, q);
     }
 
     /// Anchor (keyframe target) of chain node `k` of lane `l`, bone space.
@@ -633,63 +659,9 @@ impl Batch {
         }
     }
 
-    /// Pulls every free node that lies farther than `max` from its anchor (at the bone pose
-    /// `bone`) back onto that sphere; its previous position moves with it, so no velocity is
-    /// made. VRM's angle limits and Magica Cloth's backstop do the same job: bangs never enter the
-    /// face however hard the head shakes.
-    #[inline(always)]
-    fn limit_to_style(&mut self, max: f32, bone: &Affine3A) {
-        for node in self.nodes.iter_mut().skip(PINNED) {
-            let a = transform(bone, &node.anchor);
-            for l in 0..LANES {
-                let d = [
-                    node.x[0][l] - a[0][l],
-                    node.x[1][l] - a[1][l],
-                    node.x[2][l] - a[2][l],
-                ];
-                let len = dot(d, d).sqrt().max(1e-12);
-                let f = (1.0 - max / len).max(0.0);
-                for c in 0..3 {
-                    node.x[c][l] -= f * d[c];
-                    node.p[c][l] -= f * d[c];
-                }
-            }
-        }
-    }
-
-    /// Follow the leader (Müller et al. 2012), root to tip: each free node that lies farther than
-    /// `max` times the rest length from the node before it (and, for particles, from the particle
-    /// before) is pulled in along that line; its previous position moves with it, so no velocity
-    /// is made. The rest length is the longer of the styled one and the anchors' (a keyframe may
-    /// stretch the style). Returns `false` when no node was near its limit, none moved.
-    #[inline(always)]
-    fn limit_stretch(&mut self, max: f32) -> bool {
-        let Self { nodes, local, .. } = self;
-        let n = nodes.len();
-        let mut pulled = false;
-        for k in PINNED..n {
-            let (head, tail) = nodes.split_at_mut(k);
-            let nk = &mut tail[0];
-            // The chain edge, then (particles, odd k) the strand's own segment. Pinned nodes
-            // sit on the base pose, not on their anchors.
-            let anchor_of = |j: usize| {
-                if j < PINNED {
-                    &local[j]
-                } else {
-                    &head[j].anchor
-                }
-            };
-            pulled |= pull_within(nk, &head[k - 1].x, anchor_of(k - 1), 0, max);
-            if k % 2 == 1 {
-                pulled |= pull_within(nk, &head[k - 2].x, anchor_of(k - 2), 1, max);
-            }
-        }
-        pulled
-    }
-
     /// Pulls node `k` toward its anchor (the last change to it in a substep before collisions).
     #[inline(always)]
-    fn solve_anchor(&mut self, k: usize, anchors: &[f32], bone: &Affine3A) {
+    pub(super) fn solve_anchor(&mut self, k: usize, anchors: &[f32], bone: &Affine3A) {
         let f = anchors.get(k).copied().unwrap_or(0.0);
         if f <= 0.0 {
             return;
@@ -917,7 +889,11 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
         // Loose torsion (stiffness 0) asks for a free strand: no volumes then.
         let volumes =
             (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
-        integrate_and_solve(&mut batches, input, anchors, bone, volumes);
+        if input.particles_only {
+            super::chain_pass::integrate_and_solve_particles(&mut batches, input, anchors, bone);
+        } else {
+            integrate_and_solve(&mut batches, input, anchors, bone, volumes);
+        }
         for batch in &mut batches {
             batch.collide(input, s, true);
         }
@@ -929,7 +905,7 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
     let style = input.style_limit.is_finite() && input.style_limit >= 0.0;
     if last > 0 && (stretch || style) {
         for batch in &mut batches {
-            let pulled = stretch && batch.limit_stretch(input.max_stretch);
+            let pulled = stretch && batch.limit_stretch(input.max_stretch, input.particles_only);
             if style {
                 batch.limit_to_style(input.style_limit, &input.bones[last - 1]);
             }
@@ -938,6 +914,13 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
             if pulled || style {
                 batch.collide(input, last - 1, false);
             }
+        }
+    }
+    if input.particles_only
+        && let Some(bone) = input.bones.last()
+    {
+        for batch in &mut batches {
+            batch.place_structure(bone);
         }
     }
 }
@@ -1017,7 +1000,7 @@ fn integrate_and_solve<const N: usize>(
 /// Node `node` predicted for the substep (Verlet with damping `d`, then gravity `g`): returns
 /// where it goes and keeps where it was as its previous position.
 #[inline(always)]
-fn predict(node: &mut Node, g: [f32; 3], d: f32) -> [Lane; 3] {
+pub(super) fn predict(node: &mut Node, g: [f32; 3], d: f32) -> [Lane; 3] {
     let mut xk = node.x;
     for c in 0..3 {
         for l in 0..LANES {
@@ -1028,60 +1011,6 @@ fn predict(node: &mut Node, g: [f32; 3], d: f32) -> [Lane; 3] {
         }
     }
     xk
-}
-
-/// How far under the square of a stretch limit a squared length must be for
-/// [`pull_within`] to know, without rounding in doubt, that the limit pulls nothing.
-const CLEARLY_WITHIN: f32 = 1.0 - 1e-4;
-
-/// Pulls `node` toward `xj` (lane by lane) where it lies farther than `max` times its rest
-/// distance `rest[s]` (or the anchors' distance `anchor - aj`, if longer); its previous position
-/// moves with it. Returns `false` when every lane was clearly within, none moved.
-#[inline(always)]
-fn pull_within(node: &mut Node, xj: &[Lane; 3], aj: &[Lane; 3], s: usize, max: f32) -> bool {
-    // A row whose every lane is clearly within the styled rest length, which the anchors'
-    // distance can only lengthen, would be pulled by nothing: found by squared lengths alone
-    // (no square roots or divisions), the usual case, since the springs hold lengths within a
-    // few percent. A lane near the limit, or not finite, takes the full test below.
-    let mut beyond = 0u32;
-    for l in 0..LANES {
-        let (dx, dy, dz) = (
-            node.x[0][l] - xj[0][l],
-            node.x[1][l] - xj[1][l],
-            node.x[2][l] - xj[2][l],
-        );
-        let limit = max * node.rest[s][l];
-        let within = dx * dx + dy * dy + dz * dz <= limit * limit * CLEARLY_WITHIN;
-        beyond |= u32::from(!within);
-    }
-    if beyond == 0 {
-        return false;
-    }
-    let mut f = [0.0; LANES];
-    let mut d = [[0.0; LANES]; 3];
-    for l in 0..LANES {
-        for c in 0..3 {
-            d[c][l] = node.x[c][l] - xj[c][l];
-        }
-        let (ax, ay, az) = (
-            node.anchor[0][l] - aj[0][l],
-            node.anchor[1][l] - aj[1][l],
-            node.anchor[2][l] - aj[2][l],
-        );
-        let rest = node.rest[s][l].max((ax * ax + ay * ay + az * az).sqrt());
-        let len = (d[0][l] * d[0][l] + d[1][l] * d[1][l] + d[2][l] * d[2][l])
-            .sqrt()
-            .max(1e-12);
-        // The share of d beyond the limit; 0 when within it.
-        f[l] = (1.0 - max * rest / len).max(0.0);
-    }
-    for c in 0..3 {
-        for l in 0..LANES {
-            node.x[c][l] -= f[l] * d[c][l];
-            node.p[c][l] -= f[l] * d[c][l];
-        }
-    }
-    true
 }
 
 /// Six times the signed volume of the tetrahedron `(a, b, c, d)`: `(b - a) x (c - a) . (d - a)`.
@@ -1138,14 +1067,20 @@ fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 }
 
 #[inline(always)]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+pub(super) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// XPBD distance constraint between positions `xj` (inverse mass `wj`) and `xk` (inverse mass 1)
 /// with rest lengths `rest`.
 #[inline(always)]
-fn solve_distance(xj: &mut [Lane; 3], xk: &mut [Lane; 3], rest: &Lane, wj: f32, alpha: f32) {
+pub(super) fn solve_distance(
+    xj: &mut [Lane; 3],
+    xk: &mut [Lane; 3],
+    rest: &Lane,
+    wj: f32,
+    alpha: f32,
+) {
     let inv_denom = 1.0 / (wj + 1.0 + alpha);
     for l in 0..LANES {
         let dx = xk[0][l] - xj[0][l];

@@ -175,6 +175,7 @@ pub(super) fn prepare_hair(
     input.style_limit = settings.style_limit() * computed.size;
     // A bone chain's joints are far apart: its segments collide too.
     input.segments = chains;
+    input.particles_only = chains;
     // Loose edges (stiffness 0) ask for stretchy hair: no limit then.
     input.max_stretch = if compliance_factor(settings.edge_stiffness, h, 1.0) > 0.0 {
         settings.max_stretch()

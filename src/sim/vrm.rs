@@ -135,10 +135,13 @@ pub fn vrm_sim_settings(
             .collect::<Vec<_>>()
             .as_slice(),
     );
-    // VRM has no bending springs: a joint's only pull back is its stiffness. Bending and
-    // torsion get half the mean anchor, so a soft spring is soft all along.
+    // A joint's stiffness turns it back toward its rest direction from its parent: the anchors
+    // pull toward the styled pose, and the bending springs (between every other particle of a
+    // bone chain) toward the styled angle at each joint, with the joints' mean anchor, so a
+    // soft spring is soft all along. Bone chains have no torsion springs; a groom given these
+    // settings gets half of it.
     let mean_anchor = joints.iter().map(|j| anchor(j.stiffness)).sum::<f32>() / n;
-    settings.bend_stiffness = 0.5 * mean_anchor;
+    settings.bend_stiffness = mean_anchor;
     settings.torsion_stiffness = 0.5 * mean_anchor;
     settings.margin_min = hit.min(MAX_MARGIN);
     settings.margin_max = settings.margin_min;

@@ -389,59 +389,31 @@ fn chains_move_alike_at_30_60_and_144_fps() {
 }
 
 #[test]
-fn a_chain_and_the_same_groomed_strand_move_alike() {
-    // Chains and a groom of the same points on the same head: the same solver, so the same
-    // particles.
+fn a_shaken_chain_keeps_its_joints_on_its_particles() {
     let (mut app, root, joints) = chains_app(HairSimSettings::default(), Transform::default(), 1.0);
     app.update();
     app.update();
-    let world = app.world_mut();
-    let hair = world.query::<&BoneChainHairs>().single(world).unwrap().0[0];
-    let handle = app.world().get::<Hair>(hair).unwrap().groom.clone();
-    let groom = app
-        .world()
-        .resource::<Assets<HairGroom>>()
-        .get(&handle)
-        .unwrap()
-        .clone();
-    let mut other = event_app();
-    let (root2, head2, _) = chain_character(&mut other, Transform::default(), 1.0);
-    let handle = other
-        .world_mut()
-        .resource_mut::<Assets<HairGroom>>()
-        .add(groom);
-    other.world_mut().spawn((
-        Hair {
-            groom: handle,
-            ..default()
-        },
-        ChildOf(head2),
-    ));
-    other.update();
-    other.update();
-    let mut differ = 0.0f32;
+    let hung = particles(&mut app);
+    let (mut off, mut swing) = (0.0f32, 0.0f32);
     for f in 0..60 {
-        let r = shake(f as f32 / 60.0);
-        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = r;
-        other
-            .world_mut()
-            .get_mut::<Transform>(root2)
-            .unwrap()
-            .rotation = r;
+        app.world_mut().get_mut::<Transform>(root).unwrap().rotation = shake(f as f32 / 60.0);
         app.update();
-        other.update();
-        differ = differ.max(max_deviation(&particles(&mut app), &particles(&mut other)));
+        let strands = particles(&mut app);
+        swing = swing.max(max_deviation(&strands, &hung));
+        // Each joint on its particle (the tail particle has no joint).
+        let on = joint_positions(&app, &joints)
+            .iter()
+            .zip(strands.iter().flat_map(|s| &s[..s.len() - 1]))
+            .map(|(j, p)| j.distance(*p))
+            .fold(0.0, f32::max);
+        off = off.max(on);
     }
-    println!("a chain and the same groomed strand: {differ:e} m apart over 60 frames");
-    assert!(differ < 1e-5, "{differ}");
-    // And the joints follow their particles.
-    let strands = particles(&mut app);
-    let on = joint_positions(&app, &joints)
-        .iter()
-        .zip(strands.iter().flat_map(|s| &s[..s.len() - 1]))
-        .map(|(j, p)| j.distance(*p))
-        .fold(0.0, f32::max);
-    assert!(on < 0.01, "a joint is {on} m off its particle");
+    println!("a shaken chain: particles moved {swing:e} m, joints at most {off:e} m off them");
+    assert!(
+        swing > 0.01,
+        "the shake moved the chain only {swing} m: no test"
+    );
+    assert!(off < 0.01, "a joint is {off} m off its particle");
 }
 
 #[test]
