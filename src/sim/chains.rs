@@ -10,8 +10,10 @@
 //! copied to its hairs.
 //! Everything the solver does for groomed hair applies: [`HairSimSettings`] (copied from the
 //! [`HairBoneChains`] entity), colliders, wind and force fields, volume, style limits, teleports,
-//! any rig scale. After each step the joints are turned, root to tip, so each points at the next
-//! particle; the bind pose is the style the chains return to.
+//! any rig scale. The solver moves a chain's particles alone, with edge and bending springs and
+//! the anchors, and no torsion (see [`StepInput::particles_only`](super::solver::StepInput::particles_only)).
+//! After each step the joints are turned, root to tip, so each points at the next particle; the
+//! bind pose is the style the chains return to.
 
 use bevy::prelude::*;
 use bevy::transform::components::TransformTreeChanged;

@@ -22,10 +22,15 @@ pub struct HairSimSettings {
     /// Higher keeps length; lower lets hair stretch like rubber. Default: `1.0`.
     pub edge_stiffness: f32,
     /// Bending springs (every other particle): how easily strands bend away from their style.
-    /// Higher holds the styled curl; lower lets hair droop and swing. Default: `0.8`.
+    /// Higher holds the styled curl; lower lets hair droop and swing. For bone chains
+    /// ([`HairBoneChains`](super::HairBoneChains)) they join each particle to the one two before
+    /// it, and hold the first bone at its angle to the bone the chain hangs from.
+    /// Default: `0.8`.
     pub bend_stiffness: f32,
     /// Torsion springs (every third particle): how much strands twist.
-    /// Higher keeps spikes pointing their way; lower lets them roll. Default: `0.6`.
+    /// Higher keeps spikes pointing their way; lower lets them roll. Bone chains have none: a
+    /// joint is turned by the shortest arc onto the next particle, so their twist never shows.
+    /// Default: `0.6`.
     pub torsion_stiffness: f32,
     /// Anchor ("blending") spring stiffness along the strand, root `x = 0` to tip `x = 1` (the
     /// thesis's S curve). `1` holds the keyframe pose exactly; `0` leaves the hair free.

@@ -15,7 +15,7 @@
 //! | `dragForce` `d` (share of velocity lost per frame) | [`HairSimSettings::damping`] | `-60 ln(1 - d)` per second (`d` capped at 0.95) |
 //! | `gravityPower` `g`, `gravityDir` | [`HairSimSettings::gravity`] | `gravityDir * g * k`, `k = -60 ln(1 - d) / d` (`60` when `d` is 0): the fall speed VRM settles at, `g / d` per frame, is the one the damped solver settles at |
 //! | `stiffness` `s` (per joint) | [`HairSimSettings::anchor_stiffness`] | VRM moves a tail back toward its bind direction at `s` metres a second; a bone of length `L` so returns at a rate `s / L` a second, and each joint gets the anchor whose pull removes that rate ([`anchor_for_rate`]), root `x = 0` to last `x = 1`, fitted by a least-squares quadratic. `L` is the spring's mean bone length at the character's size |
-//! | `stiffness` | [`HairSimSettings::bend_stiffness`], `torsion_stiffness` | half the mean anchor (VRM has no bending springs) |
+//! | `stiffness` | [`HairSimSettings::bend_stiffness`] | the mean anchor: a joint's stiffness turns it back toward its rest direction from its parent, as the chain's bending springs do (`torsion_stiffness`, which bone chains do not use, gets half) |
 //! | `hitRadius` | [`HairSimSettings::margin_min`], `margin_max` | the spring's largest, capped at [`MAX_MARGIN`](super::MAX_MARGIN) |
 //! | `center` | [`HairInertiaFrame`] | the spring's particles are carried by the center node's motion each substep: moving that node gives them no inertia, as in VRM's step |
 //!
