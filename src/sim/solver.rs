@@ -890,7 +890,7 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
         let volumes =
             (input.first_substep + s as u64).is_multiple_of(2) && input.alpha[2].is_finite();
         if input.particles_only {
-            super::chain_pass::integrate_and_solve_particles(&mut batches, input, anchors, bone);
+            Batch::integrate_particles(&mut batches, input, anchors, bone);
         } else {
             integrate_and_solve(&mut batches, input, anchors, bone, volumes);
         }
