@@ -19,8 +19,8 @@ impl Batch {
     /// made. VRM's angle limits and Magica Cloth's backstop do the same job: bangs never enter the
     /// face however hard the head shakes.
     #[inline(always)]
-    pub(super) fn limit_to_style(&mut self, max: f32, bone: &Affine3A) {
-        for node in self.nodes.iter_mut().skip(PINNED) {
+    pub(super) fn limit_to_style(&mut self, max: f32, bone: &Affine3A, particles_only: bool) {
+        for node in self.free_nodes_mut(particles_only) {
             let a = transform(bone, &node.anchor);
             for l in 0..LANES {
                 let d = [

@@ -597,14 +597,26 @@ impl Batch {
         }
     }
 
+    /// The free nodes the solver moves: every node past the pinned ones, or with
+    /// `particles_only` ([`StepInput::particles_only`]) the particles alone (the structural
+    /// nodes are placed from them once a frame).
+    #[inline(always)]
+    pub(super) fn free_nodes_mut(
+        &mut self,
+        particles_only: bool,
+    ) -> impl Iterator<Item = &mut Node> {
+        let step = if particles_only { 2 } else { 1 };
+        self.nodes.iter_mut().skip(PINNED).step_by(step)
+    }
+
     /// Damping in the bone's frame, before a substep whose bone motion is `m`: only the velocity
     /// relative to the point the bone carries along should be damped, so hair riding a moving
     /// bone (a character in a vehicle) keeps its velocity. The prediction damps all of `x - p`
     /// by `d`; moving `p` by `vb (1 - 1/d)` (`vb = m x - x`) leaves it damping only `x - p - vb`.
     #[inline(always)]
-    fn damp_in_bone_frame(&mut self, m: &Affine3A, d: f32) {
+    fn damp_in_bone_frame(&mut self, m: &Affine3A, d: f32, particles_only: bool) {
         let k = 1.0 - 1.0 / d.max(1e-6);
-        for node in self.nodes.iter_mut().skip(PINNED) {
+        for node in self.free_nodes_mut(particles_only) {
             let carried = transform(m, &node.x);
             for c in 0..3 {
                 for l in 0..LANES {
@@ -617,9 +629,9 @@ impl Batch {
     /// Force fields before a substep: each free node's velocity is pulled toward each field's
     /// air (see [`FieldStep::blow`](super::FieldStep::blow)), written into its previous position
     /// like the wind's.
-    fn blow_fields(&mut self, fields: &[super::FieldStep], damping: f32) {
+    fn blow_fields(&mut self, fields: &[super::FieldStep], damping: f32, particles_only: bool) {
         let d = damping.max(1e-6);
-        for node in self.nodes.iter_mut().skip(PINNED) {
+        for node in self.free_nodes_mut(particles_only) {
             for l in 0..LANES {
                 let x = get3(&node.x, l);
                 let v = (x - get3(&node.p, l)) * d;
@@ -647,7 +659,7 @@ impl Batch {
             target[1][l] = base.y * g;
             target[2][l] = base.z * g;
         }
-        for node in self.nodes.iter_mut().skip(PINNED) {
+        for node in self.free_nodes_mut(input.particles_only) {
             for c in 0..3 {
                 for l in 0..LANES {
                     let x = node.x[c][l];
@@ -878,10 +890,11 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
             }
             let f = input.field_count;
             if f > 0 {
-                batch.blow_fields(&input.fields[s * f..(s + 1) * f], input.damping);
+                let fields = &input.fields[s * f..(s + 1) * f];
+                batch.blow_fields(fields, input.damping, input.particles_only);
             }
             if let Some(m) = input.bone_motion.get(s) {
-                batch.damp_in_bone_frame(m, input.damping);
+                batch.damp_in_bone_frame(m, input.damping, input.particles_only);
             }
         }
         // Volumes every other substep (counted from the hair's first): enough to keep the
@@ -907,7 +920,8 @@ fn step_portable<const N: usize>(mut batches: [&mut Batch; N], input: &StepInput
         for batch in &mut batches {
             let pulled = stretch && batch.limit_stretch(input.max_stretch, input.particles_only);
             if style {
-                batch.limit_to_style(input.style_limit, &input.bones[last - 1]);
+                let bone = &input.bones[last - 1];
+                batch.limit_to_style(input.style_limit, bone, input.particles_only);
             }
             // Where the limits left them: no path to follow. A batch the limits left alone is
             // where the last substep's collisions put it.
